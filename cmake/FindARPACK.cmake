@@ -1,0 +1,15 @@
+# FindARPACK: ARPACK-ng through pkg-config (Debian's libarpack2-dev). Defines ARPACK::ARPACK.
+include(FindPackageHandleStandardArgs)
+find_package(PkgConfig QUIET)
+if(PkgConfig_FOUND)
+  pkg_check_modules(PC_ARPACK QUIET arpack)
+endif()
+find_library(ARPACK_LIBRARY NAMES arpack HINTS ${PC_ARPACK_LIBRARY_DIRS})
+find_package(LAPACK REQUIRED)
+find_package_handle_standard_args(ARPACK REQUIRED_VARS ARPACK_LIBRARY VERSION_VAR PC_ARPACK_VERSION)
+if(ARPACK_FOUND AND NOT TARGET ARPACK::ARPACK)
+  add_library(ARPACK::ARPACK UNKNOWN IMPORTED)
+  set_target_properties(ARPACK::ARPACK PROPERTIES IMPORTED_LOCATION "${ARPACK_LIBRARY}"
+    INTERFACE_LINK_LIBRARIES "${LAPACK_LIBRARIES}")
+endif()
+mark_as_advanced(ARPACK_LIBRARY)

@@ -1,0 +1,25 @@
+#pragma once
+/// \file atomic_file.hpp
+/// Atomic output: write to a temporary file in the target's directory, flush, then rename over the
+/// target, so that a reader (or an interrupted run) sees either the old or the new complete file.
+
+#include <filesystem>
+#include <functional>
+#include <ostream>
+#include <string_view>
+
+#include "ecmor/export.hpp"
+
+namespace ecmor {
+
+/// Calls writer(stream) on a temporary file next to `path`, then renames it to `path`.
+/// Creates missing parent directories.
+/// \throws IoError naming the path if the file cannot be created, written or renamed; the
+///         temporary file is removed and `path` is left untouched.
+ECMOR_API void write_file_atomically(const std::filesystem::path& path,
+                                     const std::function<void(std::ostream&)>& writer);
+
+/// Convenience: atomically replace `path` with `contents`.
+ECMOR_API void write_text_atomically(const std::filesystem::path& path, std::string_view contents);
+
+}  // namespace ecmor

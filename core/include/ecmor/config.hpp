@@ -1,0 +1,57 @@
+#pragma once
+/// \file config.hpp
+/// The YAML run configuration, validated: unknown keys are errors that suggest the nearest valid
+/// key; wrong types and ranges name the key and its line. Example:
+///
+///   model:    {dir: ../shared/models/triplechain_saak09_n451}
+///   band:     {f_min_hz: 1.0e-5, f_max_hz: 10.0}
+///   target:   {tolerance: 1.0e-3, norm: spectral}        # spectral (Eq. 22) | frobenius (Eq. 23)
+///   reducer:  {name: modal, static_correction: true}     # plus reducer-specific parameters
+///   strategy: {name: grow_order, max_order: 200}         # plus strategy-specific parameters
+///   error:    {grid_points: 200, refine_peaks: 5}        # optional: the error estimator
+///   solver:   {threads: 0}                               # optional
+///   output:   {dir: out/tc451}
+///   plugins:  [path/to/libmy_plugin.so, path/to/dir]     # optional: extra plugins
+///
+/// Relative paths (model.dir, output.dir, plugins) are resolved against the current working
+/// directory, like paths given on a command line.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "ecmor/band_error.hpp"
+#include "ecmor/export.hpp"
+#include "ecmor/parameters.hpp"
+#include "ecmor/shifted_solver.hpp"
+
+namespace ecmor {
+
+struct RunConfig {
+  std::filesystem::path source;      ///< the YAML file
+  std::filesystem::path model_dir;
+  Band band;
+  double tolerance = 1e-3;           ///< on sup_f of the relative error, (0, 1e3]
+  ErrorNorm norm = ErrorNorm::Spectral;
+  std::string reducer_name;
+  ParameterMap reducer_params{"reducer"};
+  std::string strategy_name = "grow_order";
+  ParameterMap strategy_params{"strategy"};
+  BandErrorOptions error;            ///< norm is copied from target.norm
+  Index verify_factor = 4;           ///< independent re-check grid is this many times denser
+  SolverOptions solver;
+  int threads = 0;                   ///< 0: OpenMP default
+  std::filesystem::path output_dir;
+  std::vector<std::filesystem::path> plugins;
+};
+
+/// Parses and validates a run configuration.
+/// \throws ConfigError "run.yaml:4: unknown key 'tolerence' in 'target' (did you mean 'tolerance'?)",
+///         "run.yaml:3: band.f_min_hz = -1: must be > 0", missing required keys, YAML syntax errors
+///         with their line.
+ECMOR_API RunConfig load_run_config(const std::filesystem::path& path);
+
+/// Same from a string (for tests); `name` is used in messages.
+ECMOR_API RunConfig parse_run_config(const std::string& yaml, const std::string& name);
+
+}  // namespace ecmor

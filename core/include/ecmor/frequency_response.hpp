@@ -1,0 +1,66 @@
+#pragma once
+/// \file frequency_response.hpp
+/// Transfer matrices H(s) = (C + s Cv) (s^2 M + s D + K)^-1 B  or  H(s) = C (s E - A)^-1 B
+/// of full (sparse) and reduced (dense) models, and a thread-safe cache of the full model's response:
+/// it never changes during a run, so every frequency is factorised at most once.
+
+#include <map>
+#include <mutex>
+#include <vector>
+
+#include "ecmor/export.hpp"
+#include "ecmor/model.hpp"
+#include "ecmor/shifted_solver.hpp"
+
+namespace ecmor {
+
+/// n log-spaced frequencies from f_min_hz to f_max_hz inclusive (n >= 2, 0 < f_min < f_max).
+ECMOR_API std::vector<double> log_grid(double f_min_hz, double f_max_hz, Index n);
+
+/// H(s) of a full model from a factorisation of P(s) (one factorisation, m solves).
+ECMOR_API ComplexMatrix transfer_function(const Model& model, const Factorization& p_of_s,
+                                          Complex s);
+/// H(s) of a full model (factorises P(s)).
+ECMOR_API ComplexMatrix transfer_function(const Model& model, ShiftedSolver& solver, Complex s);
+/// H(s) of a reduced model by a dense LU of P_r(s).
+/// \throws NumericalError if P_r(s) is singular (s is a pole of the reduced model).
+ECMOR_API ComplexMatrix transfer_function(const ReducedModel& model, Complex s);
+
+/// H(i 2 pi f) at each frequency (Hz) of a full model, in parallel over frequencies
+/// (threads <= 0: OpenMP's default).
+ECMOR_API std::vector<ComplexMatrix> frequency_response(const Model& model, ShiftedSolver& solver,
+                                                        const std::vector<double>& f_hz,
+                                                        int threads = 0);
+/// H(i 2 pi f) at each frequency of a reduced model.
+ECMOR_API std::vector<ComplexMatrix> frequency_response(const ReducedModel& model,
+                                                        const std::vector<double>& f_hz);
+
+/// Poles of a reduced model: eigenvalues of the 2n x 2n linearisation (second order) or of the
+/// pencil (A, E) (descriptor); infinite eigenvalues are dropped.
+ECMOR_API ComplexVector poles(const ReducedModel& model);
+
+/// Memo of the full model's response H(i 2 pi f), keyed by the exact frequency value.
+class ECMOR_API ResponseCache {
+ public:
+  /// model and solver must outlive the cache.
+  ResponseCache(const Model& model, ShiftedSolver& solver, int threads = 0);
+
+  /// H at each frequency; computes the missing ones in parallel and stores them.
+  std::vector<ComplexMatrix> evaluate(const std::vector<double>& f_hz);
+  /// H at one frequency.
+  ComplexMatrix evaluate(double f_hz);
+
+  /// Number of stored frequencies (= full-model factorisations done through this cache).
+  Index size() const;
+  const Model& model() const { return m_model; }
+  ShiftedSolver& solver() { return m_solver; }
+
+ private:
+  const Model& m_model;
+  ShiftedSolver& m_solver;
+  int m_threads;
+  mutable std::mutex m_mutex;
+  std::map<double, ComplexMatrix> m_cache;
+};
+
+}  // namespace ecmor

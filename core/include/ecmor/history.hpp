@@ -1,0 +1,53 @@
+#pragma once
+/// \file history.hpp
+/// The convergence history: one record per iteration of a strategy, always kept in full, written
+/// as history.csv and history.jsonl (each rewritten atomically after every iteration, so an
+/// interrupted run keeps everything up to its last iteration).
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "ecmor/export.hpp"
+#include "ecmor/reducer.hpp"
+#include "ecmor/shifted_solver.hpp"
+
+namespace ecmor {
+
+struct IterationRecord {
+  Index iteration = 0;         ///< 1-based
+  std::string phase;           ///< strategy phase, e.g. "grow", "shrink", "verify"
+  Index order = 0;             ///< reduced order n
+  std::vector<ExpansionPoint> points;  ///< expansion points used (may be empty)
+  double band_error = 0.0;     ///< sup of the relative band error (target's norm)
+  double f_peak_hz = 0.0;      ///< where it peaks
+  bool meets_tolerance = false;
+  bool stable = true;          ///< all reduced poles in the open left half plane
+  double seconds = 0.0;        ///< wall time since the start of the run
+  double step_seconds = 0.0;   ///< wall time of this iteration
+  SolverCounters counters;     ///< cumulative solver counters at the end of the iteration
+  Index full_evaluations = 0;  ///< cumulative full-model frequencies evaluated
+  std::string sampling;        ///< how the band was sampled
+  std::string note;            ///< reducer's note
+  std::map<std::string, double> diagnostics;
+};
+
+/// Writes the history files into a directory.
+class ECMOR_API HistoryWriter {
+ public:
+  /// Creates `dir` if needed. Nothing is written until the first record.
+  explicit HistoryWriter(std::filesystem::path dir);
+  /// Appends a record and rewrites history.csv and history.jsonl atomically.
+  void append(const IterationRecord& record);
+  const std::vector<IterationRecord>& records() const { return m_records; }
+
+ private:
+  std::filesystem::path m_dir;
+  std::vector<IterationRecord> m_records;
+};
+
+/// Expansion points formatted for tables: "i*12.5Hz, 3.0rad/s" style, "-" when empty.
+ECMOR_API std::string format_points(const std::vector<ExpansionPoint>& points);
+
+}  // namespace ecmor

@@ -1,0 +1,46 @@
+#pragma once
+/// \file matrix_market.hpp
+/// Matrix Market (https://math.nist.gov/MatrixMarket/formats.html) reading and writing.
+/// Supported on read: `matrix coordinate|array real|integer|pattern general|symmetric|skew-symmetric`.
+/// Every malformed file gives an InputError naming the file, the line and the rule broken:
+/// bad or missing header, bad size line, truncated data, out-of-range index, duplicate entry in a
+/// symmetric file's upper triangle, non-finite value (NaN, Inf), trailing garbage, sizes that promise
+/// more than the file can hold. Writing is atomic (temporary file + rename).
+
+#include <filesystem>
+#include <string>
+
+#include "ecmor/export.hpp"
+#include "ecmor/types.hpp"
+
+namespace ecmor {
+
+/// What the header of a Matrix Market file declares.
+struct MatrixMarketHeader {
+  std::string format;    ///< "coordinate" or "array"
+  std::string field;     ///< "real", "integer" or "pattern"
+  std::string symmetry;  ///< "general", "symmetric" or "skew-symmetric"
+  Index rows = 0;
+  Index cols = 0;
+  Index entries = 0;  ///< stored entries for coordinate; rows*cols (or the triangle) for array
+};
+
+/// Reads only the header and size line (cheap; used to check sizes before loading).
+ECMOR_API MatrixMarketHeader read_matrix_market_header(const std::filesystem::path& path);
+
+/// Reads a Matrix Market file as a sparse matrix (symmetric storage expanded to the full pattern;
+/// duplicate coordinate entries are summed, as in the format's convention).
+ECMOR_API SparseMatrix read_matrix_market_sparse(const std::filesystem::path& path);
+
+/// Reads a Matrix Market file (coordinate or array) as a dense matrix.
+ECMOR_API Matrix read_matrix_market_dense(const std::filesystem::path& path);
+
+/// Writes a sparse matrix as `coordinate real general` (17 significant digits), atomically.
+ECMOR_API void write_matrix_market(const std::filesystem::path& path, const SparseMatrix& A,
+                                   const std::string& comment = {});
+
+/// Writes a dense matrix as `array real general` (column-major, 17 significant digits), atomically.
+ECMOR_API void write_matrix_market(const std::filesystem::path& path, const Matrix& A,
+                                   const std::string& comment = {});
+
+}  // namespace ecmor

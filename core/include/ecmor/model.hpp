@@ -1,0 +1,93 @@
+#pragma once
+/// \file model.hpp
+/// Linear time-invariant models: second order (seed Eq. 3)
+///     M q'' + D q' + K q = B u,   y = C q + Cv q'
+/// and first-order descriptor (seed Eq. 1)
+///     E x' = A x + B u,           y = C x.
+/// Full models hold sparse N x N matrices; reduced models (seed Eqs. 2 and 4) hold dense n x n ones.
+/// B (N x m) and C, Cv (p x N) are dense in both: m and p are small.
+
+#include <string>
+#include <string_view>
+#include <variant>
+
+#include "ecmor/export.hpp"
+#include "ecmor/types.hpp"
+
+namespace ecmor {
+
+/// Second-order system with matrix type Mat (SparseMatrix for full, Matrix for reduced models).
+template <class Mat>
+struct SecondOrderSystem {
+  Mat M;      ///< mass, N x N
+  Mat D;      ///< damping, N x N
+  Mat K;      ///< stiffness, N x N
+  Matrix B;   ///< input, N x m
+  Matrix C;   ///< position output, p x N
+  Matrix Cv;  ///< velocity output, p x N; empty (0 x 0) when the model has none
+
+  Index size() const { return K.rows(); }
+  Index inputs() const { return B.cols(); }
+  Index outputs() const { return C.rows(); }
+  bool has_velocity_output() const { return Cv.size() > 0; }
+};
+
+/// First-order descriptor system with matrix type Mat.
+template <class Mat>
+struct DescriptorSystem {
+  Mat E;     ///< descriptor matrix, N x N (may be singular: DAE)
+  Mat A;     ///< system matrix, N x N
+  Matrix B;  ///< input, N x m
+  Matrix C;  ///< output, p x N
+
+  Index size() const { return A.rows(); }
+  Index inputs() const { return B.cols(); }
+  Index outputs() const { return C.rows(); }
+};
+
+using SecondOrderModel = SecondOrderSystem<SparseMatrix>;
+using DescriptorModel = DescriptorSystem<SparseMatrix>;
+using ReducedSecondOrderModel = SecondOrderSystem<Matrix>;
+using ReducedDescriptorModel = DescriptorSystem<Matrix>;
+
+/// A full (sparse) model of either kind.
+using Model = std::variant<SecondOrderModel, DescriptorModel>;
+/// A reduced (dense) model of either kind. A reducer may return a first-order reduced model of a
+/// second-order full model (e.g. IRKA through the first-order realisation).
+using ReducedModel = std::variant<ReducedSecondOrderModel, ReducedDescriptorModel>;
+
+enum class ModelKind { SecondOrder, Descriptor };
+ECMOR_API std::string to_string(ModelKind kind);
+
+ECMOR_API ModelKind kind_of(const Model& model);
+ECMOR_API ModelKind kind_of(const ReducedModel& model);
+ECMOR_API Index size_of(const Model& model);
+ECMOR_API Index size_of(const ReducedModel& model);
+ECMOR_API Index inputs_of(const Model& model);
+ECMOR_API Index outputs_of(const Model& model);
+ECMOR_API Index inputs_of(const ReducedModel& model);
+ECMOR_API Index outputs_of(const ReducedModel& model);
+
+/// Structural checks every model must pass: all coefficient matrices square and of one size N,
+/// B with N rows, C (and Cv) with N columns and equal row counts, every stored value finite.
+/// \param origin prefix for messages (e.g. the model directory).
+/// \throws InputError naming the matrix and the rule broken, e.g.
+///         "model dir/: D.mtx is 450 x 451: must be square".
+ECMOR_API void validate(const Model& model, std::string_view origin = "model");
+ECMOR_API void validate(const ReducedModel& model, std::string_view origin = "reduced model");
+
+/// Relative asymmetry ||A - A'||_F / ||A||_F (0 for an all-zero matrix).
+ECMOR_API double relative_asymmetry(const SparseMatrix& A);
+ECMOR_API double relative_asymmetry(const Matrix& A);
+
+/// True if the symmetric matrix A admits a Cholesky factorisation (CHOLMOD). A is checked for
+/// symmetry first (relative asymmetry <= symmetry_tol), else false.
+ECMOR_API bool is_positive_definite(const SparseMatrix& A, double symmetry_tol = 1e-10);
+
+/// Require M (second-order) or E (descriptor) symmetric positive definite.
+/// \throws InputError "M is not positive definite (Cholesky failed at column 17)" or
+///         "M is not symmetric (relative asymmetry 3e-3 > 1e-10)".
+ECMOR_API void require_spd_mass(const Model& model, std::string_view origin = "model",
+                                double symmetry_tol = 1e-10);
+
+}  // namespace ecmor

@@ -1,0 +1,90 @@
+#pragma once
+/// \file reducer.hpp
+/// The reducer plugin interface. A reducer turns a full model into a projection basis (V, W) and a
+/// reduced model of a requested order. The driver (a strategy) calls reduce() repeatedly with
+/// growing (or shrinking) orders and possibly moved expansion points; a reducer should reuse
+/// whatever it can between calls (factorisations, computed vectors), i.e. grow incrementally.
+///
+/// Lifecycle:  factory.create(params)  ->  setup(context)  ->  reduce(request) ... reduce(request)
+/// Reducers never print; they throw ecmor::Error subclasses for bad input or numerical breakdown.
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ecmor/band_error.hpp"
+#include "ecmor/export.hpp"
+#include "ecmor/model.hpp"
+#include "ecmor/parameters.hpp"
+#include "ecmor/shifted_solver.hpp"
+
+namespace ecmor {
+
+/// An expansion (interpolation) point s0 and the number of moments matched there.
+struct ExpansionPoint {
+  Complex s{0.0, 0.0};
+  Index moments = 1;
+};
+
+/// What the driver hands a reducer once, before the first reduce().
+struct ReductionContext {
+  const Model* model = nullptr;      ///< the full model (outlives the reducer's use of it)
+  ShiftedSolver* solver = nullptr;   ///< shared factorisations and counters
+  Band band;                         ///< the frequency band of interest (Hz)
+};
+
+/// One request: the order n (number of columns of V) and optionally expansion points.
+struct ReductionRequest {
+  Index order = 1;
+  /// Empty: the reducer chooses (e.g. modal: modes selected for the band).
+  std::vector<ExpansionPoint> points;
+};
+
+/// What a reducer returns for a request.
+struct ReducerResult {
+  ReducedModel model;   ///< the reduced model (usually project(full, V, W))
+  Matrix V;             ///< N x n right basis
+  Matrix W;             ///< N x n left basis (W = V for one-sided/Galerkin methods)
+  std::vector<ExpansionPoint> points;  ///< points actually used (for the history), may be empty
+  /// Free-form numeric diagnostics for the history (e.g. "orthogonality_loss", "eigen_residual").
+  std::map<std::string, double> diagnostics;
+  std::string note;     ///< one line for the history, e.g. "12 modes + 1 static correction"
+};
+
+class ECMOR_API Reducer {
+ public:
+  virtual ~Reducer();
+  /// Binds the reducer to a model, solver and band. Called once. May throw InputError when the
+  /// model does not suit the method (e.g. "modal: M is not positive definite").
+  virtual void setup(const ReductionContext& context) = 0;
+  /// Builds the reduced model of order request.order (the reducer may return fewer columns, e.g.
+  /// after deflation or when the model is exhausted; never more than request.order + its
+  /// documented extra, e.g. static-correction columns).
+  virtual ReducerResult reduce(const ReductionRequest& request) = 0;
+  /// The largest order this reducer can deliver on the bound model (kUnlimitedOrder if unknown).
+  virtual Index max_order() const { return kUnlimitedOrder; }
+  /// Smallest meaningful order increment (e.g. 1 mode); strategies grow by multiples of it.
+  virtual Index order_step() const { return 1; }
+};
+
+/// Static description of a reducer, for `ecmor plugins` and error messages.
+struct ReducerInfo {
+  std::string name;         ///< YAML name, snake_case, unique across loaded plugins
+  std::string description;  ///< one line
+  std::string version;      ///< the plugin's own version
+  std::vector<ParameterDoc> parameters;
+  bool second_order = true;      ///< accepts second-order models
+  bool descriptor = false;       ///< accepts descriptor models
+  bool uses_expansion_points = false;
+};
+
+/// A named constructor of reducers. create() reads (and so marks as known) its parameters and
+/// throws ConfigError on invalid values; the caller checks for unknown keys afterwards.
+struct ReducerFactory {
+  ReducerInfo info;
+  std::function<std::unique_ptr<Reducer>(const ParameterMap&)> create;
+};
+
+}  // namespace ecmor

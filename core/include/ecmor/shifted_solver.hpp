@@ -1,0 +1,116 @@
+#pragma once
+/// \file shifted_solver.hpp
+/// Factorisations of the model's matrix polynomial at shifts:
+///     P(s) = s^2 M + s D + K          (second order)
+///     P(s) = s E - A                  (descriptor)
+/// and of general combinations  sum_k w_k T_k  of the same coefficient matrices (T_0 = K, T_1 = D,
+/// T_2 = M; or T_0 = -A, T_1 = E), e.g. K - sigma M for shift-invert eigensolvers.
+///
+/// Reducers use only this interface, never a sparse library directly, so that another backend
+/// (e.g. a distributed PETSc/MUMPS one) can be plugged in without touching any reducer. The embedded
+/// backend (make_shifted_solver) uses SuiteSparse:
+///  * the union sparsity pattern of all coefficients is built once, and symbolic analysis is done
+///    once per pattern and arithmetic (real/complex), then reused by every numeric factorisation;
+///  * real symmetric combinations try CHOLMOD (LL'), falling back to UMFPACK (LU) when the matrix is
+///    not positive definite; complex or unsymmetric combinations use UMFPACK;
+///  * factorisations are immutable after construction and solves are thread-safe, so the band
+///    response can be computed in parallel across frequencies;
+///  * factorisations, solves (counted per right-hand-side column) and their times are counted.
+
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "ecmor/export.hpp"
+#include "ecmor/model.hpp"
+#include "ecmor/types.hpp"
+
+namespace ecmor {
+
+/// Cumulative work counters of a ShiftedSolver (a snapshot; see ShiftedSolver::counters()).
+struct SolverCounters {
+  Index symbolic_analyses = 0;    ///< symbolic (pattern) analyses
+  Index factorizations = 0;       ///< numeric factorisations of any kind
+  Index cholesky_factorizations = 0;
+  Index lu_factorizations = 0;
+  Index complex_factorizations = 0;
+  Index failed_cholesky = 0;      ///< Cholesky attempts that found the matrix indefinite
+  Index solves = 0;               ///< right-hand-side columns solved
+  double analysis_seconds = 0.0;
+  double factorization_seconds = 0.0;
+  double solve_seconds = 0.0;
+
+  SolverCounters& operator+=(const SolverCounters& other);
+  friend SolverCounters operator-(SolverCounters a, const SolverCounters& b);
+};
+
+/// A numeric factorisation of one combination sum_k w_k T_k. Immutable; solves are thread-safe.
+class ECMOR_API Factorization {
+ public:
+  virtual ~Factorization();
+  /// Dimension N.
+  virtual Index size() const = 0;
+  /// True when the factorised matrix is complex (some weight had a non-zero imaginary part).
+  virtual bool is_complex() const = 0;
+  /// "cholmod" or "umfpack" (or another backend's name).
+  virtual std::string method() const = 0;
+  /// The weights w_k that were factorised.
+  virtual const std::vector<Complex>& weights() const = 0;
+  /// Reciprocal condition number estimate (UMFPACK's rcond; NaN when unavailable).
+  virtual double rcond() const = 0;
+
+  /// X = P^-1 B for real P. \throws NumericalError if the factorisation is complex.
+  virtual Matrix solve(const Matrix& B) const = 0;
+  /// X = P^-1 B (real or complex P).
+  virtual ComplexMatrix solve(const ComplexMatrix& B) const = 0;
+  /// X = P^-T B (transpose, not conjugate transpose) for real P.
+  virtual Matrix solve_transposed(const Matrix& B) const = 0;
+  /// X = P^-T B (transpose, not conjugate transpose).
+  virtual ComplexMatrix solve_transposed(const ComplexMatrix& B) const = 0;
+};
+
+/// Backend-neutral shifted solver bound to one model's coefficient matrices (which must outlive it).
+class ECMOR_API ShiftedSolver {
+ public:
+  virtual ~ShiftedSolver();
+  /// Dimension N.
+  virtual Index size() const = 0;
+  /// Number of coefficient matrices T_k (3 for second order, 2 for descriptor models).
+  virtual Index terms() const = 0;
+  /// Backend name ("suitesparse", ...).
+  virtual std::string backend() const = 0;
+
+  /// Factorise sum_k w_k T_k (weights.size() == terms()). Thread-safe.
+  /// \throws NumericalError naming the weights when the matrix is (numerically) singular.
+  virtual std::shared_ptr<const Factorization> factorize_combination(
+      std::span<const Complex> weights) = 0;
+
+  /// Factorise P(s): weights s^k. Thread-safe.
+  std::shared_ptr<const Factorization> factorize(Complex s);
+
+  /// y = (sum_k w_k T_k) x, a sparse product (no factorisation).
+  virtual ComplexMatrix apply_combination(std::span<const Complex> weights,
+                                          const ComplexMatrix& x) const = 0;
+
+  /// Snapshot of the cumulative counters.
+  virtual SolverCounters counters() const = 0;
+};
+
+/// Options of the embedded SuiteSparse backend.
+struct SolverOptions {
+  /// Try CHOLMOD for real combinations whose matrices are all symmetric (default true).
+  bool use_cholesky = true;
+  /// Relative asymmetry ||T - T'||_F / ||T||_F below which a coefficient counts as symmetric.
+  double symmetry_tol = 1e-12;
+  /// A factorisation whose reciprocal condition estimate falls below this is reported singular.
+  double singular_rcond = 1e-14;
+  /// Throws ConfigError naming the field, value and rule.
+  void validate() const;
+};
+
+/// The embedded backend on the model's matrices. The model must outlive the solver.
+ECMOR_API std::unique_ptr<ShiftedSolver> make_shifted_solver(const Model& model,
+                                                             const SolverOptions& options = {});
+
+}  // namespace ecmor

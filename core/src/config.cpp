@@ -1,0 +1,2 @@
+// config.cpp: implementation pending (foundation issue in progress).
+#include "ecmor/config.hpp"

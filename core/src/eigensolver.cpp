@@ -1,0 +1,2 @@
+// eigensolver.cpp: implementation pending (foundation issue in progress).
+#include "ecmor/eigensolver.hpp"

@@ -1,0 +1,2 @@
+// history.cpp: implementation pending (foundation issue in progress).
+#include "ecmor/history.hpp"

@@ -1,0 +1,2 @@
+// model.cpp: implementation pending (foundation issue in progress).
+#include "ecmor/model.hpp"

@@ -1,0 +1,2 @@
+// model_io.cpp: implementation pending (foundation issue in progress).
+#include "ecmor/model_io.hpp"

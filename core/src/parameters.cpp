@@ -1,0 +1,2 @@
+// parameters.cpp: implementation pending (foundation issue in progress).
+#include "ecmor/parameters.hpp"

@@ -1,0 +1,2 @@
+// projection.cpp: implementation pending (foundation issue in progress).
+#include "ecmor/projection.hpp"

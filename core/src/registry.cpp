@@ -1,0 +1,2 @@
+// registry.cpp: implementation pending (foundation issue in progress).
+#include "ecmor/registry.hpp"

@@ -1,0 +1,2 @@
+// shifted_solver.cpp: implementation pending (foundation issue in progress).
+#include "ecmor/shifted_solver.hpp"

@@ -1,0 +1,1 @@
+#include "ecmor/plugin.hpp"

@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# Install every build and run-time dependency of ecmor from Debian 12 packages.
+# Idempotent: packages already present are skipped; safe to run repeatedly.
+# Needs root (or sudo) and the Debian package registry; downloads nothing else.
+set -euo pipefail
+
+packages=(
+  build-essential cmake pkg-config ninja-build
+  libeigen3-dev
+  libsuitesparse-dev
+  libarpack2-dev liblapack-dev libblas-dev
+  libnlopt-dev libnlopt-cxx-dev
+  coinor-libipopt-dev
+  libyaml-cpp-dev
+  libboost-dev libboost-filesystem-dev
+  libgtest-dev libgmock-dev googletest
+  libbenchmark-dev
+  libspdlog-dev libfmt-dev
+  libcli11-dev
+  nlohmann-json3-dev
+  libmatio-dev
+  gnuplot-nox
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#packages[@]} Debian packages already installed"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then
+  if command -v sudo >/dev/null 2>&1; then SUDO="sudo"; else
+    echo "setup: need root to install: ${missing[*]}" >&2; exit 1
+  fi
+fi
+
+echo "setup: installing ${#missing[@]} package(s): ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+echo "setup: done"

@@ -1,0 +1,64 @@
+#pragma once
+/// \file strategy.hpp
+/// Error-controlled outer loops. A strategy drives one reducer: it asks for reduced models (growing
+/// the order or moving expansion points), measures each one's relative band error, and stops with
+/// a reason. Missing the tolerance is a result, not an exception.
+
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ecmor/band_error.hpp"
+#include "ecmor/history.hpp"
+#include "ecmor/parameters.hpp"
+#include "ecmor/reducer.hpp"
+
+namespace ecmor {
+
+enum class Termination {
+  Converged,         ///< a model meets the tolerance (the smallest found is reported)
+  MaxOrderReached,   ///< the order budget ended before the tolerance was met
+  ReducerExhausted,  ///< the reducer cannot deliver a larger order (e.g. all modes used)
+  Stagnated,         ///< the error stopped improving
+  Interrupted,       ///< stopped by the observer (user interrupt, time budget)
+  Failed,            ///< numerical breakdown; message says where
+};
+std::string to_string(Termination t);
+
+/// Everything a strategy works with. The pointers outlive the call to run().
+struct StrategyContext {
+  Reducer* reducer = nullptr;
+  BandErrorEstimator* estimator = nullptr;
+  double tolerance = 1e-3;
+  /// Called after every iteration with its record; return false to stop (Interrupted).
+  std::function<bool(const IterationRecord&)> on_iteration;
+  /// Cumulative counters for the records (solver and full-model evaluations).
+  std::function<SolverCounters()> counters;
+  std::function<Index()> full_evaluations;
+  std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
+};
+
+struct StrategyResult {
+  Termination termination = Termination::Failed;
+  std::string message;   ///< with numbers: "band error 8.1e-05 <= tolerance 1e-04 at order 24"
+  std::optional<ReducerResult> best;  ///< smallest model meeting the target, else the most accurate
+  BandError best_error;
+  std::vector<IterationRecord> history;  ///< always complete, whatever the verbosity
+  bool met() const { return termination == Termination::Converged; }
+};
+
+class Strategy {
+ public:
+  virtual ~Strategy();
+  virtual StrategyResult run(StrategyContext& context) = 0;
+};
+
+/// Creates a strategy by name ("grow_order", ...), reading its parameters.
+/// \throws ConfigError for unknown names (listing the valid ones) or invalid/unknown parameters.
+std::unique_ptr<Strategy> make_strategy(const std::string& name, const ParameterMap& params);
+std::vector<std::string> strategy_names();
+
+}  // namespace ecmor

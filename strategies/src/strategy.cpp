@@ -1,0 +1,1 @@
+#include "ecmor/strategies/strategy.hpp"
