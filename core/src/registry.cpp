@@ -135,7 +135,7 @@ void Registry::load_plugin(const std::filesystem::path& path) {
 
   auto register_function = library->get<void(Registry*)>("ecmor_plugin_register");
   m_impl->loading = library;
-  m_impl->loading_path = shown;
+  m_impl->loading_path = key;
   m_impl->added.clear();
   std::string failure;
   try {
