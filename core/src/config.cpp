@@ -80,6 +80,13 @@ class Parser {
   std::string at(const YAML::Node& node) const {
     return node.IsDefined() ? at(node.Mark()) : m_name;
   }
+  // yaml-cpp marks an empty value at the next token (often the next line), so messages about
+  // empty values name the line of their key instead.
+  std::string key_location(const YAML::Node& parent, const std::string& key) const {
+    for (auto it = parent.begin(); it != parent.end(); ++it)
+      if (it->first.IsScalar() && it->first.Scalar() == key) return at(it->first);
+    return at(parent);
+  }
   [[noreturn]] void fail(const std::string& where, const std::string& what) const {
     throw ConfigError(where + ": " + what);
   }
@@ -152,10 +159,11 @@ std::optional<std::pair<ParameterValue::Storage, YAML::Node>> Parser::scalar(
   const YAML::Node node = map[key];
   if (!node.IsDefined()) {
     if (required)
-      fail(map.Mark().is_null() ? at(m_root) : at(map), fmt::format("missing required key '{}.{}'", sec, key));
+      fail(map.IsNull() ? key_location(m_root, sec) : at(map),
+           fmt::format("missing required key '{}.{}'", sec, key));
     return std::nullopt;
   }
-  if (node.IsNull()) fail(at(node), fmt::format("{}.{} has no value", sec, key));
+  if (node.IsNull()) fail(key_location(map, key), fmt::format("{}.{} has no value", sec, key));
   if (!node.IsScalar())
     fail(at(node), fmt::format("{}.{} must be a single value, found {}", sec, key,
                                node_kind(node)));
