@@ -3,6 +3,7 @@
 // hours (a misspelt `tolerence` would otherwise leave the default tolerance in force).
 #include "ecmor/config.hpp"
 
+#include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
 #include <charconv>
@@ -12,24 +13,27 @@
 #include <optional>
 #include <sstream>
 
-#include <fmt/format.h>
-
 #include "ecmor/error.hpp"
 
 namespace ecmor {
 
 namespace {
 
-const std::vector<std::string> kSections = {"model",  "band",   "target", "reducer", "strategy",
-                                            "error",  "solver", "output", "plugins"};
+const std::vector<std::string> kSections = {"model", "band",   "target", "reducer", "strategy",
+                                            "error", "solver", "output", "plugins"};
 
 std::string node_kind(const YAML::Node& node) {
   switch (node.Type()) {
-    case YAML::NodeType::Map: return "a mapping";
-    case YAML::NodeType::Sequence: return "a list";
-    case YAML::NodeType::Scalar: return "a scalar";
-    case YAML::NodeType::Null: return "nothing";
-    default: return "an undefined node";
+    case YAML::NodeType::Map:
+      return "a mapping";
+    case YAML::NodeType::Sequence:
+      return "a list";
+    case YAML::NodeType::Scalar:
+      return "a scalar";
+    case YAML::NodeType::Null:
+      return "nothing";
+    default:
+      return "an undefined node";
   }
 }
 
@@ -99,8 +103,10 @@ class Parser {
                   const std::vector<std::string>& known);
 
   /// Scalar accessors; `sec` is the section name for messages ("band.f_min_hz").
-  std::optional<std::pair<ParameterValue::Storage, YAML::Node>> scalar(
-      const YAML::Node& map, const std::string& sec, const std::string& key, bool required);
+  std::optional<std::pair<ParameterValue::Storage, YAML::Node>> scalar(const YAML::Node& map,
+                                                                       const std::string& sec,
+                                                                       const std::string& key,
+                                                                       bool required);
   std::optional<double> number(const YAML::Node& map, const std::string& sec,
                                const std::string& key, bool required);
   std::optional<long long> integer(const YAML::Node& map, const std::string& sec,
@@ -132,8 +138,8 @@ void Parser::check_keys(const YAML::Node& map, const std::string& where_name,
     // yaml-cpp keeps duplicate keys and operator[] returns the first: the second would be ignored
     // without a word, so it is an error.
     if (auto [pos, inserted] = seen.emplace(k, key.Mark().line + 1); !inserted)
-      fail(at(key), fmt::format("duplicate key '{}' in {} (first given at line {})", k,
-                                where_name, pos->second));
+      fail(at(key), fmt::format("duplicate key '{}' in {} (first given at line {})", k, where_name,
+                                pos->second));
     if (!known.empty() && std::find(known.begin(), known.end(), k) == known.end())
       problems.push_back(fmt::format("{}: unknown key '{}' in {}{}", at(key), k, where_name,
                                      suggestion(k, known)));
@@ -154,8 +160,10 @@ YAML::Node Parser::section(const YAML::Node& root, const std::string& name,
   return node;
 }
 
-std::optional<std::pair<ParameterValue::Storage, YAML::Node>> Parser::scalar(
-    const YAML::Node& map, const std::string& sec, const std::string& key, bool required) {
+std::optional<std::pair<ParameterValue::Storage, YAML::Node>> Parser::scalar(const YAML::Node& map,
+                                                                             const std::string& sec,
+                                                                             const std::string& key,
+                                                                             bool required) {
   const YAML::Node node = map[key];
   if (!node.IsDefined()) {
     if (required)
@@ -165,8 +173,8 @@ std::optional<std::pair<ParameterValue::Storage, YAML::Node>> Parser::scalar(
   }
   if (node.IsNull()) fail(key_location(map, key), fmt::format("{}.{} has no value", sec, key));
   if (!node.IsScalar())
-    fail(at(node), fmt::format("{}.{} must be a single value, found {}", sec, key,
-                               node_kind(node)));
+    fail(at(node),
+         fmt::format("{}.{} must be a single value, found {}", sec, key, node_kind(node)));
   return std::make_pair(classify_scalar(node), node);
 }
 
@@ -237,8 +245,8 @@ ParameterValue Parser::parameter(const YAML::Node& key, const YAML::Node& value,
   out.location = at(key);
   if (value.IsNull()) fail(at(key), full_key + " has no value");
   if (value.IsMap())
-    fail(at(value), full_key +
-                        ": nested mappings are not supported (a parameter is a value or a list)");
+    fail(at(value),
+         full_key + ": nested mappings are not supported (a parameter is a value or a list)");
   if (value.IsScalar()) {
     out.value = classify_scalar(value);
     return out;
@@ -261,8 +269,8 @@ ParameterValue Parser::parameter(const YAML::Node& key, const YAML::Node& value,
       fail(at(item), fmt::format("{}: lists of true/false are not supported", full_key));
     }
     if (!numbers.empty() && !strings.empty())
-      fail(at(item), fmt::format("{}: list mixes numbers and text ('{}')", full_key,
-                                 item.Scalar()));
+      fail(at(item),
+           fmt::format("{}: list mixes numbers and text ('{}')", full_key, item.Scalar()));
   }
   if (!strings.empty())
     out.value = std::move(strings);
@@ -289,8 +297,8 @@ RunConfig Parser::parse(const std::string& yaml) {
     fail(at(e.mark), "cannot read YAML: " + e.msg);
   }
   if (!m_root.IsDefined() || m_root.IsNull())
-    fail(m_name, fmt::format("the file is empty (expected the sections {})",
-                             fmt::join(kSections, ", ")));
+    fail(m_name,
+         fmt::format("the file is empty (expected the sections {})", fmt::join(kSections, ", ")));
   if (!m_root.IsMap())
     fail(at(m_root), fmt::format("expected a mapping of sections ({}), found {}",
                                  fmt::join(kSections, ", "), node_kind(m_root)));
@@ -309,8 +317,8 @@ RunConfig Parser::parse(const std::string& yaml) {
   config.band.f_max_hz = *number(band, "band", "f_max_hz", true);
   // Band::validate is the lead's; these are the same rules with the line attached.
   if (!(config.band.f_min_hz > 0.0))
-    fail(at(band["f_min_hz"]), fmt::format("band.f_min_hz = {}: must be > 0",
-                                           band["f_min_hz"].Scalar()));
+    fail(at(band["f_min_hz"]),
+         fmt::format("band.f_min_hz = {}: must be > 0", band["f_min_hz"].Scalar()));
   if (!(config.band.f_max_hz > config.band.f_min_hz))
     fail(at(band["f_max_hz"]), fmt::format("band.f_max_hz = {}: must be > band.f_min_hz = {}",
                                            band["f_max_hz"].Scalar(), band["f_min_hz"].Scalar()));
@@ -318,8 +326,8 @@ RunConfig Parser::parse(const std::string& yaml) {
   const YAML::Node target = section(m_root, "target", {"tolerance", "norm"});
   config.tolerance = *number(target, "target", "tolerance", true);
   if (!(config.tolerance > 0.0 && config.tolerance <= 1e3))
-    fail(at(target["tolerance"]), fmt::format("target.tolerance = {}: must be in (0, 1e3]",
-                                              target["tolerance"].Scalar()));
+    fail(at(target["tolerance"]),
+         fmt::format("target.tolerance = {}: must be in (0, 1e3]", target["tolerance"].Scalar()));
   if (auto norm = text(target, "target", "norm", false)) {
     // Parsed here rather than with parse_error_norm so the message carries the line.
     const std::vector<std::string> norms = {"spectral", "frobenius"};
@@ -358,9 +366,8 @@ RunConfig Parser::parse(const std::string& yaml) {
   if (auto v = integer(error, "error", "refine_evaluations", 0)) eo.refine_evaluations = *v;
   if (auto v = number(error, "error", "zero_threshold", false)) {
     if (!(*v >= 0.0 && *v < 1.0))
-      fail(at(error["zero_threshold"]),
-           fmt::format("error.zero_threshold = {}: must be in [0, 1)",
-                       error["zero_threshold"].Scalar()));
+      fail(at(error["zero_threshold"]), fmt::format("error.zero_threshold = {}: must be in [0, 1)",
+                                                    error["zero_threshold"].Scalar()));
     eo.zero_threshold = *v;
   }
   if (auto v = integer(error, "error", "verify_factor", 1)) config.verify_factor = *v;

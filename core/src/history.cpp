@@ -3,13 +3,13 @@
 // atomically, so a run killed at any moment leaves complete files up to its last iteration.
 #include "ecmor/history.hpp"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <sstream>
-
-#include <fmt/format.h>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "ecmor/error.hpp"
 
@@ -42,8 +42,8 @@ void replace_file(const std::filesystem::path& path, const std::string& contents
   if (ec) {
     std::error_code ignored;
     std::filesystem::remove(tmp, ignored);
-    throw IoError(fmt::format("cannot rename {} to {}: {}", tmp.string(), path.string(),
-                              ec.message()));
+    throw IoError(
+        fmt::format("cannot rename {} to {}: {}", tmp.string(), path.string(), ec.message()));
   }
 }
 
@@ -78,15 +78,15 @@ Json to_json(const IterationRecord& r) {
                       {"moments", p.moments}});
   const SolverCounters& c = r.counters;
   Json counters = {{"symbolic_analyses", c.symbolic_analyses},
-                             {"factorizations", c.factorizations},
-                             {"cholesky_factorizations", c.cholesky_factorizations},
-                             {"lu_factorizations", c.lu_factorizations},
-                             {"complex_factorizations", c.complex_factorizations},
-                             {"failed_cholesky", c.failed_cholesky},
-                             {"solves", c.solves},
-                             {"analysis_seconds", json_number(c.analysis_seconds)},
-                             {"factorization_seconds", json_number(c.factorization_seconds)},
-                             {"solve_seconds", json_number(c.solve_seconds)}};
+                   {"factorizations", c.factorizations},
+                   {"cholesky_factorizations", c.cholesky_factorizations},
+                   {"lu_factorizations", c.lu_factorizations},
+                   {"complex_factorizations", c.complex_factorizations},
+                   {"failed_cholesky", c.failed_cholesky},
+                   {"solves", c.solves},
+                   {"analysis_seconds", json_number(c.analysis_seconds)},
+                   {"factorization_seconds", json_number(c.factorization_seconds)},
+                   {"solve_seconds", json_number(c.solve_seconds)}};
   Json diagnostics = Json::object();
   for (const auto& [key, value] : r.diagnostics) diagnostics[key] = json_number(value);
   nlohmann::ordered_json out;
@@ -127,14 +127,13 @@ void HistoryWriter::append(const IterationRecord& record) {
       "sampling,note\n";
   std::string jsonl;
   for (const IterationRecord& r : m_records) {
-    csv += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", r.iteration,
-                       csv_text(r.phase), r.order, csv_text(format_points(r.points)),
-                       number(r.band_error), number(r.f_peak_hz),
-                       r.meets_tolerance ? "true" : "false", r.stable ? "true" : "false",
-                       number(r.seconds), number(r.step_seconds), r.counters.factorizations,
-                       r.counters.solves, number(r.counters.factorization_seconds),
-                       number(r.counters.solve_seconds), r.full_evaluations,
-                       csv_text(r.sampling), csv_text(r.note));
+    csv += fmt::format(
+        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", r.iteration, csv_text(r.phase),
+        r.order, csv_text(format_points(r.points)), number(r.band_error), number(r.f_peak_hz),
+        r.meets_tolerance ? "true" : "false", r.stable ? "true" : "false", number(r.seconds),
+        number(r.step_seconds), r.counters.factorizations, r.counters.solves,
+        number(r.counters.factorization_seconds), number(r.counters.solve_seconds),
+        r.full_evaluations, csv_text(r.sampling), csv_text(r.note));
     jsonl += to_json(r).dump() + "\n";
   }
   replace_file(m_dir / "history.csv", csv);

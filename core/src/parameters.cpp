@@ -1,11 +1,12 @@
-// parameters.cpp: the core-owned parameter map that carries YAML settings across the plugin boundary.
+// parameters.cpp: the core-owned parameter map that carries YAML settings across the plugin
+// boundary.
 #include "ecmor/parameters.hpp"
+
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
 #include <type_traits>
-
-#include <fmt/format.h>
 
 #include "ecmor/error.hpp"
 
@@ -38,12 +39,18 @@ std::string describe(const ParameterValue::Storage& value) {
 
 std::string type_name(const ParameterValue::Storage& value) {
   switch (value.index()) {
-    case 0: return "a boolean";
-    case 1: return "an integer";
-    case 2: return "a number";
-    case 3: return "a string";
-    case 4: return "a list of numbers";
-    default: return "a list of strings";
+    case 0:
+      return "a boolean";
+    case 1:
+      return "an integer";
+    case 2:
+      return "a number";
+    case 3:
+      return "a string";
+    case 4:
+      return "a list of numbers";
+    default:
+      return "a list of strings";
   }
 }
 
@@ -181,8 +188,8 @@ void ParameterMap::check_unused() const {
   for (const auto& [key, value] : m_values) {
     if (m_known.count(key) != 0) continue;
     std::string prefix = value.location.empty() ? std::string() : value.location + ": ";
-    problems.push_back(fmt::format("{}unknown key '{}' in {}{}", prefix, key, m_owner,
-                                   suggestion(key, known)));
+    problems.push_back(
+        fmt::format("{}unknown key '{}' in {}{}", prefix, key, m_owner, suggestion(key, known)));
   }
   if (problems.empty()) return;
   throw ConfigError(fmt::format("{}", fmt::join(problems, "; ")));

@@ -6,15 +6,15 @@
 // destroyed last.
 #include "ecmor/registry.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
+#include <boost/dll/runtime_symbol_info.hpp>
+#include <boost/dll/shared_library.hpp>
 #include <cctype>
 #include <cstdlib>
 #include <map>
 #include <system_error>
-
-#include <boost/dll/runtime_symbol_info.hpp>
-#include <boost/dll/shared_library.hpp>
-#include <fmt/format.h>
 
 #include "ecmor/error.hpp"
 #include "ecmor/plugin.hpp"
@@ -32,8 +32,8 @@ using Library = std::shared_ptr<boost::dll::shared_library>;
 bool is_snake_case(const std::string& name) {
   if (name.empty() || !std::islower(static_cast<unsigned char>(name.front()))) return false;
   return std::all_of(name.begin(), name.end(), [](char c) {
-    return std::islower(static_cast<unsigned char>(c)) || std::isdigit(static_cast<unsigned char>(c)) ||
-           c == '_';
+    return std::islower(static_cast<unsigned char>(c)) ||
+           std::isdigit(static_cast<unsigned char>(c)) || c == '_';
   });
 }
 
@@ -93,7 +93,8 @@ void Registry::add(ReducerFactory factory) {
   if (auto it = m_impl->items.find(name); it != m_impl->items.end())
     throw PluginError(fmt::format("reducer '{}' is registered twice: by {} and by {}", name,
                                   describe_library(it->second.path), source));
-  m_impl->items.emplace(name, Impl::Item{m_impl->loading, m_impl->loading_path, std::move(factory)});
+  m_impl->items.emplace(name,
+                        Impl::Item{m_impl->loading, m_impl->loading_path, std::move(factory)});
   m_impl->added.push_back(name);
 }
 
@@ -152,8 +153,7 @@ void Registry::load_plugin(const std::filesystem::path& path) {
   if (!failure.empty()) {
     for (const std::string& name : m_impl->added) m_impl->items.erase(name);
     m_impl->added.clear();
-    throw PluginError(prefix + ": registration failed: " +
-                      failure);
+    throw PluginError(prefix + ": registration failed: " + failure);
   }
   m_impl->added.clear();
   m_impl->libraries.emplace(key, std::move(library));
@@ -203,10 +203,10 @@ std::shared_ptr<Reducer> Registry::create(const std::string& name,
   if (it == m_impl->items.end()) {
     const std::vector<std::string> known = names();
     if (known.empty())
-      throw ConfigError(fmt::format(
-          "unknown reducer '{}': no reducers are registered (no plugins loaded; check "
-          "$ECMOR_PLUGIN_PATH or the 'plugins' list)",
-          name));
+      throw ConfigError(
+          fmt::format("unknown reducer '{}': no reducers are registered (no plugins loaded; check "
+                      "$ECMOR_PLUGIN_PATH or the 'plugins' list)",
+                      name));
     const std::string near = nearest(name, known);
     throw ConfigError(fmt::format("unknown reducer '{}'{}; registered reducers: {}", name,
                                   near.empty() ? "" : " (did you mean '" + near + "'?)",

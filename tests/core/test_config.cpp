@@ -36,17 +36,17 @@ std::string parse_error(const std::string& yaml) {
 // A valid configuration, one key per line so that line numbers in messages are easy to predict.
 // Tests replace one line to break exactly one rule.
 const std::string kMinimal =
-    "model:\n"                      // 1
+    "model:\n"                        // 1
     "  dir: ../shared/models/lf10\n"  // 2
-    "band:\n"                       // 3
-    "  f_min_hz: 0.1\n"             // 4
-    "  f_max_hz: 100\n"             // 5
-    "target:\n"                     // 6
-    "  tolerance: 1.0e-3\n"         // 7
-    "reducer:\n"                    // 8
-    "  name: modal\n"               // 9
-    "output:\n"                     // 10
-    "  dir: out/lf10\n";            // 11
+    "band:\n"                         // 3
+    "  f_min_hz: 0.1\n"               // 4
+    "  f_max_hz: 100\n"               // 5
+    "target:\n"                       // 6
+    "  tolerance: 1.0e-3\n"           // 7
+    "reducer:\n"                      // 8
+    "  name: modal\n"                 // 9
+    "output:\n"                       // 10
+    "  dir: out/lf10\n";              // 11
 
 std::string replace(std::string text, const std::string& from, const std::string& to) {
   const auto pos = text.find(from);
@@ -98,8 +98,8 @@ TEST(RunConfig, FullConfigRoundTrip) {
   EXPECT_EQ(c.reducer_name, "krylov");
   const ParameterMap& r = c.reducer_params;
   EXPECT_EQ(r.owner(), "reducer 'krylov'");
-  EXPECT_EQ(r.keys(), (std::vector<std::string>{"batch", "empty", "method", "outputs",
-                                                "points_hz", "shift", "tag", "two_sided"}));
+  EXPECT_EQ(r.keys(), (std::vector<std::string>{"batch", "empty", "method", "outputs", "points_hz",
+                                                "shift", "tag", "two_sided"}));
   EXPECT_EQ(r.location("two_sided"), "full.yaml:7");
   EXPECT_EQ(r.location("outputs"), "full.yaml:12");
   EXPECT_TRUE(r.get_bool("two_sided", false));
@@ -274,8 +274,9 @@ TEST(RunConfig, WrongTypes) {
   EXPECT_EQ(parse_error(kMinimal + "plugins: [[a, b]]\n"),
             "run.yaml:12: plugins: each entry must be a path, found a list");
   // Integral floats are integers.
-  EXPECT_EQ(parse_run_config(kMinimal + "error: {grid_points: 1e3}\n", "run.yaml").error.grid_points,
-            1000);
+  EXPECT_EQ(
+      parse_run_config(kMinimal + "error: {grid_points: 1e3}\n", "run.yaml").error.grid_points,
+      1000);
 }
 
 TEST(RunConfig, RangesAreChecked) {
@@ -296,9 +297,9 @@ TEST(RunConfig, RangesAreChecked) {
   EXPECT_EQ(parse_error(replace(kMinimal, "tolerance: 1.0e-3", "tolerance: 1001")),
             "run.yaml:7: target.tolerance = 1001: must be in (0, 1e3]");
   // The upper bound is inclusive.
-  EXPECT_EQ(parse_run_config(replace(kMinimal, "tolerance: 1.0e-3", "tolerance: 1e3"), "r")
-                .tolerance,
-            1e3);
+  EXPECT_EQ(
+      parse_run_config(replace(kMinimal, "tolerance: 1.0e-3", "tolerance: 1e3"), "r").tolerance,
+      1e3);
   EXPECT_EQ(parse_error(kMinimal + "error: {grid_points: 1}\n"),
             "run.yaml:12: error.grid_points = 1: must be >= 2");
   EXPECT_EQ(parse_error(kMinimal + "error: {refine_peaks: -1}\n"),
@@ -311,8 +312,9 @@ TEST(RunConfig, RangesAreChecked) {
             "run.yaml:12: solver.threads = -2: must be >= 0");
   EXPECT_EQ(parse_error(kMinimal + "solver: {symmetry_tol: -1e-3}\n"),
             "run.yaml:12: solver.symmetry_tol = -1e-3: must be in [0, 1)");
-  EXPECT_EQ(parse_error(replace(kMinimal, "tolerance: 1.0e-3\n", "tolerance: 1.0e-3\n  norm: "
-                                                                 "frobenus\n")),
+  EXPECT_EQ(parse_error(replace(kMinimal, "tolerance: 1.0e-3\n",
+                                "tolerance: 1.0e-3\n  norm: "
+                                "frobenus\n")),
             "run.yaml:8: target.norm = 'frobenus': must be one of spectral, frobenius (did you "
             "mean 'frobenius'?)");
 }
@@ -349,13 +351,15 @@ TEST(RunConfig, ReducerParameterRules) {
 }
 
 TEST(RunConfig, SyntaxErrorsEmptyAndNonMappingDocuments) {
-  const std::string syntax = parse_error(replace(kMinimal, "  f_max_hz: 100\n", "  f_max_hz: [1, 2\n"));
+  const std::string syntax =
+      parse_error(replace(kMinimal, "  f_max_hz: 100\n", "  f_max_hz: [1, 2\n"));
   EXPECT_EQ(syntax.rfind("run.yaml:", 0), 0u) << syntax;
   EXPECT_NE(syntax.find("YAML syntax error"), std::string::npos) << syntax;
   const std::string bad_indent = parse_error("model:\n  dir: a\n dir2: b\n");
   EXPECT_EQ(bad_indent.rfind("run.yaml:3: YAML syntax error: ", 0), 0u) << bad_indent;
-  EXPECT_EQ(parse_error(""), "run.yaml: the file is empty (expected the sections model, band, "
-                             "target, reducer, strategy, error, solver, output, plugins)");
+  EXPECT_EQ(parse_error(""),
+            "run.yaml: the file is empty (expected the sections model, band, "
+            "target, reducer, strategy, error, solver, output, plugins)");
   EXPECT_EQ(parse_error("# only a comment\n\n"),
             "run.yaml: the file is empty (expected the sections model, band, target, reducer, "
             "strategy, error, solver, output, plugins)");
@@ -386,8 +390,8 @@ TEST(RunConfig, LoadFromFile) {
             dir.string() + ": is a directory, not a configuration file");
 
   std::ofstream(file, std::ios::trunc).close();
-  EXPECT_EQ(config_error([&] { load_run_config(file); }).rfind(file.string() + ": the file is empty",
-                                                            0),
-            0u);
+  EXPECT_EQ(
+      config_error([&] { load_run_config(file); }).rfind(file.string() + ": the file is empty", 0),
+      0u);
   fs::remove_all(dir);
 }

@@ -123,11 +123,23 @@ TEST_F(History, CsvReadsBackExactly) {
   writer.append(sample_record(2));
   const auto rows = parse_csv(read(m_dir / "history.csv"));
   ASSERT_EQ(rows.size(), 3u);
-  const std::vector<std::string> header = {
-      "iteration",  "phase",        "order",          "points",
-      "band_error", "f_peak_hz",    "meets_tolerance", "stable",
-      "seconds",    "step_seconds", "factorizations", "solves",
-      "factorization_seconds", "solve_seconds", "full_evaluations", "sampling", "note"};
+  const std::vector<std::string> header = {"iteration",
+                                           "phase",
+                                           "order",
+                                           "points",
+                                           "band_error",
+                                           "f_peak_hz",
+                                           "meets_tolerance",
+                                           "stable",
+                                           "seconds",
+                                           "step_seconds",
+                                           "factorizations",
+                                           "solves",
+                                           "factorization_seconds",
+                                           "solve_seconds",
+                                           "full_evaluations",
+                                           "sampling",
+                                           "note"};
   EXPECT_EQ(rows[0], header);
   for (Index i = 1; i <= 2; ++i) {
     const IterationRecord expected = sample_record(i);

@@ -41,8 +41,8 @@ std::size_t reference_distance(const std::string& a, const std::string& b) {
   for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
   for (std::size_t i = 1; i <= a.size(); ++i)
     for (std::size_t j = 1; j <= b.size(); ++j)
-      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1,
-                          d[i - 1][j - 1] + (a[i - 1] != b[j - 1] ? 1u : 0u)});
+      d[i][j] = std::min(
+          {d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] != b[j - 1] ? 1u : 0u)});
   return d[a.size()][b.size()];
 }
 
@@ -61,9 +61,9 @@ TEST(EditDistance, KnownValues) {
 }
 
 TEST(EditDistance, MatchesReferenceAndIsAMetric) {
-  const std::vector<std::string> words = {"",         "a",         "ab",        "grid_points",
-                                          "grid_pts", "pole_samples", "refine_peaks",
-                                          "refine",   "tolerance", "norm",      "nrom"};
+  const std::vector<std::string> words = {
+      "",       "a",         "ab",   "grid_points", "grid_pts", "pole_samples", "refine_peaks",
+      "refine", "tolerance", "norm", "nrom"};
   for (const auto& a : words)
     for (const auto& b : words) {
       EXPECT_EQ(edit_distance(a, b), reference_distance(a, b)) << a << " / " << b;
@@ -117,8 +117,8 @@ TEST(ParameterMap, SetAndReadBack) {
   map.set("method", "lanczos");
   map.set("name", std::string("x"));
   map.set("shifts", ParameterValue{std::vector<double>{1.0, 2.0}, "a.yaml:3"});
-  EXPECT_EQ(map.keys(),
-            (std::vector<std::string>{"big", "count", "flag", "method", "name", "shift", "shifts"}));
+  EXPECT_EQ(map.keys(), (std::vector<std::string>{"big", "count", "flag", "method", "name", "shift",
+                                                  "shifts"}));
   EXPECT_EQ(map.owner(), "reducer 'modal'");
   EXPECT_EQ(map.location("shifts"), "a.yaml:3");
   EXPECT_TRUE(map.get_bool("flag", false));
@@ -177,7 +177,9 @@ TEST(ParameterMap, TypeErrorsNameTheType) {
             }),
             "run.yaml:7: reducer 'modal': v = ['a', 'b']: must be a list of numbers, not a list "
             "of strings");
-  EXPECT_EQ(config_error([] { with("n", std::vector<double>{1, 2}).get_int("n", 0); }),
+  EXPECT_EQ(config_error([] {
+              with("n", std::vector<double>{1, 2}).get_int("n", 0);
+            }),
             "run.yaml:7: reducer 'modal': n = [1, 2]: must be an integer, not a list of numbers");
   // An integral double beyond the range of long long cannot be converted.
   EXPECT_NE(config_error([] { with("n", 1e30).get_int("n", 0); }).find("must be an integer"),
@@ -199,15 +201,13 @@ TEST(ParameterMap, NaNIsRejected) {
 TEST(ParameterMap, ChoicesSuggestTheNearest) {
   const std::vector<std::string> choices = {"lanczos", "arnoldi", "block"};
   EXPECT_EQ(with("method", std::string("arnoldi")).get_string("method", "", choices), "arnoldi");
-  EXPECT_EQ(config_error([&] {
-              with("method", std::string("arnoldy")).get_string("method", "", choices);
-            }),
+  EXPECT_EQ(config_error(
+                [&] { with("method", std::string("arnoldy")).get_string("method", "", choices); }),
             "run.yaml:7: reducer 'modal': method = 'arnoldy': must be one of lanczos, arnoldi, "
             "block (did you mean 'arnoldi'?)");
-  EXPECT_EQ(config_error([&] {
-              with("method", std::string("qr")).get_string("method", "", choices);
-            }),
-            "run.yaml:7: reducer 'modal': method = 'qr': must be one of lanczos, arnoldi, block");
+  EXPECT_EQ(
+      config_error([&] { with("method", std::string("qr")).get_string("method", "", choices); }),
+      "run.yaml:7: reducer 'modal': method = 'qr': must be one of lanczos, arnoldi, block");
 }
 
 TEST(ParameterMap, CheckUnusedReportsEveryUnknownKeyWithSuggestion) {

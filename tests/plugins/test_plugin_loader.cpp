@@ -134,9 +134,9 @@ TEST_F(PluginLoader, DirectoryIsNotALibrary) {
 TEST_F(PluginLoader, SharedLibraryWithoutEntryPointsIsNotAnEcmorPlugin) {
   Registry registry;
   const fs::path path = fixture("not_ecmor");
-  EXPECT_EQ(message_of<PluginError>([&] { registry.load_plugin(path); }),
-            "plugin " + path.string() +
-                ": is not an ecmor plugin (no ecmor_plugin_abi_version symbol)");
+  EXPECT_EQ(
+      message_of<PluginError>([&] { registry.load_plugin(path); }),
+      "plugin " + path.string() + ": is not an ecmor plugin (no ecmor_plugin_abi_version symbol)");
 }
 
 TEST_F(PluginLoader, AbiMismatchNamesBothVersions) {
@@ -146,7 +146,8 @@ TEST_F(PluginLoader, AbiMismatchNamesBothVersions) {
   EXPECT_EQ(message_of<PluginError>([&] { registry.load_plugin(path); }),
             "plugin " + path.string() +
                 ": was built for ecmor plugin ABI 0 (ecmor 0.0.1, g++ 10.2.1, cxx11-abi 1), this "
-                "ecmor (" ECMOR_VERSION_STRING ") needs ABI 1: rebuild the plugin against this "
+                "ecmor (" ECMOR_VERSION_STRING
+                ") needs ABI 1: rebuild the plugin against this "
                 "ecmor");
   EXPECT_TRUE(registry.names().empty());
 }
@@ -169,7 +170,8 @@ TEST_F(PluginLoader, DuplicateNamesAcrossLibrariesNameBoth) {
   fs::copy_file(fixture("good"), copy);
   registry.load_plugin(fixture("good"));
   const std::string msg = message_of<PluginError>([&] { registry.load_plugin(copy); });
-  EXPECT_NE(msg.find("plugin " + copy.string() + ": registration failed: reducer "
+  EXPECT_NE(msg.find("plugin " + copy.string() +
+                     ": registration failed: reducer "
                      "'test_identity' is registered twice: by " +
                      fs::canonical(fixture("good")).string() + " and by " + copy.string()),
             std::string::npos)
@@ -187,7 +189,8 @@ TEST_F(PluginLoader, DuplicateOfDirectlyAddedReducer) {
   registry.add(factory);
   const std::string msg = message_of<PluginError>([&] { registry.load_plugin(fixture("good")); });
   EXPECT_NE(msg.find("'test_identity' is registered twice: by the application (added directly) "
-                     "and by " + fs::canonical(fixture("good")).string()),
+                     "and by " +
+                     fs::canonical(fixture("good")).string()),
             std::string::npos)
       << msg;
   // Adding it directly a second time names the application twice.
