@@ -7,15 +7,19 @@
 /// T_2 = M; or T_0 = -A, T_1 = E), e.g. K - sigma M for shift-invert eigensolvers.
 ///
 /// Reducers use only this interface, never a sparse library directly, so that another backend
-/// (e.g. a distributed PETSc/MUMPS one) can be plugged in without touching any reducer. The
-/// embedded backend (make_shifted_solver) uses SuiteSparse:
+/// (e.g. a distributed PETSc/MUMPS one) can be plugged in without touching any reducer. The embedded
+/// backend (make_shifted_solver) uses SuiteSparse:
 ///  * the union sparsity pattern of all coefficients is built once, and symbolic analysis is done
 ///    once per pattern and arithmetic (real/complex), then reused by every numeric factorisation;
-///  * real symmetric combinations try CHOLMOD (LL'), falling back to UMFPACK (LU) when the matrix
-///  is
+///  * real symmetric combinations try CHOLMOD (LL'), falling back to UMFPACK (LU) when the matrix is
 ///    not positive definite; complex or unsymmetric combinations use UMFPACK;
 ///  * factorisations are immutable after construction and solves are thread-safe, so the band
-///    response can be computed in parallel across frequencies;
+///    response can be computed in parallel across frequencies (factorize_combination may be called
+///    from many threads at once: UMFPACK's Symbolic object is shared read-only; CHOLMOD gets one
+///    cholmod_common per factorisation and per solve call, since cholmod_common is not
+///    thread-safe);
+///  * a factorisation keeps what it needs alive (pattern, options, counters): it stays valid after
+///    its solver is destroyed, but the model's matrices must outlive the solver;
 ///  * factorisations, solves (counted per right-hand-side column) and their times are counted.
 
 #include <memory>
@@ -31,13 +35,13 @@ namespace ecmor {
 
 /// Cumulative work counters of a ShiftedSolver (a snapshot; see ShiftedSolver::counters()).
 struct ECMOR_API SolverCounters {
-  Index symbolic_analyses = 0;  ///< symbolic (pattern) analyses
-  Index factorizations = 0;     ///< numeric factorisations of any kind
+  Index symbolic_analyses = 0;    ///< symbolic (pattern) analyses
+  Index factorizations = 0;       ///< numeric factorisations of any kind
   Index cholesky_factorizations = 0;
   Index lu_factorizations = 0;
   Index complex_factorizations = 0;
-  Index failed_cholesky = 0;  ///< Cholesky attempts that found the matrix indefinite
-  Index solves = 0;           ///< right-hand-side columns solved
+  Index failed_cholesky = 0;      ///< Cholesky attempts that found the matrix indefinite
+  Index solves = 0;               ///< right-hand-side columns solved
   double analysis_seconds = 0.0;
   double factorization_seconds = 0.0;
   double solve_seconds = 0.0;
@@ -71,8 +75,7 @@ class ECMOR_API Factorization {
   virtual ComplexMatrix solve_transposed(const ComplexMatrix& B) const = 0;
 };
 
-/// Backend-neutral shifted solver bound to one model's coefficient matrices (which must outlive
-/// it).
+/// Backend-neutral shifted solver bound to one model's coefficient matrices (which must outlive it).
 class ECMOR_API ShiftedSolver {
  public:
   virtual ~ShiftedSolver();
@@ -111,13 +114,14 @@ struct ECMOR_API SolverOptions {
   /// UMFPACK iterative refinement steps per solve, in [0, 10] (default 0). Each step costs a
   /// residual and a solve; UMFPACK's check alone made a solve 5-8x slower on the rail models while
   /// no shared reference model gained accuracy (all within 1e-12 without it). Raise it for badly
-  /// scaled or nearly singular shifts when accuracy of the solves matters more than speed.
+  /// scaled or nearly singular shifts when the accuracy of the solves matters more than speed.
   int refinement_steps = 0;
   /// Throws ConfigError naming the field, value and rule.
   void validate() const;
 };
 
 /// The embedded backend on the model's matrices. The model must outlive the solver.
+/// \throws ConfigError for invalid options; InputError if the coefficients are not all N x N.
 ECMOR_API std::unique_ptr<ShiftedSolver> make_shifted_solver(const Model& model,
                                                              const SolverOptions& options = {});
 
