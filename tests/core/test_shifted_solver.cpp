@@ -362,10 +362,30 @@ TEST(ShiftedSolver, OptionsValidation) {
     EXPECT_NE(std::string(e.what()).find("singular_rcond"), std::string::npos);
   }
   o = SolverOptions{};
+  o.refinement_steps = -1;
+  EXPECT_THROW(o.validate(), ConfigError);
+  o = SolverOptions{};
   o.symmetry_tol = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(o.validate(), ConfigError);
   Model model = two_dof();
   EXPECT_THROW(make_shifted_solver(model, o), ConfigError);
+}
+
+TEST(ShiftedSolver, IterativeRefinementOption) {
+  const auto sys = small_descriptor();
+  Model model = sys;
+  SolverOptions opt;
+  opt.refinement_steps = 2;
+  auto solver = make_shifted_solver(model, opt);
+  Matrix B(3, 2);
+  B << 1.0, -1.0, 2.0, 0.5, 0.0, 3.0;
+  for (Complex s : {Complex(0.7, 0.0), Complex(0.3, 1.7)}) {
+    auto f = solver->factorize(s);
+    ComplexMatrix P = dense_P(sys, s);
+    ComplexMatrix Bc = B.cast<Complex>();
+    EXPECT_LT(rel_err(f->solve(Bc), P.inverse() * Bc), 1e-14);
+    EXPECT_LT(rel_err(f->solve_transposed(Bc), P.transpose().inverse() * Bc), 1e-14);
+  }
 }
 
 TEST(ShiftedSolver, UnsymmetricTermsNeverUseCholesky) {
