@@ -241,7 +241,11 @@ void bench_modal(const ecmor::Model& model, Index N, const Options& opt, Reporte
     dirs.emplace_back(opt.plugin_dir);
   } else {
     dirs = ecmor::default_plugin_directories();
-    if (std::string(ECMOR_BENCH_PLUGIN_DIR).size() > 0) dirs.emplace_back(ECMOR_BENCH_PLUGIN_DIR);
+    const std::filesystem::path build_dir(ECMOR_BENCH_PLUGIN_DIR);
+    if (!build_dir.empty() &&
+        std::find(dirs.begin(), dirs.end(), build_dir.lexically_normal()) == dirs.end()) {
+      dirs.push_back(build_dir);
+    }
   }
   std::vector<std::string> load_errors;
   for (const auto& dir : dirs) {

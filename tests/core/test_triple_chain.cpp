@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <limits>
+#include <ostream>
 #include <string>
 #include <variant>
 
@@ -29,6 +30,11 @@ struct SharedInstance {
   Index n1;
   double alpha, beta, v;
 };
+
+void PrintTo(const SharedInstance& p, std::ostream* os) {
+  *os << p.name << " (n1=" << p.n1 << ", alpha=" << p.alpha << ", beta=" << p.beta << ", v=" << p.v
+      << ")";
+}
 
 class TripleChainShared : public ::testing::TestWithParam<SharedInstance> {};
 
