@@ -112,7 +112,8 @@ int guarded(F&& body) {
 
 int reduce(const std::filesystem::path& config_path, const CommonOptions& common) {
   return guarded([&] {
-    const RunConfig config = load_run_config(config_path);
+    RunConfig config = load_run_config(config_path);
+    if (!common.output_dir.empty()) config.output_dir = std::filesystem::absolute(common.output_dir);
     Registry registry;
     load_plugins(registry, common, config.plugins);
     std::signal(SIGINT, on_signal);

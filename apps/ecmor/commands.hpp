@@ -12,6 +12,7 @@ struct CommonOptions {
   std::vector<std::filesystem::path> plugin_paths;  ///< --plugin (files or directories)
   bool no_default_plugins = false;                  ///< --no-default-plugins
   bool quiet = false;                               ///< --quiet
+  std::filesystem::path output_dir;                 ///< --output: overrides output.dir
 };
 
 /// `ecmor reduce CONFIG`: 0 target met, 2 usable model but target missed, 1 error, 130 interrupted.

@@ -27,6 +27,7 @@ int main(int argc, char** argv) {
       "reduce", "reduce a model as configured in a YAML file (exit 0: target met, 2: target "
                 "missed but a model was written, 1: error, 130: interrupted)");
   reduce->add_option("config", config, "YAML run configuration")->required();
+  reduce->add_option("-o,--output", common.output_dir, "output directory (overrides output.dir)");
   add_common(reduce);
 
   auto* plugins = cli.add_subcommand("plugins", "list the loaded reducers and their parameters");
