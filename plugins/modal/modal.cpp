@@ -123,9 +123,13 @@ class SymmetricSlicer {
  public:
   using FactorizeFn = std::function<std::shared_ptr<const Factorization>(double sigma)>;
 
-  SymmetricSlicer(const SparseMatrix& Ks, const SparseMatrix& Ms, FactorizeFn factorize,
-                  bool second_order, const Options& options, const Band& band)
-      : m_M(Ms), m_factorize(std::move(factorize)), m_second_order(second_order),
+  /// \param solver  factorises Ks - sigma Ms (factorize); its failed-Cholesky counter tells whether
+  ///                 Ks - sigma_0 Ms is indefinite, i.e. Ks is not positive semidefinite.
+  SymmetricSlicer(const SparseMatrix& Ks, const SparseMatrix& Ms, ShiftedSolver& solver,
+                  FactorizeFn factorize, bool second_order, const Options& options,
+                  const Band& band)
+      : m_M(Ms), m_solver(solver), m_factorize(std::move(factorize)),
+        m_second_order(second_order),
         m_options(options), m_n(Ks.rows()) {
     m_scale = spectrum_scale(Ks, Ms);
     m_phi.resize(m_n, 0);
@@ -167,6 +171,7 @@ class SymmetricSlicer {
     for (int attempt = 0; attempt < 8; ++attempt) {
       const double sigma = m_batches == 0 ? m_sigma0 : m_lambda_cov + delta;
       std::shared_ptr<const Factorization> F;
+      const Index failed_before = m_solver.counters().failed_cholesky;
       try {
         F = m_factorize(sigma);
       } catch (const NumericalError&) {
@@ -192,12 +197,21 @@ class SymmetricSlicer {
         delta *= 0.25;  // the slice does not reach back to the frontier: a gap; retry nearer
         continue;
       }
-      // Indefinite Ks: an eigenvalue clearly below 0 (sigma_0 was meant to be below everything).
-      if (m_batches == 0 && r.eigenvalues[0] < -rigid_threshold()) {
+      // Indefinite Ks: an eigenvalue clearly below 0, or (whatever ARPACK found) a failed
+      // Cholesky of Ks - sigma_0 Ms, which is SPD whenever Ks is positive semidefinite. Either
+      // breaks the premise that sigma_0 lies below the whole spectrum.
+      const bool cholesky_failed =
+          m_batches == 0 && m_solver.counters().failed_cholesky > failed_before;
+      if (r.eigenvalues.minCoeff() < -rigid_threshold() || cholesky_failed) {
         throw InputError(fmt::format(
-            "modal: {} has a negative eigenvalue {:g} (relative to the spectrum scale {:g}): it "
-            "must be positive semidefinite",
-            m_second_order ? "K" : "-A", r.eigenvalues[0], m_scale));
+            "modal: {} has a negative eigenvalue ({}): it must be positive semidefinite for "
+            "modal truncation",
+            m_second_order ? "K" : "-A",
+            cholesky_failed ? fmt::format("the Cholesky factorisation of {} - sigma M failed at "
+                                          "sigma = {:g} < 0",
+                                          m_second_order ? "K" : "-A", sigma)
+                            : fmt::format("{:g}, spectrum scale {:g}", r.eigenvalues.minCoeff(),
+                                          m_scale)));
       }
       m_factorizations.push_back(F);
       m_shifts.push_back(sigma);
@@ -257,6 +271,7 @@ class SymmetricSlicer {
   }
 
   const SparseMatrix& m_M;
+  ShiftedSolver& m_solver;
   FactorizeFn m_factorize;
   bool m_second_order;
   Options m_options;
@@ -395,7 +410,7 @@ class ModalReducer final : public Reducer {
       m_asymmetry = asym_k;
       if (asym_k <= kExactSymmetry) {
         ShiftedSolver* solver = m_solver;
-        m_slicer.emplace(so->K, so->M,
+        m_slicer.emplace(so->K, so->M, *solver,
                          [solver](double sigma) {
                            const Complex w[3] = {1.0, 0.0, -sigma};
                            return solver->factorize_combination(w);
@@ -413,7 +428,7 @@ class ModalReducer final : public Reducer {
         m_own_solver = make_shifted_solver(*m_symmetrised);
         ShiftedSolver* solver = m_own_solver.get();
         const auto& sym_model = std::get<SecondOrderModel>(*m_symmetrised);
-        m_slicer.emplace(sym_model.K, sym_model.M,
+        m_slicer.emplace(sym_model.K, sym_model.M, *solver,
                          [solver](double sigma) {
                            const Complex w[3] = {1.0, 0.0, -sigma};
                            return solver->factorize_combination(w);
@@ -446,7 +461,7 @@ class ModalReducer final : public Reducer {
       if (symmetric && spd_e) {
         // E SPD, A symmetric (e.g. the rail models): -A phi = mu E phi, poles -mu, W = V.
         ShiftedSolver* solver = m_solver;
-        m_slicer.emplace(m_negA, ds.E,
+        m_slicer.emplace(m_negA, ds.E, *solver,
                          [solver](double sigma) {
                            const Complex w[2] = {1.0, -sigma};  // -A - sigma E
                            return solver->factorize_combination(w);
