@@ -574,30 +574,36 @@ class ModalReducer final : public Reducer {
       static_block();
       if (wanted > m_static_rank) static_cols = m_static_rank;
     }
-    const Index modes_wanted = wanted - static_cols;
-    std::vector<Index> ranked = final_ranked();
-    while (static_cast<Index>(ranked.size()) < modes_wanted && !s.complete()) {
-      s.next_batch();
-      ranked = final_ranked();
-    }
-    const Index modes = std::min<Index>(modes_wanted, static_cast<Index>(ranked.size()));
+    Index modes_wanted = wanted - static_cols;
     const SparseMatrix& M = inner_product_matrix();
-    Matrix V(m_n, modes);
+    std::vector<Index> ranked;
+    Matrix V;
+    Index modes = 0, appended = 0;
+    // A static column that deflates against the modes (it lies in their span, e.g. when nearly all
+    // modes are taken) is replaced by the next mode, so the order is delivered whenever possible.
+    for (;;) {
+      ranked = final_ranked();
+      while (static_cast<Index>(ranked.size()) < modes_wanted && !s.complete()) {
+        s.next_batch();
+        ranked = final_ranked();
+      }
+      modes = std::min<Index>(modes_wanted, static_cast<Index>(ranked.size()));
+      V.resize(m_n, modes);
+      for (Index k = 0; k < modes; ++k) V.col(k) = s.vectors().col(ranked[static_cast<std::size_t>(k)]);
+      appended = static_cols > 0 ? orthonormalize_append(V, *m_static, InnerProduct{&M}) : 0;
+      if (V.cols() >= wanted || modes < modes_wanted) break;
+      modes_wanted += wanted - V.cols();
+    }
     Index rigid = 0;
     double f_lo = kInf, f_hi = 0.0;
     for (Index k = 0; k < modes; ++k) {
       const Index j = ranked[static_cast<std::size_t>(k)];
-      V.col(k) = s.vectors().col(j);
       if (s.is_rigid(s.lambda(j))) {
         ++rigid;
       } else {
         f_lo = std::min(f_lo, s.frequency(s.lambda(j)));
         f_hi = std::max(f_hi, s.frequency(s.lambda(j)));
       }
-    }
-    Index appended = 0;
-    if (static_cols > 0) {
-      appended = orthonormalize_append(V, *m_static, InnerProduct{&M});
     }
     ReducerResult result;
     result.V = V;
