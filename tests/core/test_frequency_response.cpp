@@ -1,1 +1,580 @@
+// Tests of transfer functions, band responses, poles and the response cache: closed-form small
+// systems, full-order "reductions", and the shared models' independent reference responses.
 #include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "ecmor/error.hpp"
+#include "ecmor/frequency_response.hpp"
+#include "ecmor/shifted_solver.hpp"
+
+namespace {
+
+using namespace ecmor;
+
+// ---------------------------------------------------------------------------------------------
+// Test-only readers for the shared models (Matrix Market `coordinate real general`, 1-based) and
+// their reference responses.
+// TODO(model_io): switch to ecmor::load_model once it lands in main.
+
+std::string models_dir() { return std::string(ECMOR_TEST_SOURCE_DIR) + "/../shared/models/"; }
+
+bool has_model(const std::string& name) {
+  return std::ifstream(models_dir() + name + "/B.mtx").good();
+}
+
+std::vector<Eigen::Triplet<double, int>> read_mtx(const std::string& path, int& rows, int& cols) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot open " + path);
+  std::string line;
+  do {
+    std::getline(in, line);
+  } while (in && (line.empty() || line[0] == '%'));
+  std::istringstream head(line);
+  long nnz = 0;
+  head >> rows >> cols >> nnz;
+  std::vector<Eigen::Triplet<double, int>> t;
+  t.reserve(static_cast<std::size_t>(nnz));
+  for (long k = 0; k < nnz; ++k) {
+    int i, j;
+    double v;
+    in >> i >> j >> v;
+    t.emplace_back(i - 1, j - 1, v);
+  }
+  if (!in) throw std::runtime_error("truncated " + path);
+  return t;
+}
+
+SparseMatrix read_sparse(const std::string& path) {
+  int r, c;
+  auto t = read_mtx(path, r, c);
+  SparseMatrix S(r, c);
+  S.setFromTriplets(t.begin(), t.end());
+  S.makeCompressed();
+  return S;
+}
+
+Matrix read_dense(const std::string& path) {
+  int r, c;
+  auto t = read_mtx(path, r, c);
+  Matrix A = Matrix::Zero(r, c);
+  for (const auto& e : t) A(e.row(), e.col()) += e.value();
+  return A;
+}
+
+Model read_model(const std::string& name) {
+  const std::string d = models_dir() + name + "/";
+  if (std::ifstream(d + "M.mtx").good()) {
+    SecondOrderModel m;
+    m.M = read_sparse(d + "M.mtx");
+    m.D = read_sparse(d + "D.mtx");
+    m.K = read_sparse(d + "K.mtx");
+    m.B = read_dense(d + "B.mtx");
+    m.C = read_dense(d + "C.mtx");
+    if (std::ifstream(d + "Cv.mtx").good()) m.Cv = read_dense(d + "Cv.mtx");
+    return m;
+  }
+  DescriptorModel m;
+  m.E = read_sparse(d + "E.mtx");
+  m.A = read_sparse(d + "A.mtx");
+  m.B = read_dense(d + "B.mtx");
+  m.C = read_dense(d + "C.mtx");
+  return m;
+}
+
+struct Reference {
+  std::vector<double> omega;
+  std::vector<ComplexMatrix> H;
+};
+
+Reference read_reference(const std::string& name, Index p, Index m) {
+  std::ifstream in(models_dir() + name + "/ref_freq_response.csv");
+  Reference ref;
+  std::string line;
+  std::vector<std::string> header;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::vector<std::string> fields;
+    std::stringstream ss(line);
+    std::string f;
+    while (std::getline(ss, f, ',')) fields.push_back(f);
+    if (header.empty()) {
+      header = fields;
+      continue;
+    }
+    ComplexMatrix H = ComplexMatrix::Zero(p, m);
+    for (std::size_t c = 0; c < header.size() && c < fields.size(); ++c) {
+      const std::string& h = header[c];
+      const double v = std::stod(fields[c]);
+      if (h == "omega") {
+        ref.omega.push_back(v);
+      } else if (h.rfind("re_H_", 0) == 0 || h.rfind("im_H_", 0) == 0) {
+        int i = -1, j = -1;
+        std::sscanf(h.c_str() + 5, "%d_%d", &i, &j);
+        if (i < 0 || j < 0 || i >= p || j >= m)
+          throw std::runtime_error("reference column " + h + " outside " + std::to_string(p) +
+                                   " x " + std::to_string(m));
+        if (h[0] == 'r')
+          H(i, j).real(v);
+        else
+          H(i, j).imag(v);
+      }
+    }
+    ref.H.push_back(H);
+  }
+  return ref;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Small systems with closed-form responses.
+
+SparseMatrix sparse(const Matrix& A) {
+  SparseMatrix S = A.sparseView();
+  S.makeCompressed();
+  return S;
+}
+
+constexpr double km = 2.0, kd = 0.3, kk = 50.0, kb = 1.5, kc = -0.7;
+
+SecondOrderModel one_dof() {
+  SecondOrderModel m;
+  m.M = sparse(Matrix::Constant(1, 1, km));
+  m.D = sparse(Matrix::Constant(1, 1, kd));
+  m.K = sparse(Matrix::Constant(1, 1, kk));
+  m.B = Matrix::Constant(1, 1, kb);
+  m.C = Matrix::Constant(1, 1, kc);
+  return m;
+}
+
+/// 2-DOF with position and velocity outputs (p = 2) and two inputs.
+SecondOrderModel two_dof() {
+  Matrix M(2, 2), K(2, 2), B(2, 2), C(2, 2), Cv(2, 2);
+  M << 2.0, 0.0, 0.0, 1.0;
+  K << 30.0, -10.0, -10.0, 10.0;
+  B << 1.0, 0.0, 0.5, 1.0;
+  C << 1.0, 0.0, 0.0, 1.0;
+  Cv << 0.0, 0.2, 0.1, 0.0;
+  SecondOrderModel m;
+  m.M = sparse(M);
+  m.K = sparse(K);
+  m.D = sparse(0.1 * M + 0.01 * K);
+  m.B = B;
+  m.C = C;
+  m.Cv = Cv;
+  return m;
+}
+
+/// Closed-form inverse of a 2 x 2 matrix.
+ComplexMatrix inverse2(const ComplexMatrix& P) {
+  const Complex det = P(0, 0) * P(1, 1) - P(0, 1) * P(1, 0);
+  ComplexMatrix Q(2, 2);
+  Q << P(1, 1), -P(0, 1), -P(1, 0), P(0, 0);
+  return Q / det;
+}
+
+/// Descriptor with singular E (a DAE), p = 1, m = 2: H via a closed-form 2x2 Schur complement.
+DescriptorModel descriptor() {
+  Matrix E = Matrix::Zero(3, 3), A(3, 3);
+  E(0, 0) = 1.0;
+  E(1, 1) = 2.0;
+  A << -1.0, 2.0, 0.0,  //
+      -3.0, -1.0, 1.0,  //
+      0.5, 0.0, 1.0;
+  DescriptorModel m;
+  m.E = sparse(E);
+  m.A = sparse(A);
+  m.B = Matrix::Ones(3, 2);
+  m.B(2, 1) = -1.0;
+  m.C = Matrix::Ones(1, 3);
+  m.C(0, 1) = 2.0;
+  return m;
+}
+
+ComplexMatrix descriptor_exact(const DescriptorModel& m, Complex s) {
+  // P = sE - A = [[P11, p12], [p21, p22]] with a scalar p22 = -A(2,2): eliminate x_2.
+  ComplexMatrix P = s * Matrix(m.E).cast<Complex>() - Matrix(m.A).cast<Complex>();
+  const Complex p22 = P(2, 2);
+  ComplexMatrix S = P.topLeftCorner(2, 2) - P.topRightCorner(2, 1) * P.bottomLeftCorner(1, 2) / p22;
+  ComplexMatrix Sinv = inverse2(S);
+  ComplexMatrix B = m.B.cast<Complex>();
+  // x_top = S^-1 (b_top - p12 b_2 / p22), x_2 = (b_2 - p21 x_top) / p22.
+  ComplexMatrix rhs = B.topRows(2) - P.topRightCorner(2, 1) * B.bottomRows(1) / p22;
+  ComplexMatrix xt = Sinv * rhs;
+  ComplexMatrix x2 = (B.bottomRows(1) - P.bottomLeftCorner(1, 2) * xt) / p22;
+  ComplexMatrix X(3, 2);
+  X << xt, x2;
+  return m.C.cast<Complex>() * X;
+}
+
+ReducedModel dense_copy(const Model& model) {
+  if (const auto* so = std::get_if<SecondOrderModel>(&model)) {
+    ReducedSecondOrderModel r;
+    r.M = Matrix(so->M);
+    r.D = Matrix(so->D);
+    r.K = Matrix(so->K);
+    r.B = so->B;
+    r.C = so->C;
+    r.Cv = so->Cv;
+    return r;
+  }
+  const auto& ds = std::get<DescriptorModel>(model);
+  ReducedDescriptorModel r;
+  r.E = Matrix(ds.E);
+  r.A = Matrix(ds.A);
+  r.B = ds.B;
+  r.C = ds.C;
+  return r;
+}
+
+double rel(const ComplexMatrix& X, const ComplexMatrix& Y) { return (X - Y).norm() / Y.norm(); }
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(LogGrid, EndPointsAndSpacing) {
+  const auto f = log_grid(0.1, 1000.0, 5);
+  ASSERT_EQ(f.size(), 5u);
+  EXPECT_EQ(f.front(), 0.1);
+  EXPECT_EQ(f.back(), 1000.0);
+  for (std::size_t i = 1; i < f.size(); ++i) EXPECT_NEAR(f[i] / f[i - 1], 10.0, 1e-12);
+}
+
+TEST(LogGrid, InvalidArgumentsNameTheProblem) {
+  EXPECT_THROW(log_grid(1.0, 10.0, 1), ConfigError);
+  EXPECT_THROW(log_grid(0.0, 10.0, 5), ConfigError);
+  EXPECT_THROW(log_grid(10.0, 1.0, 5), ConfigError);
+  try {
+    log_grid(-1.0, 10.0, 5);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("f_min_hz"), std::string::npos) << e.what();
+  }
+}
+
+TEST(TransferFunction, OneDofClosedForm) {
+  Model model = one_dof();
+  auto solver = make_shifted_solver(model);
+  for (double f : {0.01, 0.5, 0.795, 1.0, 10.0, 1e3}) {
+    const Complex s = s_from_hz(f);
+    const Complex exact = kc * kb / (km * s * s + kd * s + kk);
+    ComplexMatrix H = transfer_function(model, *solver, s);
+    ASSERT_EQ(H.rows(), 1);
+    ASSERT_EQ(H.cols(), 1);
+    EXPECT_LT(std::abs(H(0, 0) - exact) / std::abs(exact), 1e-14) << f;
+    ComplexMatrix Hr = transfer_function(dense_copy(model), s);
+    EXPECT_LT(std::abs(Hr(0, 0) - exact) / std::abs(exact), 1e-14) << f;
+  }
+  // Real s (s = 0: static gain) takes the real path.
+  ComplexMatrix H0 = transfer_function(model, *solver, Complex(0.0, 0.0));
+  EXPECT_NEAR(H0(0, 0).real(), kc * kb / kk, 1e-15);
+  EXPECT_EQ(H0(0, 0).imag(), 0.0);
+}
+
+TEST(TransferFunction, TwoDofClosedFormWithVelocityOutput) {
+  const auto sys = two_dof();
+  Model model = sys;
+  auto solver = make_shifted_solver(model);
+  for (double f : {0.0, 0.05, 0.4, 0.7, 3.0}) {
+    const Complex s = s_from_hz(f);
+    ComplexMatrix P = (s * s) * Matrix(sys.M).cast<Complex>() + s * Matrix(sys.D).cast<Complex>() +
+                      Matrix(sys.K).cast<Complex>();
+    ComplexMatrix exact =
+        (sys.C.cast<Complex>() + s * sys.Cv.cast<Complex>()) * inverse2(P) * sys.B.cast<Complex>();
+    EXPECT_LT(rel(transfer_function(model, *solver, s), exact), 1e-14) << f;
+    EXPECT_LT(rel(transfer_function(dense_copy(model), s), exact), 1e-14) << f;
+  }
+}
+
+TEST(TransferFunction, MoreInputsThanOutputsUsesTransposedSolves) {
+  auto sys = two_dof();
+  sys.C = sys.C.topRows(1).eval();
+  sys.Cv = sys.Cv.topRows(1).eval();  // p = 1 < m = 2
+  Model model = sys;
+  auto solver = make_shifted_solver(model);
+  const Complex s = s_from_hz(0.6);
+  ComplexMatrix P = (s * s) * Matrix(sys.M).cast<Complex>() + s * Matrix(sys.D).cast<Complex>() +
+                    Matrix(sys.K).cast<Complex>();
+  ComplexMatrix exact =
+      (sys.C.cast<Complex>() + s * sys.Cv.cast<Complex>()) * inverse2(P) * sys.B.cast<Complex>();
+  const auto before = solver->counters().solves;
+  EXPECT_LT(rel(transfer_function(model, *solver, s), exact), 1e-14);
+  EXPECT_EQ(solver->counters().solves - before, 1);  // one transposed solve, not two
+}
+
+TEST(TransferFunction, DescriptorClosedForm) {
+  const auto sys = descriptor();
+  Model model = sys;
+  auto solver = make_shifted_solver(model);
+  for (double f : {0.0, 0.01, 0.3, 2.0, 100.0}) {
+    const Complex s = s_from_hz(f);
+    ComplexMatrix exact = descriptor_exact(sys, s);
+    EXPECT_LT(rel(transfer_function(model, *solver, s), exact), 1e-14) << f;
+    EXPECT_LT(rel(transfer_function(dense_copy(model), s), exact), 1e-14) << f;
+  }
+}
+
+TEST(TransferFunction, ReducedSingularThrows) {
+  // Undamped 1-DOF: pole at s = 2i.
+  ReducedSecondOrderModel r;
+  r.M = Matrix::Constant(1, 1, 1.0);
+  r.D = Matrix::Zero(1, 1);
+  r.K = Matrix::Constant(1, 1, 4.0);
+  r.B = Matrix::Ones(1, 1);
+  r.C = Matrix::Ones(1, 1);
+  try {
+    transfer_function(ReducedModel(r), Complex(0.0, 2.0));
+    FAIL() << "expected NumericalError";
+  } catch (const NumericalError& e) {
+    EXPECT_NE(std::string(e.what()).find("singular"), std::string::npos) << e.what();
+  }
+}
+
+TEST(FrequencyResponse, ParallelEqualsSerial) {
+  if (!has_model("triplechain_saak09_n451")) GTEST_SKIP() << "shared models not found";
+  Model model = read_model("triplechain_saak09_n451");
+  auto solver = make_shifted_solver(model);
+  const auto f = log_grid(1e-4, 10.0, 40);
+  const auto serial = frequency_response(model, *solver, f, 1);
+  const auto parallel = frequency_response(model, *solver, f, 2);
+  const auto dflt = frequency_response(model, *solver, f);
+  ASSERT_EQ(parallel.size(), f.size());
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    EXPECT_EQ((parallel[i] - serial[i]).norm(), 0.0) << i;
+    EXPECT_EQ((dflt[i] - serial[i]).norm(), 0.0) << i;
+  }
+  EXPECT_EQ(solver->counters().symbolic_analyses, 1);
+  EXPECT_EQ(solver->counters().complex_factorizations, 120);
+}
+
+TEST(FrequencyResponse, ExceptionInsideParallelRegionIsRethrown) {
+  // Undamped 1-DOF s^2 + 4: f = 2 / (2 pi) Hz is a pole.
+  SecondOrderModel m;
+  m.M = sparse(Matrix::Constant(1, 1, 1.0));
+  m.D = SparseMatrix(1, 1);
+  m.K = sparse(Matrix::Constant(1, 1, 4.0));
+  m.B = Matrix::Ones(1, 1);
+  m.C = Matrix::Ones(1, 1);
+  Model model = m;
+  auto solver = make_shifted_solver(model);
+  std::vector<double> f = log_grid(0.01, 10.0, 30);
+  f[17] = 2.0 / kTwoPi;
+  // s = i 2 pi (2 / 2 pi) may differ from 2i by round-off; then P is tiny but not zero: both the
+  // singular-warning and the rcond test must catch it.
+  try {
+    frequency_response(model, *solver, f, 2);
+    FAIL() << "expected NumericalError";
+  } catch (const NumericalError& e) {
+    EXPECT_NE(std::string(e.what()).find("singular"), std::string::npos) << e.what();
+  }
+  f[17] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(frequency_response(model, *solver, f, 2), NumericalError);
+}
+
+TEST(FrequencyResponse, ReducedFullOrderReductionReproducesFull) {
+  for (const std::string name : {"lf10", "build_so", "cdplayer", "build"}) {
+    if (!has_model(name)) GTEST_SKIP() << "shared models not found";
+    Model model = read_model(name);
+    auto solver = make_shifted_solver(model);
+    const Index p = std::visit([](const auto& sys) { return sys.C.rows(); }, model);
+    const Index m = std::visit([](const auto& sys) { return sys.B.cols(); }, model);
+    const Reference ref = read_reference(name, p, m);  // only the omegas are used here
+    std::vector<double> f;
+    for (std::size_t i = 0; i < ref.omega.size(); i += 7) f.push_back(ref.omega[i] / kTwoPi);
+    const auto Hfull = frequency_response(model, *solver, f);
+    const auto Hred = frequency_response(dense_copy(model), f);
+    double worst = 0.0;
+    for (std::size_t i = 0; i < f.size(); ++i) worst = std::max(worst, rel(Hred[i], Hfull[i]));
+    EXPECT_LT(worst, 1e-9) << name;
+    std::printf("[ full-order reduction ] %-10s worst rel. diff reduced vs full %.2e\n",
+                name.c_str(), worst);
+  }
+}
+
+TEST(Poles, OneDofAndTwoDof) {
+  // m s^2 + d s + k = 0.
+  ReducedSecondOrderModel r;
+  r.M = Matrix::Constant(1, 1, km);
+  r.D = Matrix::Constant(1, 1, kd);
+  r.K = Matrix::Constant(1, 1, kk);
+  r.B = Matrix::Ones(1, 1);
+  r.C = Matrix::Ones(1, 1);
+  ComplexVector p = poles(ReducedModel(r));
+  ASSERT_EQ(p.size(), 2);
+  const Complex disc = std::sqrt(Complex(kd * kd - 4.0 * km * kk, 0.0));
+  const Complex p1 = (-kd + disc) / (2.0 * km), p2 = (-kd - disc) / (2.0 * km);
+  const double e1 = std::min(std::abs(p(0) - p1), std::abs(p(0) - p2));
+  const double e2 = std::min(std::abs(p(1) - p1), std::abs(p(1) - p2));
+  EXPECT_LT(e1, 1e-12);
+  EXPECT_LT(e2, 1e-12);
+  // 2-DOF: every pole makes P(lambda) singular.
+  const auto sys = two_dof();
+  const auto red = dense_copy(Model(sys));
+  ComplexVector q = poles(red);
+  ASSERT_EQ(q.size(), 4);
+  for (Index i = 0; i < q.size(); ++i) {
+    const Complex s = q(i);
+    ComplexMatrix P = (s * s) * Matrix(sys.M).cast<Complex>() + s * Matrix(sys.D).cast<Complex>() +
+                      Matrix(sys.K).cast<Complex>();
+    EXPECT_LT(std::abs(P.determinant()) / P.norm() / P.norm(), 1e-12) << s;
+    EXPECT_LT(s.real(), 0.0);
+  }
+}
+
+TEST(Poles, SingularMassAndDescriptorDropInfiniteEigenvalues) {
+  // Descriptor with E of rank 2 (n = 3): 2 finite poles.
+  const auto red = dense_copy(Model(descriptor()));
+  ComplexVector p = poles(red);
+  ASSERT_EQ(p.size(), 2);
+  const auto& ds = std::get<ReducedDescriptorModel>(red);
+  for (Index i = 0; i < p.size(); ++i) {
+    ComplexMatrix P = p(i) * ds.E.cast<Complex>() - ds.A.cast<Complex>();
+    EXPECT_LT(std::abs(P.determinant()) / std::pow(P.norm(), 3), 1e-12) << p(i);
+  }
+  // Second order with a singular M (one massless DOF): 2n - 1 finite poles.
+  auto sys = two_dof();
+  Matrix M = Matrix(sys.M);
+  M(1, 1) = 0.0;
+  ReducedSecondOrderModel r = std::get<ReducedSecondOrderModel>(dense_copy(Model(sys)));
+  r.M = M;
+  EXPECT_EQ(poles(ReducedModel(r)).size(), 3);
+}
+
+TEST(ResponseCache, ComputesOnlyMissingFrequencies) {
+  const auto sys = two_dof();
+  Model model = sys;
+  auto solver = make_shifted_solver(model);
+  ResponseCache cache(model, *solver, 2);
+  const auto f1 = log_grid(0.01, 10.0, 20);
+  const auto H1 = cache.evaluate(f1);
+  EXPECT_EQ(cache.size(), 20);
+  EXPECT_EQ(solver->counters().factorizations, 20);
+  // Overlapping request: only the 10 new frequencies (and the duplicate one once) are factorised.
+  std::vector<double> f2(f1.begin(), f1.begin() + 5);
+  for (double f : log_grid(20.0, 30.0, 10)) f2.push_back(f);
+  f2.push_back(25.0);
+  f2.push_back(25.0);
+  const auto H2 = cache.evaluate(f2);
+  EXPECT_EQ(cache.size(), 31);
+  EXPECT_EQ(solver->counters().factorizations, 31);
+  ASSERT_EQ(H2.size(), f2.size());
+  for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ((H2[i] - H1[i]).norm(), 0.0);
+  EXPECT_EQ((cache.evaluate(f1[3]) - H1[3]).norm(), 0.0);
+  EXPECT_EQ(solver->counters().factorizations, 31);
+  EXPECT_EQ((H2[16] - transfer_function(model, *solver, s_from_hz(25.0))).norm(), 0.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The shared models' independent references (SciPy SuperLU) on all 200 frequencies.
+
+class SharedReference : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(SharedReference, MatchesIndependentResponse) {
+  const std::string name = GetParam();
+  if (!has_model(name)) GTEST_SKIP() << "shared model " << name << " not found";
+  Model model = read_model(name);
+  const Index p = std::visit([](const auto& s) { return s.C.rows(); }, model);
+  const Index m = std::visit([](const auto& s) { return s.B.cols(); }, model);
+  const Reference ref = read_reference(name, p, m);
+  ASSERT_EQ(ref.omega.size(), 200u);
+  auto solver = make_shifted_solver(model);
+  std::vector<double> f;
+  for (double w : ref.omega) f.push_back(w / kTwoPi);
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto H = frequency_response(model, *solver, f);
+  const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  double worst = 0.0;
+  std::size_t worst_i = 0;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    const double e = rel(H[i], ref.H[i]);
+    if (e > worst) {
+      worst = e;
+      worst_i = i;
+    }
+  }
+  std::printf(
+      "[ reference ] %-24s N = %6ld worst ||H - Href||_F / ||Href||_F = %.2e at omega = %.4g"
+      " (200 freqs in %.3f s)\n",
+      name.c_str(), static_cast<long>(std::visit([](const auto& s) { return s.size(); }, model)),
+      worst, ref.omega[worst_i], dt);
+  EXPECT_LT(worst, 1e-10) << name << " at omega = " << ref.omega[worst_i];
+}
+
+INSTANTIATE_TEST_SUITE_P(Models, SharedReference,
+                         ::testing::Values("triplechain_saak09_n451", "lf10", "build_so", "iss_so",
+                                           "build", "cdplayer", "rail_1357"));
+
+// ---------------------------------------------------------------------------------------------
+// Ad-hoc timings (printed, never asserted). Only with ECMOR_TIMING=1: rail_20209 takes a while.
+
+double seconds(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+TEST(Timing, FactorizationsAndBandResponse) {
+  const char* env = std::getenv("ECMOR_TIMING");
+  if (!env || std::string(env) != "1") GTEST_SKIP() << "set ECMOR_TIMING=1 to run";
+  for (const std::string name : {"triplechain_mess_n1501", "rail_20209"}) {
+    if (!has_model(name)) continue;
+    auto t0 = std::chrono::steady_clock::now();
+    Model model = read_model(name);
+    const double t_read = seconds(t0);
+    auto solver = make_shifted_solver(model);
+    const Complex s = s_from_hz(1.0);
+    t0 = std::chrono::steady_clock::now();
+    auto P = solver->factorize(s);  // includes the (first) symbolic analysis
+    const double t_first = seconds(t0);
+    const auto c1 = solver->counters();
+    t0 = std::chrono::steady_clock::now();
+    auto P2 = solver->factorize(s * 1.1);
+    const double t_fact = seconds(t0);
+    t0 = std::chrono::steady_clock::now();
+    ComplexMatrix H = transfer_function(model, *P2, s * 1.1);
+    const double t_solve = seconds(t0);
+    const auto c2 = solver->counters();
+    std::printf(
+        "[ timing ] %s: read %.3f s; symbolic %.4f s; first numeric %.4f s; "
+        "numeric %.4f s; %ld solves %.4f s\n",
+        name.c_str(), t_read, c1.analysis_seconds, c1.factorization_seconds, t_fact,
+        static_cast<long>(c2.solves), t_solve);
+    (void)t_first;
+    // Real SPD shift (CHOLMOD) for comparison.
+    t0 = std::chrono::steady_clock::now();
+    auto R = solver->factorize(Complex(1.0, 0.0));
+    const double t_chol_first = seconds(t0);
+    t0 = std::chrono::steady_clock::now();
+    auto R2 = solver->factorize(Complex(2.0, 0.0));
+    const double t_chol = seconds(t0);
+    std::printf("[ timing ] %s: real shift %s first (with analysis) %.4f s, next %.4f s\n",
+                name.c_str(), R2->method().c_str(), t_chol_first, t_chol);
+    if (name == "rail_20209") {
+      const Reference ref = read_reference(name, 6, 7);
+      std::vector<double> f;
+      for (double w : ref.omega) f.push_back(w / kTwoPi);
+      for (int threads : {1, 2}) {
+        auto fresh = make_shifted_solver(model);
+        t0 = std::chrono::steady_clock::now();
+        const auto Hs = frequency_response(model, *fresh, f, threads);
+        const double t = seconds(t0);
+        const auto c = fresh->counters();
+        double worst = 0.0;
+        for (std::size_t i = 0; i < f.size(); ++i) worst = std::max(worst, rel(Hs[i], ref.H[i]));
+        std::printf(
+            "[ timing ] rail_20209 200-frequency response, %d thread(s): %.3f s "
+            "(symbolic %.3f s, numeric %.3f s cpu-sum, solves %ld in %.3f s cpu-sum); "
+            "worst rel err %.2e\n",
+            threads, t, c.analysis_seconds, c.factorization_seconds, static_cast<long>(c.solves),
+            c.solve_seconds, worst);
+      }
+    }
+  }
+}
+
+}  // namespace

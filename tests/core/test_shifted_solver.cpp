@@ -1,1 +1,493 @@
+// Tests of the SuiteSparse ShiftedSolver on small systems with closed-form or dense references.
 #include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "ecmor/error.hpp"
+#include "ecmor/shifted_solver.hpp"
+
+namespace {
+
+using namespace ecmor;
+
+SparseMatrix sparse(const Matrix& A) {
+  SparseMatrix S = A.sparseView();
+  S.makeCompressed();
+  return S;
+}
+
+/// 2-DOF mass-spring-damper: M = diag(m1, m2), K = [[k1 + k2, -k2], [-k2, k2]], D = 0.1 M + 0.01 K.
+SecondOrderModel two_dof() {
+  Matrix M(2, 2), K(2, 2);
+  M << 2.0, 0.0, 0.0, 1.0;
+  K << 30.0, -10.0, -10.0, 10.0;
+  Matrix D = 0.1 * M + 0.01 * K;
+  SecondOrderModel m;
+  m.M = sparse(M);
+  m.K = sparse(K);
+  m.D = sparse(D);
+  m.B = Matrix::Ones(2, 1);
+  m.C = Matrix::Ones(1, 2);
+  return m;
+}
+
+/// Undamped 1-DOF: s^2 + 4: eigenvalues +-2i.
+SecondOrderModel one_dof_undamped() {
+  SecondOrderModel m;
+  m.M = sparse(Matrix::Constant(1, 1, 1.0));
+  m.D = SparseMatrix(1, 1);  // empty pattern: the union adds the diagonal
+  m.K = sparse(Matrix::Constant(1, 1, 4.0));
+  m.B = Matrix::Ones(1, 1);
+  m.C = Matrix::Ones(1, 1);
+  return m;
+}
+
+/// Descriptor with unsymmetric A and singular E (a DAE).
+DescriptorModel small_descriptor() {
+  Matrix E(3, 3), A(3, 3);
+  E << 1.0, 0.0, 0.0,  //
+      0.0, 2.0, 0.0,   //
+      0.0, 0.0, 0.0;
+  A << -1.0, 2.0, 0.0,  //
+      -3.0, -1.0, 1.0,  //
+      0.5, 0.0, 1.0;
+  DescriptorModel m;
+  m.E = sparse(E);
+  m.A = sparse(A);
+  m.B = Matrix::Ones(3, 2);
+  m.B(2, 1) = -1.0;
+  m.C = Matrix::Ones(1, 3);
+  return m;
+}
+
+/// A chain of N masses whose terms have DIFFERENT patterns: M diagonal, K tridiagonal, D with
+/// dashpots that couple the ends (entries in neither M's nor K's pattern). Symmetric positive
+/// definite M, K; symmetric D.
+SecondOrderModel chain(int n) {
+  std::vector<Eigen::Triplet<double, int>> tm, tk, td;
+  for (int i = 0; i < n; ++i) {
+    tm.emplace_back(i, i, 1.0 + 0.01 * i);
+    tk.emplace_back(i, i, (i == 0 || i == n - 1) ? 300.0 : 200.0);
+    if (i + 1 < n) {
+      tk.emplace_back(i, i + 1, -100.0);
+      tk.emplace_back(i + 1, i, -100.0);
+    }
+  }
+  td.emplace_back(0, 0, 0.5);
+  td.emplace_back(n - 1, n - 1, 0.5);
+  td.emplace_back(0, n - 1, -0.5);
+  td.emplace_back(n - 1, 0, -0.5);
+  td.emplace_back(n / 2, n / 2, 0.2);
+  SecondOrderModel m;
+  m.M.resize(n, n);
+  m.K.resize(n, n);
+  m.D.resize(n, n);
+  m.M.setFromTriplets(tm.begin(), tm.end());
+  m.K.setFromTriplets(tk.begin(), tk.end());
+  m.D.setFromTriplets(td.begin(), td.end());
+  m.B = Matrix::Zero(n, 2);
+  m.B(0, 0) = 1.0;
+  m.B(n - 1, 1) = 1.0;
+  m.C = Matrix::Ones(1, n);
+  return m;
+}
+
+ComplexMatrix dense_P(const SecondOrderModel& m, Complex s) {
+  return (s * s) * Matrix(m.M).cast<Complex>() + s * Matrix(m.D).cast<Complex>() +
+         Matrix(m.K).cast<Complex>();
+}
+ComplexMatrix dense_P(const DescriptorModel& m, Complex s) {
+  return s * Matrix(m.E).cast<Complex>() - Matrix(m.A).cast<Complex>();
+}
+
+double rel_err(const ComplexMatrix& X, const ComplexMatrix& Y) { return (X - Y).norm() / Y.norm(); }
+
+TEST(ShiftedSolver, BasicProperties) {
+  Model model = two_dof();
+  auto solver = make_shifted_solver(model);
+  EXPECT_EQ(solver->size(), 2);
+  EXPECT_EQ(solver->terms(), 3);
+  EXPECT_EQ(solver->backend(), "suitesparse");
+  Model dm = small_descriptor();
+  auto dsolver = make_shifted_solver(dm);
+  EXPECT_EQ(dsolver->terms(), 2);
+  const auto c = solver->counters();
+  EXPECT_EQ(c.symbolic_analyses, 0);  // lazy
+  EXPECT_EQ(c.factorizations, 0);
+}
+
+TEST(ShiftedSolver, RealSpdShiftUsesCholesky) {
+  const auto sys = two_dof();
+  Model model = sys;
+  auto solver = make_shifted_solver(model);
+  const Complex s(0.5, 0.0);
+  auto f = solver->factorize(s);
+  EXPECT_EQ(f->method(), "cholmod");
+  EXPECT_FALSE(f->is_complex());
+  EXPECT_GT(f->rcond(), 0.0);
+  Matrix B(2, 3);
+  B << 1.0, 0.0, 2.0, 0.0, 1.0, -1.0;
+  Matrix X = f->solve(B);
+  Matrix Xref = dense_P(sys, s).real().inverse() * B;
+  EXPECT_LT((X - Xref).norm() / Xref.norm(), 1e-14);
+  // Symmetric: transposed solve is the same.
+  EXPECT_LT((f->solve_transposed(B) - Xref).norm() / Xref.norm(), 1e-14);
+  // Complex RHS with a real factorisation: real and imaginary parts.
+  ComplexMatrix Bc = B.cast<Complex>() * Complex(1.0, -2.0);
+  ComplexMatrix Xc = f->solve(Bc);
+  EXPECT_LT(rel_err(Xc, Xref.cast<Complex>() * Complex(1.0, -2.0)), 1e-14);
+  const auto c = solver->counters();
+  EXPECT_EQ(c.cholesky_factorizations, 1);
+  EXPECT_EQ(c.lu_factorizations, 0);
+  EXPECT_EQ(c.factorizations, 1);
+  EXPECT_EQ(c.failed_cholesky, 0);
+  EXPECT_EQ(c.symbolic_analyses, 1);
+  EXPECT_EQ(c.solves, 3 + 3 + 6);  // per column; complex RHS = 2 real columns each
+  EXPECT_GE(c.factorization_seconds, 0.0);
+}
+
+TEST(ShiftedSolver, CholeskyCanBeSwitchedOff) {
+  Model model = two_dof();
+  SolverOptions opt;
+  opt.use_cholesky = false;
+  auto solver = make_shifted_solver(model, opt);
+  auto f = solver->factorize(Complex(0.5, 0.0));
+  EXPECT_EQ(f->method(), "umfpack");
+  EXPECT_EQ(solver->counters().lu_factorizations, 1);
+}
+
+TEST(ShiftedSolver, IndefiniteSymmetricFallsBackToLu) {
+  const auto sys = two_dof();
+  Model model = sys;
+  auto solver = make_shifted_solver(model);
+  // K - sigma M with sigma between the two generalised eigenvalues (2.93 and 17.07).
+  const double sigma = 8.0;
+  const std::vector<Complex> w{1.0, 0.0, -sigma};
+  auto f = solver->factorize_combination(w);
+  EXPECT_EQ(f->method(), "umfpack");
+  EXPECT_EQ(f->weights(), w);
+  Matrix P = Matrix(sys.K) - sigma * Matrix(sys.M);
+  Matrix B = Matrix::Identity(2, 2);
+  EXPECT_LT((f->solve(B) - P.inverse()).norm() / P.inverse().norm(), 1e-14);
+  const auto c = solver->counters();
+  EXPECT_EQ(c.failed_cholesky, 1);
+  EXPECT_EQ(c.lu_factorizations, 1);
+  EXPECT_EQ(c.cholesky_factorizations, 0);
+  EXPECT_EQ(c.factorizations, 1);
+  EXPECT_EQ(c.symbolic_analyses, 2);  // CHOLMOD + UMFPACK real
+}
+
+TEST(ShiftedSolver, ComplexShiftsReuseOneSymbolicAnalysis) {
+  const auto sys = chain(60);
+  Model model = sys;
+  auto solver = make_shifted_solver(model);
+  Index first = -1;
+  for (int k = 0; k < 10; ++k) {
+    const Complex s(0.1 * k, 1.0 + 2.0 * k);
+    auto f = solver->factorize(s);
+    EXPECT_TRUE(f->is_complex());
+    EXPECT_EQ(f->method(), "umfpack");
+    ComplexMatrix B = sys.B.cast<Complex>();
+    ComplexMatrix X = f->solve(B);
+    ComplexMatrix Xref = dense_P(sys, s).partialPivLu().solve(B);
+    EXPECT_LT(rel_err(X, Xref), 1e-12) << "s = " << s;
+    if (k == 0) first = solver->counters().symbolic_analyses;
+  }
+  const auto c = solver->counters();
+  EXPECT_EQ(first, 1);
+  EXPECT_EQ(c.symbolic_analyses, first);
+  EXPECT_EQ(c.complex_factorizations, 10);
+  EXPECT_EQ(c.lu_factorizations, 10);
+  EXPECT_EQ(c.solves, 20);
+  EXPECT_GT(c.solve_seconds, 0.0);
+}
+
+TEST(ShiftedSolver, RealSolveOnComplexFactorizationThrows) {
+  Model model = two_dof();
+  auto solver = make_shifted_solver(model);
+  auto f = solver->factorize(Complex(0.0, 1.0));
+  EXPECT_THROW(f->solve(Matrix(Matrix::Ones(2, 1))), NumericalError);
+  EXPECT_THROW(f->solve_transposed(Matrix(Matrix::Ones(2, 1))), NumericalError);
+}
+
+TEST(ShiftedSolver, TransposedSolvesAgreeWithDense) {
+  const auto sys = small_descriptor();
+  Model model = sys;
+  auto solver = make_shifted_solver(model);
+  Matrix B(3, 2);
+  B << 1.0, -1.0, 2.0, 0.5, 0.0, 3.0;
+  // Real unsymmetric shift: UMFPACK.
+  {
+    const Complex s(0.7, 0.0);
+    auto f = solver->factorize(s);
+    EXPECT_EQ(f->method(), "umfpack");
+    EXPECT_FALSE(f->is_complex());
+    Matrix P = dense_P(sys, s).real();
+    Matrix Xt = P.transpose().inverse() * B;
+    EXPECT_LT((f->solve_transposed(B) - Xt).norm() / Xt.norm(), 1e-14);
+    Matrix X = P.inverse() * B;
+    EXPECT_LT((f->solve(B) - X).norm() / X.norm(), 1e-14);
+    ComplexMatrix Bc = B.cast<Complex>() * Complex(0.0, 1.0);
+    EXPECT_LT(rel_err(f->solve_transposed(Bc), Xt.cast<Complex>() * Complex(0.0, 1.0)), 1e-14);
+  }
+  // Complex shift: transpose, not conjugate transpose.
+  {
+    const Complex s(0.3, 1.7);
+    auto f = solver->factorize(s);
+    ComplexMatrix P = dense_P(sys, s);
+    ComplexMatrix Bc = B.cast<Complex>();
+    Bc(1, 1) = Complex(0.5, -2.0);
+    ComplexMatrix Xt = P.transpose().inverse() * Bc;
+    ComplexMatrix X = P.inverse() * Bc;
+    EXPECT_LT(rel_err(f->solve_transposed(Bc), Xt), 1e-14);
+    EXPECT_LT(rel_err(f->solve(Bc), X), 1e-14);
+    // The conjugate transpose would give a different answer here.
+    ComplexMatrix Xh = P.adjoint().inverse() * Bc;
+    EXPECT_GT(rel_err(Xh, Xt), 1e-3);
+  }
+}
+
+TEST(ShiftedSolver, UnionPatternOfDifferentTerms) {
+  // Terms with different patterns (D couples the chain's ends): compare with a dense solve.
+  const auto sys = chain(40);
+  Model model = sys;
+  auto solver = make_shifted_solver(model);
+  for (Complex s : {Complex(0.0, 0.0), Complex(0.3, 0.0), Complex(0.0, 13.0), Complex(-0.2, 7.0)}) {
+    auto f = solver->factorize(s);
+    ComplexMatrix P = dense_P(sys, s);
+    ComplexMatrix B = sys.B.cast<Complex>();
+    EXPECT_LT(rel_err(f->solve(B), P.partialPivLu().solve(B)), 1e-12) << s;
+    EXPECT_LT(rel_err(f->solve_transposed(B), P.transpose().partialPivLu().solve(B)), 1e-12) << s;
+  }
+  // Real shifts of an SPD chain are Cholesky.
+  EXPECT_EQ(solver->counters().cholesky_factorizations, 2);
+}
+
+TEST(ShiftedSolver, ApplyCombinationIsTheSparseProduct) {
+  const auto sys = chain(25);
+  Model model = sys;
+  auto solver = make_shifted_solver(model);
+  const std::vector<Complex> w{Complex(1.0, 0.5), Complex(-2.0, 0.0), Complex(0.0, 3.0)};
+  ComplexMatrix x = ComplexMatrix::Random(25, 3);
+  ComplexMatrix ref = (w[0] * Matrix(sys.K).cast<Complex>() + w[1] * Matrix(sys.D).cast<Complex>() +
+                       w[2] * Matrix(sys.M).cast<Complex>()) *
+                      x;
+  EXPECT_LT(rel_err(solver->apply_combination(w, x), ref), 1e-15);
+  // Descriptor: T_0 = -A, T_1 = E.
+  const auto ds = small_descriptor();
+  Model dm = ds;
+  auto dsolver = make_shifted_solver(dm);
+  const std::vector<Complex> v{Complex(2.0, 0.0), Complex(0.0, -1.0)};
+  ComplexMatrix y = ComplexMatrix::Random(3, 2);
+  ComplexMatrix dref =
+      (-v[0] * Matrix(ds.A).cast<Complex>() + v[1] * Matrix(ds.E).cast<Complex>()) * y;
+  EXPECT_LT(rel_err(dsolver->apply_combination(v, y), dref), 1e-15);
+  // Residual of a solve through apply_combination: P (P^-1 b) = b.
+  auto f = dsolver->factorize_combination(v);
+  ComplexMatrix z = f->solve(y);
+  EXPECT_LT(rel_err(dsolver->apply_combination(v, z), y), 1e-14);
+}
+
+TEST(ShiftedSolver, SingularShiftThrowsNamingTheShift) {
+  Model model = one_dof_undamped();
+  auto solver = make_shifted_solver(model);
+  try {
+    solver->factorize(Complex(0.0, 2.0));
+    FAIL() << "expected NumericalError";
+  } catch (const NumericalError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("singular"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("s = 0+2i"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("rcond"), std::string::npos) << msg;
+  }
+  // Nearby shifts are fine.
+  EXPECT_NO_THROW(solver->factorize(Complex(0.0, 2.1)));
+}
+
+TEST(ShiftedSolver, SingularRealSymmetricShiftFallsThroughCholeskyToLuAndThrows) {
+  // A = diag(-1, -2), E = I: s = -1 is an eigenvalue; P(-1) = diag(0, 1) is symmetric PSD.
+  DescriptorModel m;
+  m.E = sparse(Matrix::Identity(2, 2));
+  Matrix A = Matrix::Zero(2, 2);
+  A(0, 0) = -1.0;
+  A(1, 1) = -2.0;
+  m.A = sparse(A);
+  m.B = Matrix::Ones(2, 1);
+  m.C = Matrix::Ones(1, 2);
+  Model model = m;
+  auto solver = make_shifted_solver(model);
+  try {
+    solver->factorize(Complex(-1.0, 0.0));
+    FAIL() << "expected NumericalError";
+  } catch (const NumericalError& e) {
+    EXPECT_NE(std::string(e.what()).find("singular"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(solver->counters().failed_cholesky, 1);
+  // A general combination names its weights.
+  try {
+    const std::vector<Complex> w{Complex(2.0, 0.0), Complex(-2.0, 0.0)};  // 2(-A) - 2E = diag(0, 2)
+    solver->factorize_combination(w);
+    FAIL() << "expected NumericalError";
+  } catch (const NumericalError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("singular"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("weights (2+0i, -2+0i)"), std::string::npos) << msg;
+  }
+}
+
+TEST(ShiftedSolver, NonFiniteWeightsThrow) {
+  Model model = two_dof();
+  auto solver = make_shifted_solver(model);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<Complex> w{1.0, Complex(0.0, nan), 0.0};
+  EXPECT_THROW(solver->factorize_combination(w), NumericalError);
+  EXPECT_THROW(solver->factorize(Complex(std::numeric_limits<double>::infinity(), 0.0)),
+               NumericalError);
+  const std::vector<Complex> two{1.0, 1.0};
+  EXPECT_THROW(solver->factorize_combination(two), std::invalid_argument);
+}
+
+TEST(ShiftedSolver, OptionsValidation) {
+  SolverOptions o;
+  EXPECT_NO_THROW(o.validate());
+  o.singular_rcond = -1.0;
+  try {
+    o.validate();
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("singular_rcond"), std::string::npos);
+  }
+  o = SolverOptions{};
+  o.refinement_steps = -1;
+  EXPECT_THROW(o.validate(), ConfigError);
+  o = SolverOptions{};
+  o.symmetry_tol = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(o.validate(), ConfigError);
+  Model model = two_dof();
+  EXPECT_THROW(make_shifted_solver(model, o), ConfigError);
+}
+
+TEST(ShiftedSolver, IterativeRefinementOption) {
+  const auto sys = small_descriptor();
+  Model model = sys;
+  SolverOptions opt;
+  opt.refinement_steps = 2;
+  auto solver = make_shifted_solver(model, opt);
+  Matrix B(3, 2);
+  B << 1.0, -1.0, 2.0, 0.5, 0.0, 3.0;
+  for (Complex s : {Complex(0.7, 0.0), Complex(0.3, 1.7)}) {
+    auto f = solver->factorize(s);
+    ComplexMatrix P = dense_P(sys, s);
+    ComplexMatrix Bc = B.cast<Complex>();
+    EXPECT_LT(rel_err(f->solve(Bc), P.inverse() * Bc), 1e-14);
+    EXPECT_LT(rel_err(f->solve_transposed(Bc), P.transpose().inverse() * Bc), 1e-14);
+  }
+}
+
+TEST(ShiftedSolver, UnsymmetricTermsNeverUseCholesky) {
+  auto sys = two_dof();
+  Matrix K = Matrix(sys.K);
+  K(0, 1) += 1e-3;  // asymmetry 3e-5 > 1e-12
+  sys.K = sparse(K);
+  Model model = sys;
+  auto solver = make_shifted_solver(model);
+  EXPECT_EQ(solver->factorize(Complex(0.5, 0.0))->method(), "umfpack");
+  // A weight of zero on the unsymmetric term: M alone is symmetric.
+  const std::vector<Complex> w{0.0, 0.0, 1.0};
+  EXPECT_EQ(solver->factorize_combination(w)->method(), "cholmod");
+  // A looser tolerance accepts K.
+  SolverOptions opt;
+  opt.symmetry_tol = 1e-3;
+  auto loose = make_shifted_solver(model, opt);
+  EXPECT_EQ(loose->factorize(Complex(0.5, 0.0))->method(), "cholmod");
+}
+
+TEST(ShiftedSolver, ConcurrentFactorizationsAndSolves) {
+  const auto sys = chain(200);
+  Model model = sys;
+  auto solver = make_shifted_solver(model);
+  const int n = 24;
+  std::vector<Complex> shifts;
+  for (int k = 0; k < n; ++k)
+    shifts.push_back(k % 3 == 0 ? Complex(0.1 * k, 0.0) : Complex(0.01 * k, 0.5 * k));
+  std::vector<ComplexMatrix> serial(n), parallel(n);
+  ComplexMatrix B = sys.B.cast<Complex>();
+  for (int k = 0; k < n; ++k) serial[k] = solver->factorize(shifts[k])->solve(B);
+  std::vector<std::string> errors(n);
+  // Four threads take shifts from a shared counter (like OpenMP's dynamic schedule).
+  std::atomic<int> next{0};
+  auto worker = [&] {
+    for (int k = next++; k < n; k = next++) {
+      try {
+        auto f = solver->factorize(shifts[k]);
+        parallel[k] = f->solve(B);
+        (void)f->solve_transposed(B);
+      } catch (const std::exception& e) {
+        errors[k] = e.what();
+      }
+    }
+  };
+  {
+    std::vector<std::thread> pool;
+    for (int t = 0; t < 4; ++t) pool.emplace_back(worker);
+    for (auto& t : pool) t.join();
+  }
+  for (int k = 0; k < n; ++k) {
+    EXPECT_EQ(errors[k], "");
+    EXPECT_EQ((parallel[k] - serial[k]).norm(), 0.0) << k;
+  }
+  // A single factorisation shared by concurrent solves.
+  auto f = solver->factorize(Complex(0.0, 3.0));
+  auto g = solver->factorize(Complex(0.2, 0.0));
+  ComplexMatrix ref = f->solve(B), refg = g->solve(B);
+  std::atomic<int> bad{0};
+  {
+    std::vector<std::thread> pool;
+    for (int t = 0; t < 4; ++t)
+      pool.emplace_back([&] {
+        for (int k = 0; k < 4; ++k) {
+          if ((f->solve(B) - ref).norm() != 0.0) ++bad;
+          if ((g->solve(B) - refg).norm() != 0.0) ++bad;
+        }
+      });
+    for (auto& t : pool) t.join();
+  }
+  EXPECT_EQ(bad.load(), 0);
+  const auto c = solver->counters();
+  EXPECT_EQ(c.factorizations, 2 * n + 2);
+  EXPECT_EQ(c.symbolic_analyses, 2);  // CHOLMOD + UMFPACK complex
+}
+
+TEST(ShiftedSolver, FactorizationOutlivesSolver) {
+  const auto sys = chain(10);
+  Model model = sys;
+  std::shared_ptr<const Factorization> f;
+  {
+    auto solver = make_shifted_solver(model);
+    f = solver->factorize(Complex(0.0, 1.0));
+  }
+  ComplexMatrix B = sys.B.cast<Complex>();
+  EXPECT_LT(rel_err(f->solve(B), dense_P(sys, Complex(0.0, 1.0)).partialPivLu().solve(B)), 1e-13);
+}
+
+TEST(ShiftedSolver, CountersArithmetic) {
+  SolverCounters a, b;
+  a.solves = 5;
+  a.factorizations = 2;
+  a.solve_seconds = 1.5;
+  b.solves = 3;
+  b.factorizations = 1;
+  b.solve_seconds = 0.5;
+  SolverCounters d = a - b;
+  EXPECT_EQ(d.solves, 2);
+  EXPECT_EQ(d.factorizations, 1);
+  EXPECT_DOUBLE_EQ(d.solve_seconds, 1.0);
+  d += b;
+  EXPECT_EQ(d.solves, 5);
+}
+
+}  // namespace

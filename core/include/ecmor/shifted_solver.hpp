@@ -14,7 +14,12 @@
 ///  * real symmetric combinations try CHOLMOD (LL'), falling back to UMFPACK (LU) when the matrix is
 ///    not positive definite; complex or unsymmetric combinations use UMFPACK;
 ///  * factorisations are immutable after construction and solves are thread-safe, so the band
-///    response can be computed in parallel across frequencies;
+///    response can be computed in parallel across frequencies (factorize_combination may be called
+///    from many threads at once: UMFPACK's Symbolic object is shared read-only; CHOLMOD gets one
+///    cholmod_common per factorisation and per solve call, since cholmod_common is not
+///    thread-safe);
+///  * a factorisation keeps what it needs alive (pattern, options, counters): it stays valid after
+///    its solver is destroyed, but the model's matrices must outlive the solver;
 ///  * factorisations, solves (counted per right-hand-side column) and their times are counted.
 
 #include <memory>
@@ -29,7 +34,7 @@
 namespace ecmor {
 
 /// Cumulative work counters of a ShiftedSolver (a snapshot; see ShiftedSolver::counters()).
-struct SolverCounters {
+struct ECMOR_API SolverCounters {
   Index symbolic_analyses = 0;    ///< symbolic (pattern) analyses
   Index factorizations = 0;       ///< numeric factorisations of any kind
   Index cholesky_factorizations = 0;
@@ -42,7 +47,7 @@ struct SolverCounters {
   double solve_seconds = 0.0;
 
   SolverCounters& operator+=(const SolverCounters& other);
-  friend SolverCounters operator-(SolverCounters a, const SolverCounters& b);
+  friend ECMOR_API SolverCounters operator-(SolverCounters a, const SolverCounters& b);
 };
 
 /// A numeric factorisation of one combination sum_k w_k T_k. Immutable; solves are thread-safe.
@@ -98,18 +103,25 @@ class ECMOR_API ShiftedSolver {
 };
 
 /// Options of the embedded SuiteSparse backend.
-struct SolverOptions {
+struct ECMOR_API SolverOptions {
   /// Try CHOLMOD for real combinations whose matrices are all symmetric (default true).
   bool use_cholesky = true;
   /// Relative asymmetry ||T - T'||_F / ||T||_F below which a coefficient counts as symmetric.
   double symmetry_tol = 1e-12;
   /// A factorisation whose reciprocal condition estimate falls below this is reported singular.
+  /// (UMFPACK's estimate is min/max |diag(U)| of the scaled matrix; CHOLMOD's (min/max diag L)^2.)
   double singular_rcond = 1e-14;
+  /// UMFPACK iterative refinement steps per solve, in [0, 10] (default 0). Each step costs a
+  /// residual and a solve; UMFPACK's check alone made a solve 5-8x slower on the rail models while
+  /// no shared reference model gained accuracy (all within 1e-12 without it). Raise it for badly
+  /// scaled or nearly singular shifts when the accuracy of the solves matters more than speed.
+  int refinement_steps = 0;
   /// Throws ConfigError naming the field, value and rule.
   void validate() const;
 };
 
 /// The embedded backend on the model's matrices. The model must outlive the solver.
+/// \throws ConfigError for invalid options; InputError if the coefficients are not all N x N.
 ECMOR_API std::unique_ptr<ShiftedSolver> make_shifted_solver(const Model& model,
                                                              const SolverOptions& options = {});
 
