@@ -1,10 +1,10 @@
 // bench_core: scaling benchmark of the core numerics on triple chains of N = 1e4, 1e5, 1e6.
 //
 // Measures what the architecture calls the unavoidable cost of a reduction: symbolic analysis,
-// numeric factorisations (CHOLMOD real SPD, UMFPACK complex), solves, the full model's band response
-// (frequencies per second, 1 and 2 threads), the gain from reusing the symbolic analysis across
-// shifts, and modal reduction through the plugin registry. Every row carries the solver's counters
-// (factorisations, solves) and the peak resident memory.
+// numeric factorisations (CHOLMOD real SPD, UMFPACK complex), solves, the full model's band
+// response (frequencies per second, 1 and 2 threads), the gain from reusing the symbolic analysis
+// across shifts, and modal reduction through the plugin registry. Every row carries the solver's
+// counters (factorisations, solves) and the peak resident memory.
 //
 // Each model size runs in its own child process (fork), so that the peak memory reported for a size
 // is that size's own (ru_maxrss is a process-lifetime maximum) and a crash or an out-of-memory kill
@@ -14,6 +14,7 @@
 //                         [--modal-max-n 1e5]
 // Never run by ctest: timings are not assertions.
 
+#include <fmt/format.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -31,8 +32,6 @@
 #include <string>
 #include <thread>
 #include <vector>
-
-#include <fmt/format.h>
 
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
@@ -63,8 +62,8 @@ struct Options {
   std::vector<Index> sizes;
   std::string csv;
   std::string plugin_dir;
-  Index frequencies = 64;          // band-response frequencies
-  Index reuse_shifts = 8;          // shifts in the symbolic-reuse comparison
+  Index frequencies = 64;  // band-response frequencies
+  Index reuse_shifts = 8;  // shifts in the symbolic-reuse comparison
   std::vector<Index> modal_orders{20, 50};
   // Modal reduction is skipped above this size: at N = 1e5 one modal reduction already costs
   // ~20 s of CPU in dense products (not in factorisations), so N = 1e6 would take most of an hour.
@@ -107,7 +106,7 @@ struct Row {
   std::string detail{};
   double seconds = 0.0;
   double cpu_seconds = -1.0;  ///< < 0: not measured separately for this row
-  double rate = 0.0;  ///< <= 0: no rate for this row
+  double rate = 0.0;          ///< <= 0: no rate for this row
   std::string rate_unit{};
   Index factorizations = 0;
   Index solves = 0;
@@ -117,7 +116,9 @@ struct Row {
 void print_header() {
   fmt::print("{:>8}  {:<30} {:<52} {:>10} {:>10} {:>18} {:>6} {:>7} {:>9}\n", "N", "stage",
              "detail", "wall [s]", "cpu [s]", "rate", "fact", "solves", "peak MB");
-  fmt::print("{}\n", std::string(8 + 2 + 30 + 1 + 52 + 1 + 10 + 1 + 10 + 1 + 18 + 1 + 6 + 1 + 7 + 1 + 9, '-'));
+  fmt::print(
+      "{}\n",
+      std::string(8 + 2 + 30 + 1 + 52 + 1 + 10 + 1 + 10 + 1 + 18 + 1 + 6 + 1 + 7 + 1 + 9, '-'));
   std::fflush(stdout);
 }
 
@@ -126,7 +127,8 @@ class Reporter {
   explicit Reporter(const std::string& csv_path) {
     if (!csv_path.empty()) {
       m_csv.open(csv_path, std::ios::app);
-      if (!m_csv) throw ecmor::IoError(fmt::format("bench: cannot append to CSV file '{}'", csv_path));
+      if (!m_csv)
+        throw ecmor::IoError(fmt::format("bench: cannot append to CSV file '{}'", csv_path));
     }
   }
 
@@ -141,12 +143,12 @@ class Reporter {
                row.rss_mb);
     std::fflush(stdout);
     if (m_csv.is_open()) {
-      m_csv << fmt::format("{},\"{}\",\"{}\",{:.6g},{},{},{},{},{},{:.1f}\n", row.n,
-                           row.stage, row.detail, row.seconds,
-                           row.cpu_seconds >= 0.0 ? fmt::format("{:.6g}", row.cpu_seconds)
-                                                  : std::string(),
-                           row.rate > 0.0 ? fmt::format("{:.6g}", row.rate) : std::string(),
-                           row.rate_unit, row.factorizations, row.solves, row.rss_mb);
+      m_csv << fmt::format(
+          "{},\"{}\",\"{}\",{:.6g},{},{},{},{},{},{:.1f}\n", row.n, row.stage, row.detail,
+          row.seconds,
+          row.cpu_seconds >= 0.0 ? fmt::format("{:.6g}", row.cpu_seconds) : std::string(),
+          row.rate > 0.0 ? fmt::format("{:.6g}", row.rate) : std::string(), row.rate_unit,
+          row.factorizations, row.solves, row.rss_mb);
       m_csv.flush();
     }
   }
@@ -164,8 +166,11 @@ void bench_factorizations(const ecmor::Model& model, Index N, Reporter& out) {
   const auto& so = std::get<ecmor::SecondOrderModel>(model);
   Stopwatch watch;
   auto solver = ecmor::make_shifted_solver(model);
-  out.add({.n = N, .stage = "solver construction", .detail = "union pattern of M, D, K",
-           .seconds = watch.wall(), .cpu_seconds = watch.cpu()});
+  out.add({.n = N,
+           .stage = "solver construction",
+           .detail = "union pattern of M, D, K",
+           .seconds = watch.wall(),
+           .cpu_seconds = watch.cpu()});
 
   // Real shift s = 0: P = K, symmetric positive definite, so CHOLMOD. The first factorisation of
   // each arithmetic performs the symbolic analysis; the counters split the two (CPU time is only
@@ -173,25 +178,31 @@ void bench_factorizations(const ecmor::Model& model, Index N, Reporter& out) {
   const ecmor::SolverCounters c0 = solver->counters();
   auto real_fac = solver->factorize(Complex(0.0, 0.0));
   const ecmor::SolverCounters c1 = solver->counters() - c0;
-  out.add({.n = N, .stage = "symbolic analysis (real)",
+  out.add({.n = N,
+           .stage = "symbolic analysis (real)",
            .detail = fmt::format("{} analyses", c1.symbolic_analyses),
            .seconds = c1.analysis_seconds});
-  out.add({.n = N, .stage = "real factorisation",
+  out.add({.n = N,
+           .stage = "real factorisation",
            .detail = fmt::format("P(0) = K, {}", real_fac->method()),
-           .seconds = c1.factorization_seconds, .factorizations = c1.factorizations});
+           .seconds = c1.factorization_seconds,
+           .factorizations = c1.factorizations});
 
   // Complex shift on the imaginary axis at the band's upper end: UMFPACK.
   const Complex s(0.0, kOmegaMax);
   const ecmor::SolverCounters c2 = solver->counters();
   auto complex_fac = solver->factorize(s);
   const ecmor::SolverCounters c3 = solver->counters() - c2;
-  out.add({.n = N, .stage = "symbolic analysis (complex)",
+  out.add({.n = N,
+           .stage = "symbolic analysis (complex)",
            .detail = fmt::format("{} analyses", c3.symbolic_analyses),
            .seconds = c3.analysis_seconds});
-  out.add({.n = N, .stage = "complex factorisation",
+  out.add({.n = N,
+           .stage = "complex factorisation",
            .detail = fmt::format("P(i {:g}), {}, rcond {:.1e}", kOmegaMax, complex_fac->method(),
                                  complex_fac->rcond()),
-           .seconds = c3.factorization_seconds, .factorizations = c3.factorizations});
+           .seconds = c3.factorization_seconds,
+           .factorizations = c3.factorizations});
 
   // Solves: repeated so that the small sizes are above the clock's resolution.
   const Index repeats = std::max<Index>(1, 2000000 / N);
@@ -202,18 +213,27 @@ void bench_factorizations(const ecmor::Model& model, Index N, Reporter& out) {
   watch = Stopwatch{};
   for (Index r = 0; r < repeats; ++r) guard += std::abs(complex_fac->solve(b)(0, 0));
   const double complex_wall = watch.wall() * per;
-  out.add({.n = N, .stage = "complex solve",
-           .detail = fmt::format("1 rhs, mean of {}", repeats), .seconds = complex_wall,
-           .cpu_seconds = watch.cpu() * per, .rate = 1.0 / complex_wall, .rate_unit = "solves/s",
+  out.add({.n = N,
+           .stage = "complex solve",
+           .detail = fmt::format("1 rhs, mean of {}", repeats),
+           .seconds = complex_wall,
+           .cpu_seconds = watch.cpu() * per,
+           .rate = 1.0 / complex_wall,
+           .rate_unit = "solves/s",
            .solves = (solver->counters() - c4).solves});
 
   const ecmor::SolverCounters c6 = solver->counters();
   watch = Stopwatch{};
   for (Index r = 0; r < repeats; ++r) guard += std::abs(real_fac->solve(so.B)(0, 0));
   const double real_wall = watch.wall() * per;
-  out.add({.n = N, .stage = "real solve", .detail = fmt::format("1 rhs, mean of {}", repeats),
-           .seconds = real_wall, .cpu_seconds = watch.cpu() * per, .rate = 1.0 / real_wall,
-           .rate_unit = "solves/s", .solves = (solver->counters() - c6).solves});
+  out.add({.n = N,
+           .stage = "real solve",
+           .detail = fmt::format("1 rhs, mean of {}", repeats),
+           .seconds = real_wall,
+           .cpu_seconds = watch.cpu() * per,
+           .rate = 1.0 / real_wall,
+           .rate_unit = "solves/s",
+           .solves = (solver->counters() - c6).solves});
   if (!std::isfinite(guard)) fmt::print("  (warning: non-finite solution)\n");
 }
 
@@ -233,12 +253,16 @@ void bench_band_response(const ecmor::Model& model, Index N, const Options& opt,
     // Share of the CPU time (summed over threads) spent in numeric factorisations; the counters'
     // factorisation seconds are wall-clock per call, so on a loaded machine this is an upper bound.
     const double share = c.factorization_seconds / std::max(cpu, wall * threads);
-    out.add({.n = N, .stage = "band response",
+    out.add({.n = N,
+             .stage = "band response",
              .detail = fmt::format("{} freq, {} thread{}, fact {:.0f}%", f_hz.size(), threads,
                                    threads > 1 ? "s" : "", 100.0 * share),
-             .seconds = wall, .cpu_seconds = cpu,
-             .rate = static_cast<double>(f_hz.size()) / wall, .rate_unit = "freq/s",
-             .factorizations = c.factorizations, .solves = c.solves});
+             .seconds = wall,
+             .cpu_seconds = cpu,
+             .rate = static_cast<double>(f_hz.size()) / wall,
+             .rate_unit = "freq/s",
+             .factorizations = c.factorizations,
+             .solves = c.solves});
     if (H.size() != f_hz.size()) fmt::print("  (warning: {} responses)\n", H.size());
   }
 }
@@ -255,10 +279,14 @@ void bench_symbolic_reuse(const ecmor::Model& model, Index N, const Options& opt
   const double reuse_cpu = watch.cpu();
   const ecmor::SolverCounters cr = shared->counters();
   shared.reset();
-  out.add({.n = N, .stage = "shifts, one solver",
+  out.add({.n = N,
+           .stage = "shifts, one solver",
            .detail = fmt::format("{} shifts, {} analyses", f_hz.size(), cr.symbolic_analyses),
-           .seconds = reuse_wall, .cpu_seconds = reuse_cpu, .rate = shifts / reuse_wall,
-           .rate_unit = "shifts/s", .factorizations = cr.factorizations});
+           .seconds = reuse_wall,
+           .cpu_seconds = reuse_cpu,
+           .rate = shifts / reuse_wall,
+           .rate_unit = "shifts/s",
+           .factorizations = cr.factorizations});
 
   ecmor::SolverCounters cf;
   watch = Stopwatch{};
@@ -269,12 +297,16 @@ void bench_symbolic_reuse(const ecmor::Model& model, Index N, const Options& opt
   }
   const double fresh_wall = watch.wall();
   const double fresh_cpu = watch.cpu();
-  out.add({.n = N, .stage = "shifts, fresh solver each",
-           .detail = fmt::format("{} analyses; reuse gain x{:.2f} wall, x{:.2f} cpu",
-                                 cf.symbolic_analyses, fresh_wall / reuse_wall,
-                                 fresh_cpu / reuse_cpu),
-           .seconds = fresh_wall, .cpu_seconds = fresh_cpu, .rate = shifts / fresh_wall,
-           .rate_unit = "shifts/s", .factorizations = cf.factorizations});
+  out.add(
+      {.n = N,
+       .stage = "shifts, fresh solver each",
+       .detail = fmt::format("{} analyses; reuse gain x{:.2f} wall, x{:.2f} cpu",
+                             cf.symbolic_analyses, fresh_wall / reuse_wall, fresh_cpu / reuse_cpu),
+       .seconds = fresh_wall,
+       .cpu_seconds = fresh_cpu,
+       .rate = shifts / fresh_wall,
+       .rate_unit = "shifts/s",
+       .factorizations = cf.factorizations});
 }
 
 /// The modal reducer's work diagnostics that explain its time (eigenpairs computed, ARPACK runs).
@@ -336,7 +368,9 @@ void bench_modal(const ecmor::Model& model, Index N, const Options& opt, Reporte
                .detail = fmt::format("n={}, fact {:.0f}%, {}", ecmor::size_of(result.model),
                                      100.0 * c.factorization_seconds / std::max(cpu, wall),
                                      diagnostics(result)),
-               .seconds = wall, .cpu_seconds = cpu, .factorizations = c.factorizations,
+               .seconds = wall,
+               .cpu_seconds = cpu,
+               .factorizations = c.factorizations,
                .solves = c.solves});
     }
   }
@@ -348,10 +382,12 @@ void run_size(Index N, const Options& opt) {
   N = 3 * n1 + 1;
   const Stopwatch watch;
   const ecmor::Model model = ecmor::bench::triple_chain(n1, kAlpha, kBeta, kViscosity);
-  out.add({.n = N, .stage = "generate triple chain",
+  out.add({.n = N,
+           .stage = "generate triple chain",
            .detail = fmt::format("n1={}, nnz(K)={}", n1,
                                  std::get<ecmor::SecondOrderModel>(model).K.nonZeros()),
-           .seconds = watch.wall(), .cpu_seconds = watch.cpu()});
+           .seconds = watch.wall(),
+           .cpu_seconds = watch.cpu()});
   bench_factorizations(model, N, out);
   bench_band_response(model, N, opt, out);
   bench_symbolic_reuse(model, N, opt, out);
@@ -374,6 +410,7 @@ Index parse_size(const std::string& text) {
 Options parse_arguments(int argc, char** argv) {
   Options opt;
   bool sizes_given = false;
+  bool modal_max_n_given = false;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     auto value = [&]() -> std::string {
@@ -386,6 +423,7 @@ Options parse_arguments(int argc, char** argv) {
       opt.csv = value();
     } else if (arg == "--modal-max-n") {
       opt.modal_max_n = parse_size(value());
+      modal_max_n_given = true;
     } else if (arg == "--plugin-dir") {
       opt.plugin_dir = value();
     } else if (arg == "--sizes") {
@@ -405,20 +443,22 @@ Options parse_arguments(int argc, char** argv) {
           argv[0]);
       std::exit(0);
     } else {
-      throw ecmor::ConfigError(fmt::format("bench: unknown argument '{}' (valid: --quick, --sizes, "
-                                           "--csv, --plugin-dir, --modal-max-n, --help)",
-                                           arg));
+      throw ecmor::ConfigError(
+          fmt::format("bench: unknown argument '{}' (valid: --quick, --sizes, "
+                      "--csv, --plugin-dir, --modal-max-n, --help)",
+                      arg));
     }
   }
   if (opt.quick) {
-    // Smoke run: the two smaller sizes, a shorter band grid, one modal order.
+    // Smoke run: the two smaller sizes, a shorter band grid, one modal order at N = 1e4 only.
     opt.frequencies = 16;
     opt.reuse_shifts = 4;
     opt.modal_orders = {20};
+    if (!modal_max_n_given) opt.modal_max_n = 10000;
   }
   if (!sizes_given) {
-    opt.sizes = opt.quick ? std::vector<Index>{10000, 100000}
-                          : std::vector<Index>{10000, 100000, 1000000};
+    opt.sizes =
+        opt.quick ? std::vector<Index>{10000, 100000} : std::vector<Index>{10000, 100000, 1000000};
   }
   return opt;
 }
@@ -433,10 +473,11 @@ int main(int argc, char** argv) {
     fmt::print(stderr, "{}\n", e.what());
     return 2;
   }
-  fmt::print("ecmor bench_core: triple chain alpha=beta={:g}, v={:g}, band {:g}..{:g} rad/s; "
-             "{} hardware threads; mode {}\n",
-             kAlpha, kViscosity, kOmegaMin, kOmegaMax, std::thread::hardware_concurrency(),
-             opt.quick ? "quick" : "full");
+  fmt::print(
+      "ecmor bench_core: triple chain alpha=beta={:g}, v={:g}, band {:g}..{:g} rad/s; "
+      "{} hardware threads; mode {}\n",
+      kAlpha, kViscosity, kOmegaMin, kOmegaMax, std::thread::hardware_concurrency(),
+      opt.quick ? "quick" : "full");
   if (!opt.csv.empty()) {
     std::ofstream csv(opt.csv, std::ios::trunc);
     if (!csv) {

@@ -1,11 +1,11 @@
 // triple_chain.cpp: the triple chain oscillator generator (see triple_chain.hpp).
 #include "triple_chain.hpp"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <string>
 #include <vector>
-
-#include <fmt/format.h>
 
 #include "ecmor/error.hpp"
 

@@ -5,8 +5,8 @@
 ///
 /// Three chains of n1 masses each (m1 = 1, m2 = 2, m3 = 3) joined by springs (k1 = 10, k2 = 20,
 /// k3 = 1). The first mass of every chain hangs on a grounding spring of its chain's stiffness, the
-/// last mass of every chain is joined by a spring of its chain's stiffness to one extra mass m0 = 10,
-/// itself grounded by k0 = 50. With 1-based indices, chain c in {1, 2, 3} holds the masses
+/// last mass of every chain is joined by a spring of its chain's stiffness to one extra mass m0 =
+/// 10, itself grounded by k0 = 50. With 1-based indices, chain c in {1, 2, 3} holds the masses
 /// (c-1) n1 + 1 .. c n1 and m0 is the last coordinate N = 3 n1 + 1:
 ///
 ///   M = diag(m1 I, m2 I, m3 I, m0)
