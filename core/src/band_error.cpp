@@ -7,6 +7,7 @@
 
 #include "ecmor/error.hpp"
 #include "ecmor/parameters.hpp"
+#include "ecmor/reduced_response.hpp"
 
 namespace ecmor {
 
@@ -89,7 +90,7 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Samples the error at the given frequencies (full response from the cache, in parallel).
-std::vector<Sample> sample(ResponseCache& full, const ReducedModel& reduced,
+std::vector<Sample> sample(ResponseCache& full, const ReducedResponse& reduced,
                            const std::vector<double>& f_hz) {
   std::vector<Sample> out(f_hz.size());
   if (f_hz.empty()) return out;
@@ -100,7 +101,7 @@ std::vector<Sample> sample(ResponseCache& full, const ReducedModel& reduced,
     s.ref2 = matrix_norm(H[k], ErrorNorm::Spectral);
     s.refF = H[k].norm();
     try {
-      const ComplexMatrix Hr = transfer_function(reduced, s_from_hz(f_hz[k]));
+      const ComplexMatrix Hr = reduced(s_from_hz(f_hz[k]));
       const ComplexMatrix E = H[k] - Hr;
       if (!E.allFinite()) throw NumericalError("non-finite reduced response");
       s.abs2 = matrix_norm(E, ErrorNorm::Spectral);
@@ -182,7 +183,8 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
                                        Index grid, Index pole_count, bool refine) {
   std::sort(f_hz.begin(), f_hz.end());
   f_hz.erase(std::unique(f_hz.begin(), f_hz.end()), f_hz.end());
-  std::vector<Sample> samples = sample(m_full, reduced, f_hz);
+  const ReducedResponse reduced_response(reduced);
+  std::vector<Sample> samples = sample(m_full, reduced_response, f_hz);
   const ErrorNorm norm = m_options.norm;
 
   auto levels = [&](double& z2, double& zF) {
@@ -243,7 +245,7 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
       }
       std::vector<double> trial_f(trial.size());
       std::transform(trial.begin(), trial.end(), trial_f.begin(), [](double x) { return std::exp(x); });
-      const std::vector<Sample> got = sample(m_full, reduced, trial_f);
+      const std::vector<Sample> got = sample(m_full, reduced_response, trial_f);
       std::vector<Bracket> next;
       for (std::size_t j = 0; j < brackets.size(); ++j) {
         Bracket br = brackets[j];

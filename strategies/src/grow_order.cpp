@@ -93,10 +93,10 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
     if (ctx.on_iteration && !ctx.on_iteration(rec)) stop = true;
   };
 
-  // Reduce to `order`, estimate the error, and re-check a pass on the independent grid.
-  auto try_order = [&](Index order, const std::string& phase) -> Candidate {
+  // Estimate the error of a reduced model and re-check a pass on the independent grid.
+  auto assess = [&](ReducerResult result, const std::string& phase) -> Candidate {
     Candidate c;
-    c.result = reducer.reduce(ReductionRequest{order, {}});
+    c.result = std::move(result);
     c.error = estimator.evaluate(c.result.model);
     bool meets = c.error.sup_relative <= ctx.tolerance;
     record(phase, c.result, c.error, meets);
@@ -117,6 +117,9 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
       smallest_pass = c;
     }
     return c;
+  };
+  auto try_order = [&](Index order, const std::string& phase) -> Candidate {
+    return assess(reducer.reduce(ReductionRequest{order, {}}), phase);
   };
 
   auto finish = [&](Termination t, std::string message) {
@@ -142,21 +145,34 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
                       "iteration budget " + std::to_string(m_options.max_iterations) +
                           " used up before the tolerance was met");
       }
-      const Candidate c = try_order(order, "grow");
+      auto next_order = [&](Index n) {
+        Index next = std::max<Index>(
+            n + step, static_cast<Index>(std::ceil(m_options.growth_factor * static_cast<double>(n))));
+        next = ((next + step - 1) / step) * step;
+        return std::min(next, max_order);
+      };
+      ReducerResult reduced = reducer.reduce(ReductionRequest{order, {}});
+      const Index delivered = reduced.V.cols();
+      if (delivered == previous_delivered) {
+        // The reducer cannot deliver a larger model at this request (e.g. it adds modes in
+        // complex-conjugate pairs, or deflated a direction): the same model again would only repeat
+        // the last evaluation, so ask for more until the order budget is reached.
+        if (order >= max_order) {
+          return finish(Termination::ReducerExhausted,
+                        "the reducer delivers at most order " + std::to_string(delivered) +
+                            " (requested " + std::to_string(order) + "); band error " +
+                            sci(most_accurate->error.sup_relative) + " > tolerance " +
+                            sci(ctx.tolerance));
+        }
+        order = next_order(order);
+        continue;
+      }
+      const Candidate c = assess(std::move(reduced), "grow");
       if (stop) return finish(Termination::Interrupted, "stopped by request at order " +
                                                             std::to_string(c.result.V.cols()));
-      const Index delivered = c.result.V.cols();
       if (c.passed) break;
       last_fail = std::max(last_fail, delivered);
       best_trace.push_back(most_accurate->error.sup_relative);
-      if (delivered == previous_delivered || delivered < order) {
-        if (delivered >= max_order || delivered == previous_delivered) {
-          return finish(Termination::ReducerExhausted,
-                        "the reducer delivers at most order " + std::to_string(delivered) +
-                            "; band error " + sci(most_accurate->error.sup_relative) +
-                            " > tolerance " + sci(ctx.tolerance));
-        }
-      }
       previous_delivered = delivered;
       const Index w = m_options.stagnation_window;
       if (w > 0 && static_cast<Index>(best_trace.size()) > w) {
@@ -180,10 +196,7 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
                           sci(most_accurate->error.sup_relative) + " > tolerance " +
                           sci(ctx.tolerance));
       }
-      Index next = std::max<Index>(
-          order + step, static_cast<Index>(std::ceil(m_options.growth_factor * order)));
-      next = ((next + step - 1) / step) * step;
-      order = std::min(next, max_order);
+      order = next_order(order);
     }
 
     // Phase 2: bisect between the largest failing and the smallest passing order. The band error

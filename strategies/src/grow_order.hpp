@@ -16,7 +16,7 @@ struct GrowOrderOptions {
   bool shrink = true;           ///< bisect to the smallest passing order after the first pass
   /// Stagnated when the best error has not improved by stagnation_ratio over this many growth
   /// steps (0: never). The ratio compares the new best with the best `window` steps earlier.
-  Index stagnation_window = 6;
+  Index stagnation_window = 0;
   double stagnation_ratio = 0.99;
 
   static GrowOrderOptions from(const ParameterMap& params);

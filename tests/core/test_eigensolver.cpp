@@ -485,7 +485,4 @@ TEST(DenseGeneralizedEigenvalues, BadInputIsNamed) {
 
 }  // namespace
 
-// TEMPORARY until shifted_solver.cpp lands in main: anchor Factorization's vtable here.
-Factorization::~Factorization() = default;
-
 }  // namespace ecmor
