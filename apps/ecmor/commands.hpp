@@ -13,6 +13,7 @@ struct CommonOptions {
   bool no_default_plugins = false;                  ///< --no-default-plugins
   bool quiet = false;                               ///< --quiet
   std::filesystem::path output_dir;                 ///< --output: overrides output.dir
+  bool no_plot = false;                             ///< --no-plot: skip error.png
 };
 
 /// `ecmor reduce CONFIG`: 0 target met, 2 usable model but target missed, 1 error, 130 interrupted.

@@ -28,6 +28,8 @@ int main(int argc, char** argv) {
                 "missed but a model was written, 1: error, 130: interrupted)");
   reduce->add_option("config", config, "YAML run configuration")->required();
   reduce->add_option("-o,--output", common.output_dir, "output directory (overrides output.dir)");
+  reduce->add_flag("--no-plot", common.no_plot,
+                   "do not render error.png (needs gnuplot; skipped with a note if it is missing)");
   add_common(reduce);
 
   auto* plugins = cli.add_subcommand("plugins", "list the loaded reducers and their parameters");
