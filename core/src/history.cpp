@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <type_traits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -76,17 +77,14 @@ Json to_json(const IterationRecord& r) {
                       {"im", json_number(p.s.imag())},
                       {"f_hz", json_number(p.s.imag() / kTwoPi)},
                       {"moments", p.moments}});
-  const SolverCounters& c = r.counters;
-  Json counters = {{"symbolic_analyses", c.symbolic_analyses},
-                   {"factorizations", c.factorizations},
-                   {"cholesky_factorizations", c.cholesky_factorizations},
-                   {"lu_factorizations", c.lu_factorizations},
-                   {"complex_factorizations", c.complex_factorizations},
-                   {"failed_cholesky", c.failed_cholesky},
-                   {"solves", c.solves},
-                   {"analysis_seconds", json_number(c.analysis_seconds)},
-                   {"factorization_seconds", json_number(c.factorization_seconds)},
-                   {"solve_seconds", json_number(c.solve_seconds)}};
+  Json counters = Json::object();
+  for_each_counter(r.counters, [&](const char* name, auto value) {
+    if constexpr (std::is_floating_point_v<decltype(value)>) {
+      counters[name] = json_number(value);
+    } else {
+      counters[name] = value;
+    }
+  });
   Json diagnostics = Json::object();
   for (const auto& [key, value] : r.diagnostics) diagnostics[key] = json_number(value);
   nlohmann::ordered_json out;

@@ -1,5 +1,7 @@
 // Tests of the Matrix Market reader/writer and of atomic file output.
 #include <gtest/gtest.h>
+
+#include "common/test_support.hpp"
 #include <unistd.h>
 
 #include <atomic>
@@ -24,35 +26,8 @@ using namespace ecmor;
 
 namespace {
 
-/// A fresh directory under the system temp dir, removed at the end of the test.
-class TempDir {
- public:
-  TempDir() {
-    static std::atomic<int> counter{0};
-    const auto stamp = std::chrono::steady_clock::now().time_since_epoch().count();
-    path_ = fs::temp_directory_path() / ("ecmor_test_mm_" + std::to_string(::getpid()) + "_" +
-                                         std::to_string(counter++) + "_" + std::to_string(stamp));
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::permissions(path_, fs::perms::owner_all, fs::perm_options::add, ec);
-    fs::remove_all(path_, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  const fs::path& path() const { return path_; }
-  fs::path operator/(const std::string& name) const { return path_ / name; }
-
- private:
-  fs::path path_;
-};
-
-void write_raw(const fs::path& p, const std::string& contents) {
-  std::ofstream out(p, std::ios::binary);
-  out << contents;
-  ASSERT_TRUE(out.good());
-}
+using test::TempDir;
+using test::write_raw;
 
 std::string read_raw(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -96,7 +71,7 @@ const std::string kSymmetric = "%%MatrixMarket matrix coordinate real symmetric\
 // ---------------------------------------------------------------------------------------------
 
 TEST(MatrixMarketRead, CoordinateGeneralWithCommentsBlankLinesAndCrlf) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   const fs::path p = dir / "A.mtx";
   write_raw(p,
             "%%MatrixMarket matrix coordinate real general\r\n"
@@ -134,7 +109,7 @@ TEST(MatrixMarketRead, CoordinateGeneralWithCommentsBlankLinesAndCrlf) {
 }
 
 TEST(MatrixMarketRead, NoNewlineAtEndAndCaseInsensitiveBanner) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   const fs::path p = dir / "A.mtx";
   write_raw(p, "%%MatrixMarket MATRIX Coordinate Real General\n2 2 1\n2 2 3.0");
   const SparseMatrix A = read_matrix_market_sparse(p);
@@ -143,7 +118,7 @@ TEST(MatrixMarketRead, NoNewlineAtEndAndCaseInsensitiveBanner) {
 }
 
 TEST(MatrixMarketRead, SymmetricStorageIsExpanded) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   const fs::path p = dir / "S.mtx";
   write_raw(p, kSymmetric + "3 3 4\n1 1 2\n2 1 -1\n3 2 -1\n3 3 2\n");
   const SparseMatrix A = read_matrix_market_sparse(p);
@@ -156,7 +131,7 @@ TEST(MatrixMarketRead, SymmetricStorageIsExpanded) {
 }
 
 TEST(MatrixMarketRead, SkewSymmetricStorageIsExpanded) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   const fs::path p = dir / "S.mtx";
   write_raw(p, "%%MatrixMarket matrix coordinate real skew-symmetric\n3 3 2\n2 1 5\n3 1 -4\n");
   Matrix expected(3, 3);
@@ -166,7 +141,7 @@ TEST(MatrixMarketRead, SkewSymmetricStorageIsExpanded) {
 }
 
 TEST(MatrixMarketRead, PatternAndIntegerFields) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   const fs::path p = dir / "P.mtx";
   write_raw(p, "%%MatrixMarket matrix coordinate pattern symmetric\n2 2 2\n1 1\n2 1\n");
   Matrix expected(2, 2);
@@ -183,7 +158,7 @@ TEST(MatrixMarketRead, PatternAndIntegerFields) {
 }
 
 TEST(MatrixMarketRead, ArrayFormats) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   const fs::path g = dir / "G.mtx";
   // Column-major: (1,1) (2,1) (1,2) (2,2) (1,3) (2,3)
   write_raw(g, "%%MatrixMarket matrix array real general\n% c\n2 3\n1\n2\n3\n4\n5\n6\n");
@@ -213,7 +188,7 @@ TEST(MatrixMarketRead, ArrayFormats) {
 }
 
 TEST(MatrixMarketRead, DuplicatesAreSummed) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   const fs::path p = dir / "D.mtx";
   write_raw(p, kGeneral + "2 2 3\n1 1 1\n1 1 2.5\n2 2 1\n");
   EXPECT_EQ(read_matrix_market_sparse(p).coeff(0, 0), 3.5);
@@ -221,7 +196,7 @@ TEST(MatrixMarketRead, DuplicatesAreSummed) {
 }
 
 TEST(MatrixMarketRead, EmptyMatrices) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   const fs::path p = dir / "Z.mtx";
   write_raw(p, kGeneral + "1 24 0\n");
   EXPECT_EQ(read_matrix_market_dense(p), Matrix::Zero(1, 24));
@@ -237,7 +212,7 @@ TEST(MatrixMarketRead, EmptyMatrices) {
 }
 
 TEST(MatrixMarketRead, SubnormalAndUnderflowingValues) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   const fs::path p = dir / "U.mtx";
   write_raw(p, kGeneral + "2 1 2\n1 1 4.9406564584124654e-324\n2 1 -1e-400\n");
   const Matrix A = read_matrix_market_dense(p);
@@ -267,7 +242,7 @@ TEST(MatrixMarketRead, SharedModelFileIsReadQuickly) {
 // ---------------------------------------------------------------------------------------------
 
 TEST(MatrixMarketErrors, MissingFile) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   const fs::path p = dir / "nothere.mtx";
   try {
     (void)read_matrix_market_sparse(p);
@@ -281,7 +256,7 @@ TEST(MatrixMarketErrors, MissingFile) {
 }
 
 TEST(MatrixMarketErrors, Banner) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   expect_error(dir, "empty.mtx", "", 1, "empty");
   expect_error(dir, "blank.mtx", "\n3 3 0\n", 1, "missing Matrix Market banner");
   expect_error(dir, "nobanner.mtx", "3 3 1\n1 1 1\n", 1, "missing Matrix Market banner");
@@ -303,7 +278,7 @@ TEST(MatrixMarketErrors, Banner) {
 }
 
 TEST(MatrixMarketErrors, UnsupportedComplexAndHermitianSaidPlainly) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   expect_error(dir, "complex.mtx",
                "%%MatrixMarket matrix coordinate complex general\n1 1 1\n1 1 1 2\n", 1,
                "field 'complex' is not supported");
@@ -312,7 +287,7 @@ TEST(MatrixMarketErrors, UnsupportedComplexAndHermitianSaidPlainly) {
 }
 
 TEST(MatrixMarketErrors, SizeLine) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   expect_error(dir, "nosize.mtx", kGeneral + "% only comments\n\n", 3,
                "the file ends before the size line");
   expect_error(dir, "twotok.mtx", kGeneral + "% c\n3 3\n", 3, "bad size line '3 3'");
@@ -329,7 +304,7 @@ TEST(MatrixMarketErrors, SizeLine) {
 }
 
 TEST(MatrixMarketErrors, SizeLinePromisesTooMuch) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   expect_error(dir, "toomany.mtx", kGeneral + "2 2 5\n1 1 1\n", 2,
                "promises 5 entries, more than a 2 x 2 matrix can hold (4)");
   expect_error(dir, "symtoomany.mtx", kSymmetric + "2 2 4\n1 1 1\n", 2,
@@ -361,7 +336,7 @@ TEST(MatrixMarketErrors, SizeLinePromisesTooMuch) {
 }
 
 TEST(MatrixMarketErrors, TruncatedData) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   std::string s = kGeneral + "120 1 120\n";                           // line 2
   for (int k = 1; k <= 97; ++k) s += std::to_string(k) + " 1 1.5\n";  // lines 3..99
   expect_error(dir, "trunc.mtx", s, 99, "expected 120 entries, file ends after 97 at line 99");
@@ -371,7 +346,7 @@ TEST(MatrixMarketErrors, TruncatedData) {
 }
 
 TEST(MatrixMarketErrors, IndicesOutOfRange) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   expect_error(dir, "row.mtx", kGeneral + "3 3 2\n1 1 1\n4 1 1\n", 4,
                "row index '4' is out of range 1..3");
   expect_error(dir, "col.mtx", kGeneral + "3 2 2\n1 1 1\n% c\n1 3 1\n", 5,
@@ -385,7 +360,7 @@ TEST(MatrixMarketErrors, IndicesOutOfRange) {
 }
 
 TEST(MatrixMarketErrors, BadNumbers) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   expect_error(dir, "abc.mtx", kGeneral + "2 2 1\n1 1 abc\n", 3,
                "cannot parse 'abc' as a real number");
   expect_error(dir, "dots.mtx", kGeneral + "2 2 1\n1 1 1.2.3\n", 3, "cannot parse '1.2.3'");
@@ -403,7 +378,7 @@ TEST(MatrixMarketErrors, BadNumbers) {
 }
 
 TEST(MatrixMarketErrors, ExtraTokensAndGarbage) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   expect_error(dir, "extra.mtx", kGeneral + "2 2 1\n1 1 1 7\n", 3, "extra tokens in entry");
   expect_error(dir, "few.mtx", kGeneral + "2 2 1\n1 1\n", 3, "too few tokens in entry");
   expect_error(dir, "pattern_extra.mtx",
@@ -417,7 +392,7 @@ TEST(MatrixMarketErrors, ExtraTokensAndGarbage) {
 }
 
 TEST(MatrixMarketErrors, SymmetricUpperTriangleEntry) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   expect_error(dir, "upper.mtx", kSymmetric + "3 3 2\n1 1 1\n1 2 5\n", 4,
                "entry (1, 2) is above the diagonal: a symmetric file stores only the lower "
                "triangle");
@@ -444,7 +419,7 @@ const std::vector<double> kAwkwardValues = {1.0 / 3.0,
 }
 
 TEST(MatrixMarketWrite, SparseRoundTripIsBitwise) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   std::mt19937 rng(42);
   std::uniform_int_distribution<int> row(0, 49), col(0, 29);
   std::normal_distribution<double> val(0.0, 1e3);
@@ -478,7 +453,7 @@ TEST(MatrixMarketWrite, SparseRoundTripIsBitwise) {
 }
 
 TEST(MatrixMarketWrite, DenseRoundTripIsBitwise) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   Matrix A = Matrix::Random(7, 5) * 1e5;
   for (std::size_t k = 0; k < kAwkwardValues.size(); ++k)
     A(static_cast<Index>(k % 7), static_cast<Index>(k / 7)) = kAwkwardValues[k];
@@ -500,7 +475,7 @@ TEST(MatrixMarketWrite, DenseRoundTripIsBitwise) {
 }
 
 TEST(MatrixMarketWrite, NonFiniteValueIsRefusedAndOldFileKept) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   const fs::path p = dir / "A.mtx";
   write_matrix_market(p, Matrix(Matrix::Identity(2, 2)));
   const std::string before = read_raw(p);
@@ -531,7 +506,7 @@ std::size_t count_entries(const fs::path& dir) {
 }  // namespace
 
 TEST(AtomicFile, WritesAndReplaces) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   const fs::path p = dir / "out.txt";
   write_text_atomically(p, "first");
   EXPECT_EQ(read_raw(p), "first");
@@ -543,7 +518,7 @@ TEST(AtomicFile, WritesAndReplaces) {
 }
 
 TEST(AtomicFile, FailingWriterLeavesOldFileIntact) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   const fs::path p = dir / "out.txt";
   write_text_atomically(p, "old contents");
   try {
@@ -569,7 +544,7 @@ TEST(AtomicFile, FailingWriterLeavesOldFileIntact) {
 }
 
 TEST(AtomicFile, FailuresNameThePath) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   // Target is an existing directory.
   fs::create_directories(dir / "adir");
   try {
@@ -592,7 +567,7 @@ TEST(AtomicFile, FailuresNameThePath) {
 
 TEST(AtomicFile, UnwritableDirectory) {
   if (::geteuid() == 0) GTEST_SKIP() << "permissions are not enforced for root";
-  TempDir dir;
+  TempDir dir{"ecmor_test_mm"};
   const fs::path ro = dir / "ro";
   fs::create_directories(ro);
   write_text_atomically(ro / "keep.txt", "kept");

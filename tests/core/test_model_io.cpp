@@ -1,5 +1,7 @@
 // Tests of model loading, validation, definiteness checks, summaries and reduced-model files.
 #include <gtest/gtest.h>
+
+#include "common/test_support.hpp"
 #include <unistd.h>
 
 #include <algorithm>
@@ -26,33 +28,8 @@ namespace {
 
 const fs::path kModels = fs::path(ECMOR_TEST_SOURCE_DIR) / ".." / "shared" / "models";
 
-class TempDir {
- public:
-  TempDir() {
-    static std::atomic<int> counter{0};
-    const auto stamp = std::chrono::steady_clock::now().time_since_epoch().count();
-    path_ = fs::temp_directory_path() / ("ecmor_test_model_" + std::to_string(::getpid()) + "_" +
-                                         std::to_string(counter++) + "_" + std::to_string(stamp));
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  const fs::path& path() const { return path_; }
-  fs::path operator/(const std::string& name) const { return path_ / name; }
-
- private:
-  fs::path path_;
-};
-
-void write_raw(const fs::path& p, const std::string& contents) {
-  std::ofstream out(p, std::ios::binary);
-  out << contents;
-  ASSERT_TRUE(out.good());
-}
+using test::TempDir;
+using test::write_raw;
 
 SparseMatrix sparse(const Matrix& A) { return A.sparseView(); }
 
@@ -415,7 +392,7 @@ TEST(ModelValidate, DescriptorAndReducedMessages) {
 // ---------------------------------------------------------------------------------------------
 
 TEST(ModelLoad, SecondOrderWithAndWithoutOptionalFiles) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_model"};
   SecondOrderModel s = small_second_order(5, 2, 3);
   s.Cv = Matrix::Constant(3, 5, 0.5);
   write_model_files(dir.path(), s);
@@ -439,7 +416,7 @@ TEST(ModelLoad, SecondOrderWithAndWithoutOptionalFiles) {
 }
 
 TEST(ModelLoad, DescriptorWithoutEIsIdentity) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_model"};
   const DescriptorModel d = small_descriptor(6, 2, 1);
   write_model_files(dir.path(), d, /*with_e=*/false);
   const Model m = load_model(dir.path());
@@ -452,7 +429,7 @@ TEST(ModelLoad, DescriptorWithoutEIsIdentity) {
 
 TEST(ModelLoad, KindDetectionErrors) {
   {
-    TempDir dir;
+    TempDir dir{"ecmor_test_model"};
     write_model_files(dir.path(), small_second_order());
     write_matrix_market(dir / "E.mtx", sparse(Matrix::Identity(4, 4)));
     write_matrix_market(dir / "A.mtx", sparse(Matrix::Identity(4, 4)));
@@ -461,7 +438,7 @@ TEST(ModelLoad, KindDetectionErrors) {
                         "found: A.mtx, B.mtx, C.mtx, D.mtx, E.mtx, K.mtx, M.mtx"});
   }
   {
-    TempDir dir;
+    TempDir dir{"ecmor_test_model"};
     write_matrix_market(dir / "B.mtx", Matrix(Matrix::Ones(3, 1)));
     write_matrix_market(dir / "C.mtx", Matrix(Matrix::Ones(1, 3)));
     write_raw(dir / "notes.txt", "hello");
@@ -469,7 +446,7 @@ TEST(ModelLoad, KindDetectionErrors) {
                        {dir.path().string(), "no model files", "found: B.mtx, C.mtx"});
   }
   {
-    TempDir dir;
+    TempDir dir{"ecmor_test_model"};
     expect_input_error([&] { (void)load_model(dir.path()); }, {"found: no .mtx files"});
     expect_input_error([&] { (void)load_model(dir / "missing"); },
                        {(dir / "missing").string(), "directory does not exist"});
@@ -477,7 +454,7 @@ TEST(ModelLoad, KindDetectionErrors) {
     expect_input_error([&] { (void)load_model(dir / "plain"); }, {"not a directory"});
   }
   {
-    TempDir dir;
+    TempDir dir{"ecmor_test_model"};
     write_model_files(dir.path(), small_second_order());
     fs::remove(dir / "K.mtx");
     expect_input_error(
@@ -485,14 +462,14 @@ TEST(ModelLoad, KindDetectionErrors) {
         {"the second-order model is missing K.mtx", "found: B.mtx, C.mtx, D.mtx, M.mtx"});
   }
   {
-    TempDir dir;
+    TempDir dir{"ecmor_test_model"};
     write_model_files(dir.path(), small_descriptor());
     fs::remove(dir / "C.mtx");
     expect_input_error([&] { (void)load_model(dir.path()); },
                        {"the descriptor model is missing C.mtx"});
   }
   {
-    TempDir dir;
+    TempDir dir{"ecmor_test_model"};
     write_model_files(dir.path(), small_descriptor());
     write_matrix_market(dir / "Cv.mtx", Matrix(Matrix::Ones(1, 4)));
     expect_input_error([&] { (void)load_model(dir.path()); },
@@ -503,7 +480,7 @@ TEST(ModelLoad, KindDetectionErrors) {
 TEST(ModelLoad, SizeMismatchBetweenFilesNamesBothFiles) {
   const auto check = [](const auto& model, const std::string& file, const auto& replacement,
                         const std::vector<std::string>& parts) {
-    TempDir dir;
+    TempDir dir{"ecmor_test_model"};
     write_model_files(dir.path(), model);
     write_matrix_market(dir / file, replacement);
     std::vector<std::string> all = parts;
@@ -527,7 +504,7 @@ TEST(ModelLoad, SizeMismatchBetweenFilesNamesBothFiles) {
 }
 
 TEST(ModelLoad, MalformedOrNonFiniteFileNamesFileAndLine) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_model"};
   write_model_files(dir.path(), small_second_order(3));
   write_raw(dir / "K.mtx",
             "%%MatrixMarket matrix coordinate real general\n% comment\n3 3 3\n1 1 2\n2 2 nan\n"
@@ -550,7 +527,7 @@ TEST(ModelLoad, MalformedOrNonFiniteFileNamesFileAndLine) {
 // ---------------------------------------------------------------------------------------------
 
 TEST(ReducedModelIo, RoundTripBothKindsBitwise) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_model"};
   ReducedSecondOrderModel rs{Matrix::Random(5, 5), Matrix::Random(5, 5), Matrix::Random(5, 5),
                              Matrix::Random(5, 2), Matrix::Random(3, 5), Matrix::Random(3, 5)};
   rs.M(0, 0) = 1.0 / 3.0;
@@ -591,7 +568,7 @@ TEST(ReducedModelIo, RoundTripBothKindsBitwise) {
 }
 
 TEST(ReducedModelIo, Errors) {
-  TempDir dir;
+  TempDir dir{"ecmor_test_model"};
   expect_input_error([&] { (void)read_reduced_model(dir.path()); },
                      {"reduced model", "no reduced model files"});
   ReducedDescriptorModel rd{Matrix::Identity(2, 2), -Matrix::Identity(2, 2), Matrix::Ones(2, 1),

@@ -47,6 +47,22 @@ class ECMOR_API HistoryWriter {
   std::vector<IterationRecord> m_records;
 };
 
+/// Calls f(name, value) for every solver counter, in a fixed order: the one list of counter
+/// names used by history.jsonl and summary.json. Values are Index (counts) or double (seconds).
+template <class F>
+void for_each_counter(const SolverCounters& c, F&& f) {
+  f("symbolic_analyses", c.symbolic_analyses);
+  f("factorizations", c.factorizations);
+  f("cholesky_factorizations", c.cholesky_factorizations);
+  f("lu_factorizations", c.lu_factorizations);
+  f("complex_factorizations", c.complex_factorizations);
+  f("failed_cholesky", c.failed_cholesky);
+  f("solves", c.solves);
+  f("analysis_seconds", c.analysis_seconds);
+  f("factorization_seconds", c.factorization_seconds);
+  f("solve_seconds", c.solve_seconds);
+}
+
 /// Expansion points formatted for tables: "i*12.5Hz, 3.0rad/s" style, "-" when empty.
 ECMOR_API std::string format_points(const std::vector<ExpansionPoint>& points);
 
