@@ -75,7 +75,13 @@ ComplexMatrix full_transfer(const Sys& sys, const Factorization& P, Complex s) {
 /// are skipped, and it is rethrown after the region.
 template <class Body>
 void parallel_for(Index n, int threads, Body&& body) {
-  const int nt = threads > 0 ? threads : omp_get_max_threads();
+  // A parallel region for one or two frequencies costs more (thread wake-up) than it saves.
+  const int nt = static_cast<int>(
+      std::min<Index>(threads > 0 ? threads : omp_get_max_threads(), std::max<Index>(n / 2, 1)));
+  if (nt <= 1) {
+    for (Index i = 0; i < n; ++i) body(i);
+    return;
+  }
   std::exception_ptr error;
   std::atomic<bool> failed{false};
 #pragma omp parallel for schedule(dynamic) num_threads(nt)
