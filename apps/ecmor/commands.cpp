@@ -1,1 +1,210 @@
+#include "commands.hpp"
 
+#include <fmt/core.h>
+
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <iostream>
+
+#include "ecmor/config.hpp"
+#include "ecmor/eigensolver.hpp"
+#include "ecmor/error.hpp"
+#include "ecmor/model_io.hpp"
+#include "ecmor/registry.hpp"
+#include "ecmor/strategies/driver.hpp"
+
+namespace ecmor::app {
+namespace {
+
+std::atomic<bool> g_interrupted{false};
+
+extern "C" void on_signal(int) { g_interrupted.store(true); }
+
+// Loads default plugin directories (failures are warnings: one broken plugin must not stop the
+// others) and explicitly requested plugins (failures are errors).
+void load_plugins(Registry& registry, const CommonOptions& common,
+                  const std::vector<std::filesystem::path>& from_config) {
+  if (!common.no_default_plugins) {
+    for (const auto& dir : default_plugin_directories()) {
+      for (const std::string& problem : registry.load_directory(dir)) {
+        fmt::print(stderr, "ecmor: warning: {}\n", problem);
+      }
+    }
+  }
+  std::vector<std::filesystem::path> explicit_paths = common.plugin_paths;
+  explicit_paths.insert(explicit_paths.end(), from_config.begin(), from_config.end());
+  for (const auto& path : explicit_paths) {
+    if (std::filesystem::is_directory(path)) {
+      for (const std::string& problem : registry.load_directory(path)) {
+        throw PluginError(problem);
+      }
+    } else {
+      registry.load_plugin(path);
+    }
+  }
+}
+
+// Prints the convergence table while the run goes on.
+class TablePrinter final : public RunObserver {
+ public:
+  explicit TablePrinter(bool quiet) : m_quiet(quiet) {}
+
+  void on_model_loaded(const RunConfig& config, const Model& model, double seconds) override {
+    if (m_quiet) return;
+    fmt::print("model    {} ({} model, N = {}, {} input(s), {} output(s); loaded in {:.2f} s)\n",
+               config.model_dir.string(), to_string(kind_of(model)), size_of(model),
+               inputs_of(model), outputs_of(model), seconds);
+    fmt::print("band     [{:g}, {:g}] Hz    target: relative {} error <= {:g}\n",
+               config.band.f_min_hz, config.band.f_max_hz, to_string(config.norm),
+               config.tolerance);
+    fmt::print("reducer  {}    strategy {}    output {}\n\n", config.reducer_name,
+               config.strategy_name, config.output_dir.string());
+    fmt::print("{:>4}  {:<7} {:>6}  {:>10}  {:>11}  {:>4}  {:>8}  {:>6}  {:>7}  {}\n", "iter",
+               "phase", "order", "band err", "f_peak Hz", "met", "time s", "facts", "solves",
+               "note");
+    std::fflush(stdout);
+  }
+
+  bool on_iteration(const IterationRecord& r) override {
+    if (!m_quiet) {
+      fmt::print("{:>4}  {:<7} {:>6}  {:>10.3e}  {:>11.4e}  {:>4}  {:>8.2f}  {:>6}  {:>7}  {}\n",
+                 r.iteration, r.phase, r.order, r.band_error, r.f_peak_hz,
+                 r.meets_tolerance ? "yes" : "no", r.seconds, r.counters.factorizations,
+                 r.counters.solves, r.note);
+      std::fflush(stdout);
+    }
+    return !g_interrupted.load();
+  }
+
+  void on_finished(const RunSummary& s) override {
+    if (!m_quiet) fmt::print("\n");
+    fmt::print("{}: {}\n", to_string(s.termination), s.message);
+    if (s.has_model) {
+      fmt::print(
+          "order {}  band error {:.3e} (independent re-check {:.3e} at {:.4g} Hz)  {}  "
+          "{:.2f} s  {} factorisations  {} solves  peak {:.0f} MiB\n",
+          s.order, s.band_error, s.verified_band_error, s.verified_f_peak_hz,
+          s.stable ? "stable" : "NOT asymptotically stable", s.seconds, s.counters.factorizations,
+          s.counters.solves, s.peak_memory_mb);
+      fmt::print("outputs in {}\n", s.output_dir.string());
+    }
+  }
+
+ private:
+  bool m_quiet;
+};
+
+template <class F>
+int guarded(F&& body) {
+  try {
+    return body();
+  } catch (const Error& e) {
+    fmt::print(stderr, "ecmor: error: {}\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "ecmor: internal error: {}\n", e.what());
+    return 1;
+  }
+}
+
+}  // namespace
+
+int reduce(const std::filesystem::path& config_path, const CommonOptions& common) {
+  return guarded([&] {
+    RunConfig config = load_run_config(config_path);
+    if (!common.output_dir.empty()) config.output_dir = std::filesystem::absolute(common.output_dir);
+    Registry registry;
+    load_plugins(registry, common, config.plugins);
+    std::signal(SIGINT, on_signal);
+    std::signal(SIGTERM, on_signal);
+    TablePrinter printer(common.quiet);
+    const RunSummary summary = run_reduction(config, registry, &printer);
+    if (summary.termination == Termination::Interrupted) return 130;
+    return summary.exit_code();
+  });
+}
+
+int plugins(const CommonOptions& common) {
+  return guarded([&] {
+    Registry registry;
+    load_plugins(registry, common, {});
+    const auto entries = registry.entries();
+    if (entries.empty()) {
+      fmt::print("no reducers loaded (searched:");
+      for (const auto& d : default_plugin_directories()) fmt::print(" {}", d.string());
+      fmt::print(")\n");
+      return 1;
+    }
+    for (const auto& e : entries) {
+      fmt::print("{}  (version {}; {}{}{})\n  {}\n  library: {}\n", e.info.name, e.info.version,
+                 e.info.second_order ? "second-order" : "",
+                 e.info.second_order && e.info.descriptor ? " + " : "",
+                 e.info.descriptor ? "descriptor" : "", e.info.description,
+                 e.library.empty() ? "(built in)" : e.library.string());
+      for (const auto& p : e.info.parameters) {
+        fmt::print("    {:<22} {:<8} default {:<10} {}\n", p.name, p.type, p.default_value,
+                   p.description);
+      }
+      fmt::print("\n");
+    }
+    return 0;
+  });
+}
+
+int info(const std::filesystem::path& model_dir, int eigenfrequencies, const CommonOptions&) {
+  return guarded([&] {
+    const Model model = load_model(model_dir);
+    const ModelSummary s = summarize(model);
+    fmt::print("{}: {} model, N = {}, {} input(s), {} output(s){}\n", model_dir.string(),
+               to_string(s.kind), s.size, s.inputs, s.outputs,
+               s.velocity_output ? ", velocity output (Cv)" : "");
+    fmt::print("  {:<4} {:>12} {:>12}  {:>12}  {}\n", "", "size", "nnz", "asymmetry",
+               "definiteness");
+    for (const auto& m : s.matrices) {
+      fmt::print("  {:<4} {:>12} {:>12}  {:>12.2e}  {}\n", m.name,
+                 fmt::format("{}x{}", m.rows, m.cols), m.nnz, m.relative_asymmetry,
+                 m.definiteness);
+    }
+    if (eigenfrequencies <= 0) return 0;
+    const Index n = size_of(model);
+    const Index nev = std::min<Index>(eigenfrequencies, std::max<Index>(1, n - 2));
+    auto solver = make_shifted_solver(model);
+    EigenOptions opt;
+    opt.nev = nev;
+    try {
+      if (const auto* so = std::get_if<SecondOrderModel>(&model)) {
+        // Undamped eigenfrequencies sqrt(lambda)/2pi of K phi = lambda M phi. A negative shift keeps
+        // K - sigma M positive definite even for a singular K (free-floating body).
+        const double scale = std::abs(so->K.diagonal().sum() / so->M.diagonal().sum());
+        const double sigma = -1e-6 * (scale > 0.0 ? scale : 1.0);
+        const std::vector<Complex> w{1.0, 0.0, -sigma};
+        const auto f = solver->factorize_combination(w);
+        const SymmetricEigenResult r = symmetric_shift_invert(*f, so->M, sigma, opt);
+        fmt::print("lowest {} undamped eigenfrequencies [Hz]:\n", r.eigenvalues.size());
+        for (Index i = 0; i < r.eigenvalues.size(); ++i) {
+          const double lambda = r.eigenvalues(i);
+          fmt::print("  {:>4}  {:.6e}{}\n", i + 1, std::sqrt(std::max(lambda, 0.0)) / kTwoPi,
+                     std::abs(lambda) < 1e-8 * scale ? "  (rigid-body mode)" : "");
+        }
+      } else {
+        const auto& ds = std::get<DescriptorModel>(model);
+        const std::vector<Complex> w{-1.0, 0.0};  // A - 0 E
+        const auto f = solver->factorize_combination(w);
+        const GeneralEigenResult r = general_shift_invert(*f, ds.E, 0.0, opt);
+        fmt::print("{} eigenvalues of (A, E) nearest 0: |lambda|/2pi [Hz], damping ratio:\n",
+                   r.eigenvalues.size());
+        for (Index i = 0; i < r.eigenvalues.size(); ++i) {
+          const Complex l = r.eigenvalues(i);
+          fmt::print("  {:>4}  {:.6e}  {:+.3e}\n", i + 1, std::abs(l) / kTwoPi,
+                     -l.real() / std::abs(l));
+        }
+      }
+    } catch (const Error& e) {
+      fmt::print("eigenfrequencies not computed: {}\n", e.what());
+    }
+    return 0;
+  });
+}
+
+}  // namespace ecmor::app

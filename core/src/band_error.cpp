@@ -1,2 +1,324 @@
-// band_error.cpp: implementation pending (foundation issue in progress).
 #include "ecmor/band_error.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <sstream>
+
+#include "ecmor/error.hpp"
+#include "ecmor/parameters.hpp"
+#include "ecmor/reduced_response.hpp"
+
+namespace ecmor {
+
+void Band::validate() const {
+  auto fmt = [](double v) {
+    std::ostringstream os;
+    os << v;
+    return os.str();
+  };
+  if (!std::isfinite(f_min_hz) || !(f_min_hz > 0.0)) {
+    throw ConfigError("band.f_min_hz = " + fmt(f_min_hz) +
+                      ": must be a finite frequency > 0 Hz (the band is sampled in log scale; use "
+                      "e.g. 1e-3 * f_max_hz for a band starting near 0)");
+  }
+  if (!std::isfinite(f_max_hz) || !(f_max_hz > f_min_hz)) {
+    throw ConfigError("band.f_max_hz = " + fmt(f_max_hz) + ": must be finite and > band.f_min_hz = " +
+                      fmt(f_min_hz));
+  }
+}
+
+std::string to_string(ErrorNorm norm) {
+  return norm == ErrorNorm::Spectral ? "spectral" : "frobenius";
+}
+
+ErrorNorm parse_error_norm(const std::string& name) {
+  if (name == "spectral") return ErrorNorm::Spectral;
+  if (name == "frobenius") return ErrorNorm::Frobenius;
+  throw ConfigError("unknown error norm '" + name + "'" +
+                    suggestion(name, {"spectral", "frobenius"}));
+}
+
+double matrix_norm(const ComplexMatrix& A, ErrorNorm norm) {
+  if (A.size() == 0) return 0.0;
+  if (norm == ErrorNorm::Frobenius || A.rows() == 1 || A.cols() == 1) {
+    // For a single row or column the spectral norm is the Euclidean norm.
+    return A.norm();
+  }
+  Eigen::JacobiSVD<ComplexMatrix> svd(A);
+  return svd.singularValues()(0);
+}
+
+void BandErrorOptions::validate() const {
+  auto bad = [](const std::string& field, const std::string& value, const std::string& rule) {
+    throw ConfigError("BandErrorOptions::" + field + " = " + value + ": " + rule);
+  };
+  if (grid_points < 2) bad("grid_points", std::to_string(grid_points), "must be >= 2");
+  if (grid_points > 1000000) bad("grid_points", std::to_string(grid_points), "must be <= 1e6");
+  if (max_pole_samples < 0) bad("max_pole_samples", std::to_string(max_pole_samples), "must be >= 0");
+  if (refine_peaks < 0) bad("refine_peaks", std::to_string(refine_peaks), "must be >= 0");
+  if (refine_evaluations < 0 || refine_evaluations > 200) {
+    bad("refine_evaluations", std::to_string(refine_evaluations), "must be in [0, 200]");
+  }
+  if (!(zero_threshold >= 0.0) || !(zero_threshold < 1.0)) {
+    bad("zero_threshold", std::to_string(zero_threshold), "must be in [0, 1)");
+  }
+}
+
+std::string BandError::sampling() const {
+  std::ostringstream os;
+  os << grid_samples << " grid";
+  if (pole_samples > 0) os << " + " << pole_samples << " pole";
+  if (refinement_samples > 0) os << " + " << refinement_samples << " refinement";
+  if (!undefined_f_hz.empty()) os << "; H vanishes at " << undefined_f_hz.size() << " samples";
+  return os.str();
+}
+
+namespace {
+
+// Error measures at one frequency.
+struct Sample {
+  double f_hz = 0.0;
+  double abs2 = 0.0;    // ||H - Hr||_2
+  double absF = 0.0;    // ||H - Hr||_F
+  double ref2 = 0.0;    // ||H||_2
+  double refF = 0.0;    // ||H||_F
+  bool singular = false;  // Hr has a pole exactly here
+};
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Samples the error at the given frequencies (full response from the cache, in parallel).
+std::vector<Sample> sample(ResponseCache& full, const ReducedResponse& reduced,
+                           const std::vector<double>& f_hz) {
+  std::vector<Sample> out(f_hz.size());
+  if (f_hz.empty()) return out;
+  const std::vector<ComplexMatrix> H = full.evaluate(f_hz);
+  for (std::size_t k = 0; k < f_hz.size(); ++k) {
+    Sample& s = out[k];
+    s.f_hz = f_hz[k];
+    s.ref2 = matrix_norm(H[k], ErrorNorm::Spectral);
+    s.refF = H[k].norm();
+    try {
+      const ComplexMatrix Hr = reduced(s_from_hz(f_hz[k]));
+      const ComplexMatrix E = H[k] - Hr;
+      if (!E.allFinite()) throw NumericalError("non-finite reduced response");
+      s.abs2 = matrix_norm(E, ErrorNorm::Spectral);
+      s.absF = E.norm();
+    } catch (const NumericalError&) {
+      // f is (numerically) a pole of the reduced model on the imaginary axis: the error is
+      // unbounded there, which is what the supremum must report.
+      s.singular = true;
+      s.abs2 = s.absF = kInf;
+    }
+  }
+  return out;
+}
+
+double relative_of(const Sample& s, ErrorNorm norm, double zero_level2, double zero_levelF) {
+  if (norm == ErrorNorm::Spectral) return s.ref2 <= zero_level2 ? kNaN : s.abs2 / s.ref2;
+  return s.refF <= zero_levelF ? kNaN : s.absF / s.refF;
+}
+
+}  // namespace
+
+BandErrorEstimator::BandErrorEstimator(ResponseCache& full, Band band, BandErrorOptions options)
+    : m_full(full), m_band(band), m_options(options) {
+  m_band.validate();
+  m_options.validate();
+  m_grid = log_grid(m_band.f_min_hz, m_band.f_max_hz, m_options.grid_points);
+}
+
+BandError BandErrorEstimator::evaluate(const ReducedModel& reduced) {
+  std::vector<double> f = m_grid;
+  Index pole_count = 0;
+  if (m_options.pole_samples && m_options.max_pole_samples > 0) {
+    // Resonances of lightly damped structures are narrower than any affordable grid spacing; the
+    // reduced poles locate them (and the full model's nearby ones) at no full-model cost.
+    const ComplexVector p = poles(reduced);
+    std::vector<std::pair<double, double>> candidates;  // (damping ratio, f)
+    for (Index i = 0; i < p.size(); ++i) {
+      const double im = p(i).imag();
+      if (!(im > 0.0) || !std::isfinite(im)) continue;
+      const double fp = im / kTwoPi;
+      if (fp < m_band.f_min_hz || fp > m_band.f_max_hz) continue;
+      candidates.emplace_back(std::abs(p(i).real()) / std::abs(p(i)), fp);
+    }
+    std::sort(candidates.begin(), candidates.end());
+    for (const auto& c : candidates) {
+      if (pole_count >= m_options.max_pole_samples) break;
+      f.push_back(c.second);
+      ++pole_count;
+    }
+  }
+  return assemble(reduced, std::move(f), static_cast<Index>(m_grid.size()), pole_count, true);
+}
+
+BandError BandErrorEstimator::evaluate_on(const ReducedModel& reduced,
+                                          const std::vector<double>& f_hz) {
+  return assemble(reduced, f_hz, static_cast<Index>(f_hz.size()), 0, false);
+}
+
+BandError BandErrorEstimator::verify(const ReducedModel& reduced, Index factor) {
+  if (factor < 1) throw ConfigError("verify factor = " + std::to_string(factor) + ": must be >= 1");
+  // Midpoints (in log f) of a grid `factor` times finer than the estimator's: with
+  // M = factor (G - 1) intervals, (k + 1/2)/M = j/(G - 1) would need an odd number to equal an even
+  // one, so no point coincides with the estimator's grid. The band edges are added: the supremum
+  // may sit there.
+  const Index G = m_options.grid_points;
+  const Index M = factor * (G - 1);
+  const double x0 = std::log(m_band.f_min_hz), x1 = std::log(m_band.f_max_hz);
+  std::vector<double> f;
+  f.reserve(static_cast<std::size_t>(M + 2));
+  f.push_back(m_band.f_min_hz);
+  for (Index k = 0; k < M; ++k) {
+    f.push_back(std::exp(x0 + (static_cast<double>(k) + 0.5) * (x1 - x0) / static_cast<double>(M)));
+  }
+  f.push_back(m_band.f_max_hz);
+  return assemble(reduced, std::move(f), M + 2, 0, true);
+}
+
+BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<double> f_hz,
+                                       Index grid, Index pole_count, bool refine) {
+  std::sort(f_hz.begin(), f_hz.end());
+  f_hz.erase(std::unique(f_hz.begin(), f_hz.end()), f_hz.end());
+  const ReducedResponse reduced_response(reduced);
+  std::vector<Sample> samples = sample(m_full, reduced_response, f_hz);
+  const ErrorNorm norm = m_options.norm;
+
+  auto levels = [&](double& z2, double& zF) {
+    double max2 = 0.0, maxF = 0.0;
+    for (const Sample& s : samples) {
+      max2 = std::max(max2, s.ref2);
+      maxF = std::max(maxF, s.refF);
+    }
+    z2 = m_options.zero_threshold * max2;
+    zF = m_options.zero_threshold * maxF;
+  };
+  double zero2 = 0.0, zeroF = 0.0;
+  levels(zero2, zeroF);
+
+  Index refinement_count = 0;
+  if (refine && m_options.refine_peaks > 0 && m_options.refine_evaluations > 0 &&
+      samples.size() >= 3) {
+    // Local maxima of the relative error on the sorted samples, largest first.
+    auto rel = [&](const Sample& s) {
+      const double r = relative_of(s, norm, zero2, zeroF);
+      return std::isnan(r) ? -1.0 : r;
+    };
+    std::vector<std::size_t> peaks;
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      const double r = rel(samples[i]);
+      if (r < 0.0 || std::isinf(r)) continue;
+      const bool left_ok = (i == 0) || rel(samples[i - 1]) <= r;
+      const bool right_ok = (i + 1 == samples.size()) || rel(samples[i + 1]) < r;
+      if (left_ok && right_ok) peaks.push_back(i);
+    }
+    std::sort(peaks.begin(), peaks.end(),
+              [&](std::size_t a, std::size_t b) { return rel(samples[a]) > rel(samples[b]); });
+    if (static_cast<Index>(peaks.size()) > m_options.refine_peaks) {
+      peaks.resize(static_cast<std::size_t>(m_options.refine_peaks));
+    }
+    // Golden-section search for the maximum in log f, all peaks advanced together so that each
+    // round's new full-model frequencies are evaluated in one parallel batch.
+    struct Bracket {
+      double a, c, b;  // log f; c is the best point so far
+      Sample best;
+    };
+    std::vector<Bracket> brackets;
+    for (std::size_t i : peaks) {
+      const double c = std::log(samples[i].f_hz);
+      const double a = i == 0 ? c : std::log(samples[i - 1].f_hz);
+      const double b = i + 1 == samples.size() ? c : std::log(samples[i + 1].f_hz);
+      if (b - a > 0.0) brackets.push_back({a, c, b, samples[i]});
+    }
+    constexpr double kGolden = 0.3819660112501051;  // 2 - golden ratio
+    std::vector<Sample> added;
+    for (Index round = 0; round < m_options.refine_evaluations && !brackets.empty(); ++round) {
+      std::vector<double> trial(brackets.size());
+      for (std::size_t j = 0; j < brackets.size(); ++j) {
+        Bracket& br = brackets[j];
+        // Probe the larger side of c.
+        trial[j] = (br.b - br.c > br.c - br.a) ? br.c + kGolden * (br.b - br.c)
+                                               : br.c - kGolden * (br.c - br.a);
+      }
+      std::vector<double> trial_f(trial.size());
+      std::transform(trial.begin(), trial.end(), trial_f.begin(), [](double x) { return std::exp(x); });
+      const std::vector<Sample> got = sample(m_full, reduced_response, trial_f);
+      std::vector<Bracket> next;
+      for (std::size_t j = 0; j < brackets.size(); ++j) {
+        Bracket br = brackets[j];
+        const double x = trial[j];
+        added.push_back(got[j]);
+        ++refinement_count;
+        if (rel(got[j]) > rel(br.best)) {
+          // New best: the old centre becomes a bracket end.
+          if (x > br.c) br.a = br.c; else br.b = br.c;
+          br.c = x;
+          br.best = got[j];
+        } else {
+          if (x > br.c) br.b = x; else br.a = x;
+        }
+        // Stop when the bracket is below 1e-9 relative in f: far below any resonance width.
+        if (br.b - br.a > 1e-9) next.push_back(br);
+      }
+      brackets = std::move(next);
+    }
+    samples.insert(samples.end(), added.begin(), added.end());
+    std::sort(samples.begin(), samples.end(),
+              [](const Sample& x, const Sample& y) { return x.f_hz < y.f_hz; });
+    levels(zero2, zeroF);
+  }
+
+  BandError out;
+  out.norm = norm;
+  out.grid_samples = grid;
+  out.pole_samples = pole_count;
+  out.refinement_samples = refinement_count;
+  const std::size_t n = samples.size();
+  out.f_hz.resize(n);
+  out.relative.resize(n);
+  out.relative_spectral.resize(n);
+  out.relative_frobenius.resize(n);
+  out.absolute.resize(n);
+  out.reference.resize(n);
+  double sup = -1.0, hinf = -1.0, h2sq = 0.0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const Sample& s = samples[k];
+    out.f_hz[k] = s.f_hz;
+    out.relative_spectral[k] = relative_of(s, ErrorNorm::Spectral, zero2, zeroF);
+    out.relative_frobenius[k] = relative_of(s, ErrorNorm::Frobenius, zero2, zeroF);
+    out.relative[k] = norm == ErrorNorm::Spectral ? out.relative_spectral[k] : out.relative_frobenius[k];
+    out.absolute[k] = s.abs2;
+    out.reference[k] = s.ref2;
+    out.reduced_singular = out.reduced_singular || s.singular;
+    if (std::isnan(out.relative[k])) {
+      out.undefined_f_hz.push_back(s.f_hz);
+    } else if (out.relative[k] > sup) {
+      sup = out.relative[k];
+      out.f_peak_hz = s.f_hz;
+    }
+    if (s.abs2 > hinf) {
+      hinf = s.abs2;
+      out.f_hinf_hz = s.f_hz;
+    }
+    if (k > 0) {
+      // Trapezoidal rule in f of ||E||_F^2.
+      const double a = samples[k - 1].absF, b = s.absF;
+      h2sq += 0.5 * (a * a + b * b) * (s.f_hz - samples[k - 1].f_hz);
+    }
+  }
+  if (sup < 0.0) {
+    throw NumericalError("band error: H vanishes at every sampled frequency of the band [" +
+                         std::to_string(m_band.f_min_hz) + ", " + std::to_string(m_band.f_max_hz) +
+                         "] Hz: the relative error is undefined");
+  }
+  out.sup_relative = sup;
+  out.hinf_absolute = hinf;
+  // Both signs of omega: the band H2 norm squared is twice the integral over positive f.
+  out.h2_absolute = std::sqrt(2.0 * h2sq);
+  return out;
+}
+
+}  // namespace ecmor

@@ -1,1 +1,833 @@
+// modal.cpp: the "modal" reducer: modal truncation with modes selected for the frequency band,
+// computed in batches by shift-invert ARPACK ("spectrum slicing"), optionally with a static
+// correction (mode acceleration). See README.md for the algorithm, parameters and failure modes.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <numeric>
+#include <optional>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "ecmor/eigensolver.hpp"
+#include "ecmor/error.hpp"
 #include "ecmor/plugin.hpp"
+#include "ecmor/projection.hpp"
+
+namespace ecmor::modal {
+namespace {
+
+constexpr const char* kName = "modal";
+constexpr double kInf = std::numeric_limits<double>::infinity();
+/// Ritz values farther than this factor times the nearest eigenvalue's distance from the shift are
+/// not trusted: shift-invert computes nu = 1/(lambda - sigma) with absolute error ~eps |nu_max|, so
+/// lambda - sigma has relative error ~eps * ratio; 1e4 keeps it near 1e-12.
+constexpr double kTrustRatio = 1e4;
+/// Coefficient matrices with relative asymmetry below this count as exactly symmetric (the
+/// shifted solver's own default, so that it uses Cholesky on them).
+constexpr double kExactSymmetry = 1e-12;
+
+struct Options {
+  bool static_correction = true;
+  Index batch_size = 20;
+  double tolerance = 0.0;
+  double band_margin = 10.0;
+  Index max_iterations = 1000;
+  double symmetry_tolerance = 1e-6;
+  double rigid_tolerance = 1e-8;
+  long long seed = 1;
+};
+
+double asymmetry(const SparseMatrix& A) {
+  const double norm = A.norm();
+  if (norm == 0.0) return 0.0;
+  return SparseMatrix(A - SparseMatrix(A.transpose())).norm() / norm;
+}
+
+SparseMatrix symmetric_part(const SparseMatrix& A) {
+  return SparseMatrix(0.5 * (A + SparseMatrix(A.transpose())));
+}
+
+/// max_i A_ii / B_ii: Rayleigh quotients of unit vectors, a lower bound of the largest eigenvalue of
+/// the pencil and so a safe "spectrum scale" for what counts as a zero (rigid-body) eigenvalue.
+double spectrum_scale(const SparseMatrix& A, const SparseMatrix& B) {
+  double scale = 0.0;
+  for (Index i = 0; i < A.rows(); ++i) {
+    const double b = B.coeff(i, i);
+    if (b > 0.0) scale = std::max(scale, std::abs(A.coeff(i, i)) / b);
+  }
+  return scale > 0.0 ? scale : 1.0;
+}
+
+/// Ranking of modes for a band: rigid modes first (tier 0), then modes whose frequency lies within
+/// [f_min / margin, f_max * margin] ("near", tier 1) by distance in log f to the band (0 inside,
+/// ties by ascending f), then the remaining ("far") modes by ascending frequency (tier 2): beyond
+/// the margin a lower mode has the larger quasi-static contribution in the band.
+struct Key {
+  int tier = 0;
+  double distance = 0.0;
+  double f = 0.0;
+  friend bool operator<=(const Key& a, const Key& b) {
+    return std::tie(a.tier, a.distance, a.f) <= std::tie(b.tier, b.distance, b.f);
+  }
+  friend bool operator<(const Key& a, const Key& b) {
+    return std::tie(a.tier, a.distance, a.f) < std::tie(b.tier, b.distance, b.f);
+  }
+};
+
+class Ranking {
+ public:
+  Ranking(const Band& band, double margin) : m_band(band), m_margin(margin) {}
+  Key key(double f, bool rigid) const {
+    if (rigid) return {0, 0.0, f};
+    if (f < m_band.f_min_hz / m_margin || f > m_band.f_max_hz * m_margin) return {2, 0.0, f};
+    if (f < m_band.f_min_hz) return {1, std::log(m_band.f_min_hz / f), f};
+    if (f > m_band.f_max_hz) return {1, std::log(f / m_band.f_max_hz), f};
+    return {1, 0.0, f};
+  }
+  /// A lower bound of the keys of all modes with frequency > f_front (the uncomputed ones): a
+  /// computed mode whose key is <= this bound keeps its rank whatever is computed later.
+  Key bound(double f_front) const {
+    if (f_front == kInf) return {3, 0.0, kInf};
+    if (f_front < m_band.f_max_hz) return {1, 0.0, std::max(f_front, m_band.f_min_hz)};
+    if (f_front < m_band.f_max_hz * m_margin) {
+      return {1, std::log(f_front / m_band.f_max_hz), f_front};
+    }
+    return {2, 0.0, f_front};
+  }
+
+ private:
+  Band m_band;
+  double m_margin;
+};
+
+/// Symmetric pencil  Ks phi = lambda Ms phi, Ms SPD, Ks positive semidefinite, solved in slices.
+/// Second order: Ks = K, Ms = M, f = sqrt(lambda) / 2pi. Symmetric descriptor: Ks = -A, Ms = E,
+/// poles -lambda, f = lambda / 2pi.
+///
+/// Why the covered interval is contiguous: a converged ARPACK run at shift sigma returns the nev
+/// eigenvalues nearest sigma, i.e. every eigenvalue in [sigma - r, sigma + r] with r the largest
+/// returned distance (we keep only the trusted part [sigma - t, sigma + t], t <= r, which is again
+/// "every eigenvalue in an interval"). The first shift sigma_0 < 0 lies below the whole spectrum
+/// (Ks positive semidefinite, checked on the results), so it covers (-inf, sigma_0 + t]. A later
+/// shift sigma = lambda_cov + delta is accepted only if sigma - t <= lambda_cov, so the union of
+/// covered intervals stays one interval (-inf, lambda_cov]; otherwise delta shrinks and the batch is
+/// redone. Hence every eigenvalue below the frontier is known and none is skipped. (Caveat of any
+/// single-vector Lanczos method: copies of an exactly multiple eigenvalue are found through
+/// rounding; the deduplication below keeps every genuinely new copy.)
+class SymmetricSlicer {
+ public:
+  using FactorizeFn = std::function<std::shared_ptr<const Factorization>(double sigma)>;
+
+  /// \param solver  factorises Ks - sigma Ms (factorize); its failed-Cholesky counter tells whether
+  ///                 Ks - sigma_0 Ms is indefinite, i.e. Ks is not positive semidefinite.
+  SymmetricSlicer(const SparseMatrix& Ks, const SparseMatrix& Ms, ShiftedSolver& solver,
+                  FactorizeFn factorize, bool second_order, const Options& options,
+                  const Band& band)
+      : m_M(Ms), m_solver(solver), m_factorize(std::move(factorize)),
+        m_second_order(second_order),
+        m_options(options), m_n(Ks.rows()) {
+    m_scale = spectrum_scale(Ks, Ms);
+    m_phi.resize(m_n, 0);
+    const double omega_min = kTwoPi * band.f_min_hz;
+    // sigma_0 < 0 so that K - sigma_0 M is SPD even for singular K (Cholesky applies); not so close
+    // to 0 that it is numerically singular for a free-floating body.
+    const double band_value = m_second_order ? omega_min * omega_min : omega_min;
+    m_sigma0 = -std::max(band_value, 1e-6 * m_scale);
+  }
+
+  Index size() const { return m_n; }
+  Index known() const { return static_cast<Index>(m_lambda.size()); }
+  bool complete() const { return known() >= m_n; }
+  double rigid_threshold() const { return m_options.rigid_tolerance * m_scale; }
+  bool is_rigid(double lambda) const { return std::abs(lambda) <= rigid_threshold(); }
+  double frequency(double lambda) const {
+    const double l = std::max(lambda, 0.0);
+    return (m_second_order ? std::sqrt(l) : l) / kTwoPi;
+  }
+  double frontier_frequency() const {
+    if (complete()) return kInf;
+    if (m_batches == 0) return -kInf;
+    return frequency(m_lambda_cov);
+  }
+  double lambda(Index j) const { return m_lambda[static_cast<std::size_t>(j)]; }
+  const Matrix& vectors() const { return m_phi; }
+  double sigma0() const { return m_sigma0; }
+  Index batches() const { return m_batches; }
+  Index operator_applications() const { return m_applications; }
+  Index duplicates() const { return m_duplicates; }
+  const std::vector<double>& shifts() const { return m_shifts; }
+  /// The factorisation at sigma_0 (exists after the first batch).
+  const Factorization& first_factorization() const { return *m_factorizations.front(); }
+
+  /// Computes one more slice above the frontier (or the first slice).
+  void next_batch() {
+    if (complete()) return;
+    double delta = m_delta;
+    for (int attempt = 0; attempt < 8; ++attempt) {
+      const double sigma = m_batches == 0 ? m_sigma0 : m_lambda_cov + delta;
+      std::shared_ptr<const Factorization> F;
+      const Index failed_before = m_solver.counters().failed_cholesky;
+      try {
+        F = m_factorize(sigma);
+      } catch (const NumericalError&) {
+        if (m_batches == 0) throw;
+        delta *= 0.7;  // sigma hit an eigenvalue: move off it
+        continue;
+      }
+      EigenOptions eo;
+      eo.nev = std::min<Index>(m_options.batch_size, m_n - 1);
+      eo.tolerance = m_options.tolerance;
+      eo.max_iterations = m_options.max_iterations;
+      eo.seed = static_cast<std::uint64_t>(m_options.seed);
+      const SymmetricEigenResult r = symmetric_shift_invert(*F, m_M, sigma, eo);
+      m_applications += r.operator_applications;
+      if (r.eigenvalues.size() == 0) {
+        throw NumericalError(fmt::format("modal: ARPACK returned no eigenpair at shift {:g}", sigma));
+      }
+      const Vector dist = (r.eigenvalues.array() - sigma).abs();
+      const double d_near = dist.minCoeff();
+      const double r_max = dist.maxCoeff();
+      const double t = std::min(r_max, kTrustRatio * std::max(d_near, 1e-300));
+      if (m_batches > 0 && sigma - t > m_lambda_cov * (1.0 + 1e-12) + 1e-300) {
+        delta *= 0.25;  // the slice does not reach back to the frontier: a gap; retry nearer
+        continue;
+      }
+      // Indefinite Ks: an eigenvalue clearly below 0, or (whatever ARPACK found) a failed
+      // Cholesky of Ks - sigma_0 Ms, which is SPD whenever Ks is positive semidefinite. Either
+      // breaks the premise that sigma_0 lies below the whole spectrum.
+      const bool cholesky_failed =
+          m_batches == 0 && m_solver.counters().failed_cholesky > failed_before;
+      if (r.eigenvalues.minCoeff() < -rigid_threshold() || cholesky_failed) {
+        throw InputError(fmt::format(
+            "modal: {} has a negative eigenvalue ({}): it must be positive semidefinite for "
+            "modal truncation",
+            m_second_order ? "K" : "-A",
+            cholesky_failed ? fmt::format("the Cholesky factorisation of {} - sigma M failed at "
+                                          "sigma = {:g} < 0",
+                                          m_second_order ? "K" : "-A", sigma)
+                            : fmt::format("{:g}, spectrum scale {:g}", r.eigenvalues.minCoeff(),
+                                          m_scale)));
+      }
+      m_factorizations.push_back(F);
+      m_shifts.push_back(sigma);
+      for (Index j = 0; j < r.eigenvalues.size(); ++j) {
+        if (dist[j] <= t) add(r.eigenvalues[j], r.eigenvectors.col(j));
+      }
+      // Covered now: every eigenvalue in [sigma - t, sigma + t].
+      m_lambda_cov = m_batches == 0 ? sigma + t : std::max(m_lambda_cov, sigma + t);
+      ++m_batches;
+      // Next step: place the shift so that about 80 % of the next batch is new, from the density of
+      // eigenvalues just seen; the gap check above repairs an over-long step.
+      const Index found = r.eigenvalues.size();
+      const double width = r.eigenvalues.maxCoeff() - std::max(r.eigenvalues.minCoeff(), 0.0);
+      if (found >= 2 && width > 0.0) {
+        const double density = static_cast<double>(found - 1) / width;
+        m_delta = 0.6 * static_cast<double>(eo.nev) / (2.0 * density);
+      } else {
+        m_delta = std::max(std::abs(m_lambda_cov - sigma), 1e-3 * m_scale);
+      }
+      return;
+    }
+    throw NumericalError(fmt::format(
+        "modal: spectrum slicing could not place a shift above lambda = {:g} without leaving a gap "
+        "(8 attempts); increase batch_size",
+        m_lambda_cov));
+  }
+
+ private:
+  // Adds an eigenpair unless it is already known: same eigenvalue (relative 1e-8) and inside the
+  // span of the known vectors of that eigenvalue (M inner product). A new copy of a multiple
+  // eigenvalue is M-orthogonalised against the known copies.
+  void add(double lambda, const Vector& phi_in) {
+    Vector phi = phi_in;
+    const double tol = 1e-8 * std::max(std::abs(lambda), rigid_threshold());
+    std::vector<Index> same;
+    for (Index j = 0; j < known(); ++j) {
+      if (std::abs(m_lambda[static_cast<std::size_t>(j)] - lambda) <= tol) same.push_back(j);
+    }
+    if (!same.empty()) {
+      for (int pass = 0; pass < 2; ++pass) {
+        for (Index j : same) {
+          const double c = m_phi.col(j).dot(m_M * phi);
+          phi -= c * m_phi.col(j);
+        }
+      }
+      const double norm = std::sqrt(phi.dot(m_M * phi));
+      if (norm <= 1e-6) {
+        ++m_duplicates;
+        return;
+      }
+      phi /= norm;
+    }
+    if (complete()) return;
+    m_lambda.push_back(lambda);
+    m_phi.conservativeResize(Eigen::NoChange, m_phi.cols() + 1);
+    m_phi.col(m_phi.cols() - 1) = phi;
+  }
+
+  const SparseMatrix& m_M;
+  ShiftedSolver& m_solver;
+  FactorizeFn m_factorize;
+  bool m_second_order;
+  Options m_options;
+  Index m_n;
+  double m_scale = 1.0;
+  double m_sigma0 = -1.0;
+  double m_lambda_cov = -kInf;
+  double m_delta = 0.0;
+  Index m_batches = 0;
+  Index m_applications = 0;
+  Index m_duplicates = 0;
+  std::vector<double> m_lambda;
+  Matrix m_phi;
+  std::vector<double> m_shifts;
+  std::vector<std::shared_ptr<const Factorization>> m_factorizations;
+};
+
+/// One computed mode of a general (unsymmetric) pencil: a real eigenvalue or a conjugate pair
+/// (stored once, Im > 0).
+struct GeneralMode {
+  Complex lambda;
+  ComplexVector right;
+  ComplexVector left;  ///< empty when not needed (Galerkin)
+  bool pair = false;
+};
+
+/// General pencil A x = lambda E x, all eigenvalues in the disc |lambda - sigma| <= r around one real
+/// shift. Growing recomputes ARPACK with a doubled nev on the same factorisation: eigenvalues in
+/// the complex plane cannot be sliced with real shifts, and the disc keeps the covered frequencies
+/// contiguous (f <= f_front).
+class GeneralModes {
+ public:
+  GeneralModes(const SparseMatrix& E, std::shared_ptr<const Factorization> F, double sigma,
+               bool second_order, bool need_left, const Options& options)
+      : m_E(E), m_F(std::move(F)), m_sigma(sigma), m_second_order(second_order),
+        m_need_left(need_left), m_options(options), m_n(E.rows()) {}
+
+  double frequency(Complex lambda) const {
+    return (m_second_order ? std::sqrt(std::abs(lambda)) : std::abs(lambda)) / kTwoPi;
+  }
+  double frontier_frequency() const { return m_f_front; }
+  bool complete() const { return m_f_front == kInf; }
+  const std::vector<GeneralMode>& modes() const { return m_modes; }
+  Index runs() const { return m_runs; }
+  Index operator_applications() const { return m_applications; }
+  double sigma() const { return m_sigma; }
+
+  void grow() {
+    if (complete()) return;
+    m_nev = m_nev == 0 ? std::min<Index>(m_options.batch_size, m_n - 1)
+                       : std::min<Index>(2 * m_nev, m_n - 1);
+    EigenOptions eo;
+    eo.nev = m_nev;
+    eo.tolerance = m_options.tolerance;
+    eo.max_iterations = m_options.max_iterations;
+    eo.seed = static_cast<std::uint64_t>(m_options.seed);
+    const GeneralEigenResult right = general_shift_invert(*m_F, m_E, m_sigma, eo, false);
+    m_applications += right.operator_applications;
+    ++m_runs;
+    std::optional<GeneralEigenResult> left;
+    if (m_need_left) {
+      left = general_shift_invert(*m_F, m_E, m_sigma, eo, true);
+      m_applications += left->operator_applications;
+    }
+    m_modes.clear();
+    const Index count = right.eigenvalues.size();
+    double radius = 0.0;
+    for (Index j = 0; j < count; ++j) {
+      const Complex l = right.eigenvalues[j];
+      radius = std::max(radius, std::abs(l - m_sigma));
+      if (l.imag() < 0.0) continue;  // the Im > 0 member of the pair represents it
+      GeneralMode mode;
+      mode.lambda = l;
+      mode.right = right.eigenvectors.col(j);
+      mode.pair = l.imag() != 0.0;
+      if (mode.pair) {
+        // The conjugate must be in the set (pairs are never split by general_shift_invert).
+        bool found = false;
+        for (Index k = 0; k < count && !found; ++k) {
+          found = std::abs(right.eigenvalues[k] - std::conj(l)) <= 1e-8 * std::abs(l);
+        }
+        if (!found) continue;
+      }
+      if (left) {
+        Index best = -1;
+        double best_d = kInf;
+        for (Index k = 0; k < left->eigenvalues.size(); ++k) {
+          const double d = std::abs(left->eigenvalues[k] - l);
+          if (d < best_d) best_d = d, best = k;
+        }
+        if (best < 0 || best_d > 1e-6 * std::max(std::abs(l), 1e-300)) continue;  // unmatched
+        mode.left = left->eigenvectors.col(best);
+      }
+      m_modes.push_back(std::move(mode));
+    }
+    // Everything with |lambda - sigma| < radius is known: |lambda| < radius - |sigma|.
+    const bool all = right.dense_fallback || m_nev >= m_n - 1;
+    const double reach = radius - std::abs(m_sigma);
+    m_f_front = all ? kInf : (reach > 0.0 ? frequency(Complex(reach, 0.0)) : 0.0);
+  }
+
+ private:
+  const SparseMatrix& m_E;
+  std::shared_ptr<const Factorization> m_F;
+  double m_sigma;
+  bool m_second_order;
+  bool m_need_left;
+  Options m_options;
+  Index m_n;
+  Index m_nev = 0;
+  Index m_runs = 0;
+  Index m_applications = 0;
+  double m_f_front = -kInf;
+  std::vector<GeneralMode> m_modes;
+};
+
+class ModalReducer final : public Reducer {
+ public:
+  explicit ModalReducer(const Options& options) : m_options(options) {}
+
+  void setup(const ReductionContext& context) override {
+    if (context.model == nullptr || context.solver == nullptr) {
+      throw InputError("modal: setup() needs a model and a shifted solver");
+    }
+    context.band.validate();
+    m_model = context.model;
+    m_solver = context.solver;
+    m_band = context.band;
+    m_ranking.emplace(m_band, m_options.band_margin);
+    m_n = size_of(*m_model);
+    if (m_n < 2) throw InputError(fmt::format("modal: the model has N = {}: needs N >= 2", m_n));
+
+    if (const auto* so = std::get_if<SecondOrderModel>(m_model)) {
+      require_spd_mass(*m_model, "modal");  // InputError naming M
+      const double asym_k = asymmetry(so->K);
+      m_asymmetry = asym_k;
+      if (asym_k <= kExactSymmetry) {
+        ShiftedSolver* solver = m_solver;
+        m_slicer.emplace(so->K, so->M, *solver,
+                         [solver](double sigma) {
+                           const Complex w[3] = {1.0, 0.0, -sigma};
+                           return solver->factorize_combination(w);
+                         },
+                         true, m_options, m_band);
+        m_path = "symmetric";
+      } else if (asym_k <= m_options.symmetry_tolerance) {
+        // Tiny asymmetry (rounding in the source data): the modes of the symmetric part, through a
+        // solver on a copy of the model with K symmetrised (the shared solver would factorise the
+        // unsymmetric K, and Lanczos needs an M-symmetric operator). The projection uses the
+        // original K.
+        SecondOrderModel sym = *so;
+        sym.K = symmetric_part(so->K);
+        m_symmetrised = std::make_unique<Model>(std::move(sym));
+        m_own_solver = make_shifted_solver(*m_symmetrised);
+        ShiftedSolver* solver = m_own_solver.get();
+        const auto& sym_model = std::get<SecondOrderModel>(*m_symmetrised);
+        m_slicer.emplace(sym_model.K, sym_model.M, *solver,
+                         [solver](double sigma) {
+                           const Complex w[3] = {1.0, 0.0, -sigma};
+                           return solver->factorize_combination(w);
+                         },
+                         true, m_options, m_band);
+        m_path = "symmetric part";
+      } else {
+        // Clearly unsymmetric K: eigenvectors of the general pencil (K, M), a real basis from their
+        // real and imaginary parts, Galerkin (W = V) as the model is second order.
+        const double omega_min = kTwoPi * m_band.f_min_hz;
+        const double sigma =
+            -std::max(omega_min * omega_min, 1e-6 * spectrum_scale(so->K, so->M));
+        const Complex w[3] = {1.0, 0.0, -sigma};
+        m_general.emplace(so->M, m_solver->factorize_combination(w), sigma, true, false,
+                          m_options);
+        m_path = "general";
+      }
+    } else {
+      const auto& ds = std::get<DescriptorModel>(*m_model);
+      const bool symmetric = asymmetry(ds.A) <= kExactSymmetry && asymmetry(ds.E) <= kExactSymmetry;
+      m_negA = symmetric ? SparseMatrix(-ds.A) : SparseMatrix();
+      bool spd_e = false;
+      if (symmetric) {
+        try {
+          require_spd_mass(*m_model, "modal");
+          spd_e = true;
+        } catch (const InputError&) {
+        }
+      }
+      if (symmetric && spd_e) {
+        // E SPD, A symmetric (e.g. the rail models): -A phi = mu E phi, poles -mu, W = V.
+        ShiftedSolver* solver = m_solver;
+        m_slicer.emplace(m_negA, ds.E, *solver,
+                         [solver](double sigma) {
+                           const Complex w[2] = {1.0, -sigma};  // -A - sigma E
+                           return solver->factorize_combination(w);
+                         },
+                         false, m_options, m_band);
+        m_path = "symmetric descriptor";
+      } else {
+        // Poles nearest 0 by |lambda| (= the natural frequency of a pole pair): sigma = 0 unless A
+        // is singular (a pole at 0), then a small negative shift.
+        double sigma = 0.0;
+        std::shared_ptr<const Factorization> F;
+        try {
+          const Complex w[2] = {-1.0, 0.0};  // A - 0 E
+          F = m_solver->factorize_combination(w);
+        } catch (const NumericalError&) {
+          sigma = -kTwoPi * m_band.f_min_hz;
+          const Complex w[2] = {-1.0, -sigma};  // A - sigma E
+          F = m_solver->factorize_combination(w);
+        }
+        m_general.emplace(ds.E, std::move(F), sigma, false, true, m_options);
+        m_path = "general descriptor";
+      }
+    }
+  }
+
+  ReducerResult reduce(const ReductionRequest& request) override {
+    if (m_model == nullptr) throw InputError("modal: reduce() called before setup()");
+    if (request.order < 1) {
+      throw InputError(fmt::format("modal: requested order {}: must be >= 1", request.order));
+    }
+    return m_slicer ? reduce_symmetric(request.order) : reduce_general(request.order);
+  }
+
+  Index max_order() const override { return m_n; }
+  Index order_step() const override { return 1; }
+
+ private:
+  // ---- symmetric path --------------------------------------------------------------------------
+
+  const SparseMatrix& inner_product_matrix() const {
+    if (const auto* so = std::get_if<SecondOrderModel>(m_model)) return so->M;
+    return std::get<DescriptorModel>(*m_model).E;
+  }
+  const Matrix& input_matrix() const {
+    if (const auto* so = std::get_if<SecondOrderModel>(m_model)) return so->B;
+    return std::get<DescriptorModel>(*m_model).B;
+  }
+
+  /// Indices of the computed modes in rank order, only those whose rank is final.
+  std::vector<Index> final_ranked() const {
+    const SymmetricSlicer& s = *m_slicer;
+    const Key bound = m_ranking->bound(s.frontier_frequency());
+    std::vector<std::pair<Key, Index>> keyed;
+    for (Index j = 0; j < s.known(); ++j) {
+      const double l = s.lambda(j);
+      const Key k = m_ranking->key(s.is_rigid(l) ? 0.0 : s.frequency(l), s.is_rigid(l));
+      if (k <= bound) keyed.emplace_back(k, j);
+    }
+    std::stable_sort(keyed.begin(), keyed.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::vector<Index> out;
+    for (const auto& k : keyed) out.push_back(k.second);
+    return out;
+  }
+
+  /// The static-correction block X (N x m): K^-1 B, or (K - sigma_0 M)^-1 B when K is singular
+  /// (rigid modes present), computed once.
+  const Matrix& static_block() {
+    if (m_static) return *m_static;
+    SymmetricSlicer& s = *m_slicer;
+    if (s.batches() == 0) s.next_batch();
+    bool rigid = false;
+    for (Index j = 0; j < s.known(); ++j) rigid = rigid || s.is_rigid(s.lambda(j));
+    Matrix X;
+    if (!rigid) {
+      try {
+        const bool so = std::holds_alternative<SecondOrderModel>(*m_model);
+        std::shared_ptr<const Factorization> F;
+        if (so) {
+          const Complex w[3] = {1.0, 0.0, 0.0};
+          F = (m_own_solver ? m_own_solver.get() : m_solver)->factorize_combination(w);
+        } else {
+          const Complex w[2] = {1.0, 0.0};
+          F = m_solver->factorize_combination(w);
+        }
+        X = F->solve(input_matrix());
+        m_static_shift = 0.0;
+      } catch (const NumericalError&) {
+        rigid = true;  // numerically singular although no zero eigenvalue was computed
+      }
+    }
+    if (rigid) {
+      // Singular K: the shifted static response (K - sigma_0 M)^-1 B, sigma_0 < 0. Its component
+      // along the rigid modes is already in the modal basis; the elastic remainder is the
+      // quasi-static response of the flexible modes (inertia-relief-like, see README).
+      X = s.first_factorization().solve(input_matrix());
+      m_static_shift = s.sigma0();
+    }
+    m_static = X;
+    Matrix Q(m_n, 0);
+    m_static_rank = orthonormalize_append(Q, X, InnerProduct{&inner_product_matrix()});
+    return *m_static;
+  }
+
+  ReducerResult reduce_symmetric(Index order) {
+    SymmetricSlicer& s = *m_slicer;
+    const Index wanted = std::min(order, m_n);
+    Index static_cols = 0;
+    if (m_options.static_correction) {
+      static_block();
+      if (wanted > m_static_rank) static_cols = m_static_rank;
+    }
+    Index modes_wanted = wanted - static_cols;
+    const SparseMatrix& M = inner_product_matrix();
+    std::vector<Index> ranked;
+    Matrix V;
+    Index modes = 0, appended = 0;
+    // A static column that deflates against the modes (it lies in their span, e.g. when nearly all
+    // modes are taken) is replaced by the next mode, so the order is delivered whenever possible.
+    for (;;) {
+      ranked = final_ranked();
+      while (static_cast<Index>(ranked.size()) < modes_wanted && !s.complete()) {
+        s.next_batch();
+        ranked = final_ranked();
+      }
+      modes = std::min<Index>(modes_wanted, static_cast<Index>(ranked.size()));
+      V.resize(m_n, modes);
+      for (Index k = 0; k < modes; ++k) V.col(k) = s.vectors().col(ranked[static_cast<std::size_t>(k)]);
+      appended = static_cols > 0 ? orthonormalize_append(V, *m_static, InnerProduct{&M}) : 0;
+      if (V.cols() >= wanted || modes < modes_wanted) break;
+      modes_wanted += wanted - V.cols();
+    }
+    Index rigid = 0;
+    double f_lo = kInf, f_hi = 0.0;
+    for (Index k = 0; k < modes; ++k) {
+      const Index j = ranked[static_cast<std::size_t>(k)];
+      if (s.is_rigid(s.lambda(j))) {
+        ++rigid;
+      } else {
+        f_lo = std::min(f_lo, s.frequency(s.lambda(j)));
+        f_hi = std::max(f_hi, s.frequency(s.lambda(j)));
+      }
+    }
+    ReducerResult result;
+    result.V = V;
+    result.W = V;
+    result.model = project(*m_model, V, V);
+    result.diagnostics["modes"] = static_cast<double>(modes);
+    result.diagnostics["rigid_modes"] = static_cast<double>(rigid);
+    result.diagnostics["static_columns"] = static_cast<double>(appended);
+    result.diagnostics["computed_modes"] = static_cast<double>(s.known());
+    result.diagnostics["batches"] = static_cast<double>(s.batches());
+    result.diagnostics["operator_applications"] = static_cast<double>(s.operator_applications());
+    result.diagnostics["duplicates_removed"] = static_cast<double>(s.duplicates());
+    result.diagnostics["orthogonality_loss"] = orthogonality_loss(V, InnerProduct{&M});
+    if (modes > 0 && f_hi > 0.0) {
+      result.diagnostics["f_lowest_hz"] = f_lo;
+      result.diagnostics["f_highest_hz"] = f_hi;
+    }
+    result.diagnostics["max_eigen_residual"] = max_residual(ranked, modes);
+    std::string note = fmt::format("{} modes", modes);
+    if (rigid > 0) note += fmt::format(" ({} rigid)", rigid);
+    if (appended > 0) {
+      note += fmt::format(" + {} static correction{}", appended, appended > 1 ? "s" : "");
+      if (m_static_shift != 0.0) note += fmt::format(" (shifted, sigma = {:g})", m_static_shift);
+    }
+    if (modes > 0 && f_hi > 0.0) note += fmt::format("; elastic modes {:.4g} .. {:.4g} Hz", f_lo, f_hi);
+    if (m_path != "symmetric") note += "; " + m_path + " eigenproblem";
+    if (V.cols() < order) {
+      note += fmt::format("; order {} requested, {} available", order, V.cols());
+    } else if (m_options.static_correction && static_cols == 0 && m_static_rank > 0) {
+      note += fmt::format("; static correction omitted (needs order > {})", m_static_rank);
+    }
+    result.note = note;
+    return result;
+  }
+
+  /// max_j ||K phi_j - lambda_j M phi_j|| / (||K||_F ||phi_j||) over the selected modes.
+  double max_residual(const std::vector<Index>& ranked, Index modes) const {
+    const SymmetricSlicer& s = *m_slicer;
+    const SparseMatrix& M = inner_product_matrix();
+    const SparseMatrix& K = m_symmetrised ? std::get<SecondOrderModel>(*m_symmetrised).K
+                            : std::holds_alternative<SecondOrderModel>(*m_model)
+                                ? std::get<SecondOrderModel>(*m_model).K
+                                : m_negA;
+    const double k_norm = K.norm();
+    double worst = 0.0;
+    for (Index k = 0; k < modes; ++k) {
+      const Index j = ranked[static_cast<std::size_t>(k)];
+      const Vector phi = s.vectors().col(j);
+      const double res = (K * phi - s.lambda(j) * (M * phi)).norm() / (k_norm * phi.norm());
+      worst = std::max(worst, res);
+    }
+    return worst;
+  }
+
+  // ---- general path ----------------------------------------------------------------------------
+
+  ReducerResult reduce_general(Index order) {
+    GeneralModes& g = *m_general;
+    const Index wanted = std::min(order, m_n);
+    // Rank the modes; a pair occupies two columns and is never split, so the result may have one
+    // column less than requested (nested all the same).
+    auto ranked = [&]() {
+      const Key bound = m_ranking->bound(g.frontier_frequency());
+      std::vector<std::pair<Key, Index>> keyed;
+      for (Index j = 0; j < static_cast<Index>(g.modes().size()); ++j) {
+        const Complex l = g.modes()[static_cast<std::size_t>(j)].lambda;
+        const bool rigid = std::abs(l) == 0.0;
+        const Key k = m_ranking->key(g.frequency(l), rigid);
+        if (k <= bound) keyed.emplace_back(k, j);
+      }
+      std::stable_sort(keyed.begin(), keyed.end(),
+                       [](const auto& a, const auto& b) { return a.first < b.first; });
+      return keyed;
+    };
+    auto columns_final = [&](const std::vector<std::pair<Key, Index>>& keyed) {
+      Index cols = 0;
+      for (const auto& k : keyed) cols += g.modes()[static_cast<std::size_t>(k.second)].pair ? 2 : 1;
+      return cols;
+    };
+    if (g.runs() == 0) g.grow();
+    auto keyed = ranked();
+    while (columns_final(keyed) < wanted && !g.complete()) {
+      g.grow();
+      keyed = ranked();
+    }
+    std::vector<Vector> vcols, wcols;
+    Index pairs = 0;
+    for (const auto& k : keyed) {
+      const GeneralMode& mode = g.modes()[static_cast<std::size_t>(k.second)];
+      const Index need = mode.pair ? 2 : 1;
+      if (static_cast<Index>(vcols.size()) + need > wanted) break;
+      vcols.push_back(mode.right.real());
+      if (mode.left.size() > 0) wcols.push_back(mode.left.real());
+      if (mode.pair) {
+        ++pairs;
+        vcols.push_back(mode.right.imag());
+        if (mode.left.size() > 0) wcols.push_back(mode.left.imag());
+      }
+    }
+    const auto n = static_cast<Index>(vcols.size());
+    Matrix Vraw(m_n, n), Wraw(m_n, static_cast<Index>(wcols.size()));
+    for (Index j = 0; j < n; ++j) Vraw.col(j) = vcols[static_cast<std::size_t>(j)];
+    for (Index j = 0; j < Wraw.cols(); ++j) Wraw.col(j) = wcols[static_cast<std::size_t>(j)];
+
+    ReducerResult result;
+    if (const auto* so = std::get_if<SecondOrderModel>(m_model)) {
+      // Galerkin with an M-orthonormal basis of span{Re x, Im x}: Mr = I.
+      Matrix V(m_n, 0);
+      orthonormalize_append(V, Vraw, InnerProduct{&so->M});
+      result.V = V;
+      result.W = V;
+      result.diagnostics["orthogonality_loss"] = orthogonality_loss(V, InnerProduct{&so->M});
+    } else {
+      // Petrov-Galerkin: orthonormal bases of the right and left eigenspaces, then W scaled so that
+      // W' E V = I (eigenspaces of distinct eigenvalues are E-biorthogonal, so W' E V is block
+      // diagonal and invertible unless an eigenvalue is defective).
+      const auto& ds = std::get<DescriptorModel>(*m_model);
+      Matrix V(m_n, 0), W(m_n, 0);
+      orthonormalize_append(V, Vraw);
+      orthonormalize_append(W, Wraw);
+      if (V.cols() != W.cols()) {
+        throw NumericalError(fmt::format("modal: right ({}) and left ({}) eigenbases differ in rank",
+                                         V.cols(), W.cols()));
+      }
+      const Matrix G = W.transpose() * (ds.E * V);
+      const Eigen::JacobiSVD<Matrix> svd(G);
+      const double cond = G.size() == 0 ? 1.0
+                                        : svd.singularValues()(0) /
+                                              svd.singularValues()(svd.singularValues().size() - 1);
+      if (!(cond < 1e12)) {
+        throw NumericalError(fmt::format(
+            "modal: W' E V of the left and right eigenvectors is singular (condition {:g}): a "
+            "defective or nearly defective eigenvalue",
+            cond));
+      }
+      W = W * G.transpose().partialPivLu().inverse();
+      result.V = V;
+      result.W = W;
+      result.diagnostics["biorthogonality_condition"] = cond;
+    }
+    result.model = project(*m_model, result.V, result.W);
+    result.diagnostics["modes"] = static_cast<double>(n - pairs);
+    result.diagnostics["complex_pairs"] = static_cast<double>(pairs);
+    result.diagnostics["arpack_runs"] = static_cast<double>(g.runs());
+    result.diagnostics["operator_applications"] = static_cast<double>(g.operator_applications());
+    std::string note = fmt::format("{} modes ({} complex pairs as Re/Im columns); {} eigenproblem",
+                                   n - pairs, pairs, m_path);
+    if (m_options.static_correction && std::holds_alternative<DescriptorModel>(*m_model)) {
+      note += "; no static correction for unsymmetric descriptor models";
+    } else if (m_options.static_correction) {
+      note += "; no static correction on the general path";
+    }
+    if (result.V.cols() < order) {
+      note += fmt::format("; order {} requested, {} delivered", order, result.V.cols());
+    }
+    result.note = note;
+    return result;
+  }
+
+  Options m_options;
+  const Model* m_model = nullptr;
+  ShiftedSolver* m_solver = nullptr;
+  Band m_band;
+  std::optional<Ranking> m_ranking;
+  Index m_n = 0;
+  double m_asymmetry = 0.0;
+  std::string m_path;
+  // Declared before the engines that hold factorisations from it (destroyed after them).
+  std::unique_ptr<Model> m_symmetrised;
+  std::unique_ptr<ShiftedSolver> m_own_solver;
+  SparseMatrix m_negA;
+  std::optional<SymmetricSlicer> m_slicer;
+  std::optional<GeneralModes> m_general;
+  std::optional<Matrix> m_static;
+  Index m_static_rank = 0;
+  double m_static_shift = 0.0;
+};
+
+ReducerInfo modal_info() {
+  ReducerInfo info;
+  info.name = kName;
+  info.description =
+      "modal truncation: eigenmodes nearest the band by shift-invert ARPACK in slices, rigid-body "
+      "modes first, optional static correction";
+  info.version = "0.1.0";
+  info.second_order = true;
+  info.descriptor = true;
+  info.uses_expansion_points = false;
+  info.parameters = {
+      {"static_correction", "bool", "true",
+       "append the M-orthogonalised static response K^-1 B (shifted for singular K); counted in "
+       "the order"},
+      {"batch_size", "int", "20", "eigenpairs per ARPACK run (slice), >= 1"},
+      {"tolerance", "double", "0", "ARPACK relative accuracy of the Ritz values, 0 = machine precision, in [0, 1e-2]"},
+      {"band_margin", "double", "10",
+       "modes within [f_min / margin, f_max * margin] rank by log distance to the band, beyond by "
+       "ascending frequency; >= 1"},
+      {"max_iterations", "int", "1000", "ARPACK implicit restarts per run, >= 1"},
+      {"symmetry_tolerance", "double", "1e-6",
+       "relative asymmetry of K up to which the symmetric part is used; above, the general "
+       "eigensolver; in [0, 1]"},
+      {"rigid_tolerance", "double", "1e-8",
+       "|lambda| <= rigid_tolerance * max_i K_ii / M_ii marks a rigid-body mode; in [0, 1e-2]"},
+      {"seed", "int", "1", "seed of ARPACK's start vectors (reproducible runs), >= 1"},
+  };
+  return info;
+}
+
+std::unique_ptr<Reducer> create_modal(const ParameterMap& params) {
+  Options o;
+  o.static_correction = params.get_bool("static_correction", o.static_correction);
+  o.batch_size = params.get_int("batch_size", o.batch_size, 1, 100000);
+  o.tolerance = params.get_double("tolerance", o.tolerance, 0.0, 1e-2);
+  o.band_margin = params.get_double("band_margin", o.band_margin, 1.0);
+  o.max_iterations = params.get_int("max_iterations", o.max_iterations, 1);
+  o.symmetry_tolerance = params.get_double("symmetry_tolerance", o.symmetry_tolerance, 0.0, 1.0);
+  o.rigid_tolerance = params.get_double("rigid_tolerance", o.rigid_tolerance, 0.0, 1e-2);
+  o.seed = params.get_int("seed", o.seed, 1);
+  return std::make_unique<ModalReducer>(o);
+}
+
+void register_reducers(Registry& registry) { registry.add({modal_info(), create_modal}); }
+
+}  // namespace
+}  // namespace ecmor::modal
+
+ECMOR_PLUGIN(ecmor::modal::register_reducers)

@@ -1,1 +1,230 @@
-#include "ecmor/strategies/strategy.hpp"
+#include "grow_order.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "ecmor/error.hpp"
+#include "ecmor/frequency_response.hpp"
+
+namespace ecmor {
+
+GrowOrderOptions GrowOrderOptions::from(const ParameterMap& p) {
+  GrowOrderOptions o;
+  o.initial_order = p.get_int("initial_order", o.initial_order, 1);
+  o.growth_factor = p.get_double("growth_factor", o.growth_factor, 1.0, 100.0);
+  o.order_step = p.get_int("order_step", o.order_step, 1);
+  o.max_order = p.get_int("max_order", o.max_order, 1);
+  o.max_iterations = p.get_int("max_iterations", o.max_iterations, 1);
+  o.shrink = p.get_bool("shrink", o.shrink);
+  o.stagnation_window = p.get_int("stagnation_window", o.stagnation_window, 0);
+  o.stagnation_ratio = p.get_double("stagnation_ratio", o.stagnation_ratio, 0.0, 1.0);
+  o.validate();
+  return o;
+}
+
+void GrowOrderOptions::validate() const {
+  if (max_order < initial_order) {
+    throw ConfigError("strategy 'grow_order': max_order = " + std::to_string(max_order) +
+                      ": must be >= initial_order = " + std::to_string(initial_order));
+  }
+}
+
+namespace {
+
+std::string sci(double v) {
+  std::ostringstream os;
+  os.precision(3);
+  os << std::scientific << v;
+  return os.str();
+}
+
+bool is_stable(const ReducedModel& model) {
+  const ComplexVector p = poles(model);
+  for (Index i = 0; i < p.size(); ++i) {
+    if (!(p(i).real() < 0.0)) return false;
+  }
+  return true;
+}
+
+// One evaluated order.
+struct Candidate {
+  ReducerResult result;
+  BandError error;
+  bool passed = false;  // meets the tolerance on the estimator's sampling and on the re-check
+};
+
+}  // namespace
+
+StrategyResult GrowOrder::run(StrategyContext& ctx) {
+  StrategyResult out;
+  Reducer& reducer = *ctx.reducer;
+  BandErrorEstimator& estimator = *ctx.estimator;
+  const Index step = std::max<Index>(m_options.order_step, reducer.order_step());
+  const Index max_order = std::min(m_options.max_order, reducer.max_order());
+  Index iteration = 0;
+  auto last_time = std::chrono::steady_clock::now();
+
+  std::optional<Candidate> smallest_pass;  // smallest order that passed
+  std::optional<Candidate> most_accurate;  // lowest error seen (reported when nothing passes)
+  bool stop = false;
+
+  auto record = [&](const std::string& phase, const ReducerResult& r, const BandError& e,
+                    bool meets) {
+    IterationRecord rec;
+    rec.iteration = ++iteration;
+    rec.phase = phase;
+    rec.order = r.V.cols();
+    rec.points = r.points;
+    rec.band_error = e.sup_relative;
+    rec.f_peak_hz = e.f_peak_hz;
+    rec.meets_tolerance = meets;
+    rec.stable = is_stable(r.model);
+    const auto now = std::chrono::steady_clock::now();
+    rec.seconds = std::chrono::duration<double>(now - ctx.start).count();
+    rec.step_seconds = std::chrono::duration<double>(now - last_time).count();
+    last_time = now;
+    if (ctx.counters) rec.counters = ctx.counters();
+    if (ctx.full_evaluations) rec.full_evaluations = ctx.full_evaluations();
+    rec.sampling = e.sampling();
+    rec.note = r.note;
+    rec.diagnostics = r.diagnostics;
+    out.history.push_back(rec);
+    if (ctx.on_iteration && !ctx.on_iteration(rec)) stop = true;
+  };
+
+  // Estimate the error of a reduced model and re-check a pass on the independent grid.
+  auto assess = [&](ReducerResult result, const std::string& phase) -> Candidate {
+    Candidate c;
+    c.result = std::move(result);
+    c.error = estimator.evaluate(c.result.model);
+    bool meets = c.error.sup_relative <= ctx.tolerance;
+    record(phase, c.result, c.error, meets);
+    if (meets && !stop) {
+      // "Converged" must hold on a denser grid that shares no frequency with the estimator's.
+      BandError check = estimator.verify(c.result.model, ctx.verify_factor);
+      const bool verified = check.sup_relative <= ctx.tolerance;
+      record("verify", c.result, check, verified);
+      // Report the larger of the two estimates of the supremum.
+      if (check.sup_relative > c.error.sup_relative) c.error = check;
+      meets = verified;
+    }
+    c.passed = meets;
+    if (!most_accurate || c.error.sup_relative < most_accurate->error.sup_relative) {
+      most_accurate = c;
+    }
+    if (c.passed && (!smallest_pass || c.result.V.cols() < smallest_pass->result.V.cols())) {
+      smallest_pass = c;
+    }
+    return c;
+  };
+  auto try_order = [&](Index order, const std::string& phase) -> Candidate {
+    return assess(reducer.reduce(ReductionRequest{order, {}}), phase);
+  };
+
+  auto finish = [&](Termination t, std::string message) {
+    out.termination = t;
+    out.message = std::move(message);
+    const std::optional<Candidate>& chosen = smallest_pass ? smallest_pass : most_accurate;
+    if (chosen) {
+      out.best = chosen->result;
+      out.best_error = chosen->error;
+    }
+    return out;
+  };
+
+  try {
+    // Phase 1: grow until a verified pass.
+    Index order = std::min(m_options.initial_order, max_order);
+    Index last_fail = 0;          // largest order known to fail
+    Index previous_delivered = -1;
+    std::vector<double> best_trace;  // best error after each growth step
+    while (true) {
+      if (iteration >= m_options.max_iterations) {
+        return finish(Termination::MaxOrderReached,
+                      "iteration budget " + std::to_string(m_options.max_iterations) +
+                          " used up before the tolerance was met");
+      }
+      auto next_order = [&](Index n) {
+        Index next = std::max<Index>(
+            n + step, static_cast<Index>(std::ceil(m_options.growth_factor * static_cast<double>(n))));
+        next = ((next + step - 1) / step) * step;
+        return std::min(next, max_order);
+      };
+      ReducerResult reduced = reducer.reduce(ReductionRequest{order, {}});
+      const Index delivered = reduced.V.cols();
+      if (delivered == previous_delivered) {
+        // The reducer cannot deliver a larger model at this request (e.g. it adds modes in
+        // complex-conjugate pairs, or deflated a direction): the same model again would only repeat
+        // the last evaluation, so ask for more until the order budget is reached.
+        if (order >= max_order) {
+          return finish(Termination::ReducerExhausted,
+                        "the reducer delivers at most order " + std::to_string(delivered) +
+                            " (requested " + std::to_string(order) + "); band error " +
+                            sci(most_accurate->error.sup_relative) + " > tolerance " +
+                            sci(ctx.tolerance));
+        }
+        order = next_order(order);
+        continue;
+      }
+      const Candidate c = assess(std::move(reduced), "grow");
+      if (stop) return finish(Termination::Interrupted, "stopped by request at order " +
+                                                            std::to_string(c.result.V.cols()));
+      if (c.passed) break;
+      last_fail = std::max(last_fail, delivered);
+      best_trace.push_back(most_accurate->error.sup_relative);
+      previous_delivered = delivered;
+      const Index w = m_options.stagnation_window;
+      if (w > 0 && static_cast<Index>(best_trace.size()) > w) {
+        const double then = best_trace[best_trace.size() - 1 - static_cast<std::size_t>(w)];
+        if (best_trace.back() > m_options.stagnation_ratio * then) {
+          return finish(Termination::Stagnated,
+                        "band error stagnated at " + sci(best_trace.back()) + " over the last " +
+                            std::to_string(w) + " growth steps (order " +
+                            std::to_string(delivered) + "); tolerance " + sci(ctx.tolerance));
+        }
+      }
+      if (delivered >= max_order) {
+        if (reducer.max_order() <= m_options.max_order) {
+          return finish(Termination::ReducerExhausted,
+                        "the reducer delivers at most order " + std::to_string(delivered) +
+                            "; band error " + sci(most_accurate->error.sup_relative) +
+                            " > tolerance " + sci(ctx.tolerance));
+        }
+        return finish(Termination::MaxOrderReached,
+                      "order budget " + std::to_string(max_order) + " reached: band error " +
+                          sci(most_accurate->error.sup_relative) + " > tolerance " +
+                          sci(ctx.tolerance));
+      }
+      order = next_order(order);
+    }
+
+    // Phase 2: bisect between the largest failing and the smallest passing order. The band error
+    // of nested bases is not guaranteed monotone in the order, so this finds the smallest passing
+    // order under the assumption that it is monotone between the two (documented).
+    if (m_options.shrink) {
+      Index lo = last_fail;                       // fails (or 0)
+      Index hi = smallest_pass->result.V.cols();  // passes
+      while (hi - lo > step && iteration < m_options.max_iterations) {
+        Index mid = lo + ((hi - lo) / (2 * step)) * step;
+        if (mid <= lo) mid = lo + step;
+        if (mid >= hi) break;
+        const Candidate c = try_order(mid, "shrink");
+        if (stop) break;
+        const Index delivered = c.result.V.cols();
+        if (c.passed) hi = std::min(hi, delivered);
+        else lo = std::max(lo, std::max(mid, delivered));
+        if (delivered != mid && !c.passed) break;  // the reducer cannot hit orders in between
+      }
+    }
+    return finish(Termination::Converged,
+                  "band error " + sci(smallest_pass->error.sup_relative) + " <= tolerance " +
+                      sci(ctx.tolerance) + " at order " +
+                      std::to_string(smallest_pass->result.V.cols()) + " (verified on a " +
+                      std::to_string(ctx.verify_factor) + "x denser independent grid)");
+  } catch (const Error& e) {
+    return finish(Termination::Failed, std::string("reduction failed: ") + e.what());
+  }
+}
+
+}  // namespace ecmor

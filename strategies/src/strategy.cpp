@@ -1,1 +1,35 @@
 #include "ecmor/strategies/strategy.hpp"
+
+#include "ecmor/error.hpp"
+#include "grow_order.hpp"
+
+namespace ecmor {
+
+Strategy::~Strategy() = default;
+
+std::string to_string(Termination t) {
+  switch (t) {
+    case Termination::Converged: return "converged";
+    case Termination::MaxOrderReached: return "max_order_reached";
+    case Termination::ReducerExhausted: return "reducer_exhausted";
+    case Termination::Stagnated: return "stagnated";
+    case Termination::Interrupted: return "interrupted";
+    case Termination::Failed: return "failed";
+  }
+  return "unknown";
+}
+
+std::vector<std::string> strategy_names() { return {"grow_order"}; }
+
+std::unique_ptr<Strategy> make_strategy(const std::string& name, const ParameterMap& params) {
+  std::unique_ptr<Strategy> s;
+  if (name == "grow_order") {
+    s = std::make_unique<GrowOrder>(GrowOrderOptions::from(params));
+  } else {
+    throw ConfigError("unknown strategy '" + name + "'" + suggestion(name, strategy_names()));
+  }
+  params.check_unused();
+  return s;
+}
+
+}  // namespace ecmor

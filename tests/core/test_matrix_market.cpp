@@ -1,1 +1,610 @@
+// Tests of the Matrix Market reader/writer and of atomic file output.
 #include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "ecmor/atomic_file.hpp"
+#include "ecmor/error.hpp"
+#include "ecmor/matrix_market.hpp"
+
+namespace fs = std::filesystem;
+using namespace ecmor;
+
+namespace {
+
+/// A fresh directory under the system temp dir, removed at the end of the test.
+class TempDir {
+ public:
+  TempDir() {
+    static std::atomic<int> counter{0};
+    const auto stamp = std::chrono::steady_clock::now().time_since_epoch().count();
+    path_ = fs::temp_directory_path() / ("ecmor_test_mm_" + std::to_string(::getpid()) + "_" +
+                                         std::to_string(counter++) + "_" + std::to_string(stamp));
+    fs::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::permissions(path_, fs::perms::owner_all, fs::perm_options::add, ec);
+    fs::remove_all(path_, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const fs::path& path() const { return path_; }
+  fs::path operator/(const std::string& name) const { return path_ / name; }
+
+ private:
+  fs::path path_;
+};
+
+void write_raw(const fs::path& p, const std::string& contents) {
+  std::ofstream out(p, std::ios::binary);
+  out << contents;
+  ASSERT_TRUE(out.good());
+}
+
+std::string read_raw(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// Writes `contents` to a file called `name` in `dir` and expects the reader to fail with an
+/// InputError whose message holds the file path, "line <line>" and `rule`.
+void expect_error(const TempDir& dir, const std::string& name, const std::string& contents,
+                  int line, const std::string& rule, bool dense = false) {
+  SCOPED_TRACE("file " + name);
+  const fs::path p = dir / name;
+  write_raw(p, contents);
+  try {
+    if (dense)
+      (void)read_matrix_market_dense(p);
+    else
+      (void)read_matrix_market_sparse(p);
+    ADD_FAILURE() << "no InputError for " << name;
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find(p.string()), std::string::npos) << msg;
+    EXPECT_NE(msg.find("line " + std::to_string(line) + ":"), std::string::npos) << msg;
+    EXPECT_NE(msg.find(rule), std::string::npos) << msg;
+  }
+}
+
+Matrix to_dense(const SparseMatrix& A) { return Matrix(A); }
+
+bool bitwise_equal(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+const std::string kGeneral = "%%MatrixMarket matrix coordinate real general\n";
+const std::string kSymmetric = "%%MatrixMarket matrix coordinate real symmetric\n";
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Reading valid files
+// ---------------------------------------------------------------------------------------------
+
+TEST(MatrixMarketRead, CoordinateGeneralWithCommentsBlankLinesAndCrlf) {
+  TempDir dir;
+  const fs::path p = dir / "A.mtx";
+  write_raw(p,
+            "%%MatrixMarket matrix coordinate real general\r\n"
+            "% a comment\r\n"
+            "\r\n"
+            "%another comment\r\n"
+            "  3 4 4  \r\n"
+            "1 1 1.5\r\n"
+            "\r\n"
+            "% comment between entries\r\n"
+            "3\t4\t-2e3\r\n"
+            "2 1 +7\r\n"
+            "  1 3 .25\r\n"
+            "\r\n");
+  const SparseMatrix A = read_matrix_market_sparse(p);
+  ASSERT_EQ(A.rows(), 3);
+  ASSERT_EQ(A.cols(), 4);
+  EXPECT_EQ(A.nonZeros(), 4);
+  EXPECT_TRUE(A.isCompressed());
+  Matrix expected = Matrix::Zero(3, 4);
+  expected(0, 0) = 1.5;
+  expected(2, 3) = -2000.0;
+  expected(1, 0) = 7.0;
+  expected(0, 2) = 0.25;
+  EXPECT_EQ(to_dense(A), expected);
+  EXPECT_EQ(read_matrix_market_dense(p), expected);
+
+  const MatrixMarketHeader h = read_matrix_market_header(p);
+  EXPECT_EQ(h.format, "coordinate");
+  EXPECT_EQ(h.field, "real");
+  EXPECT_EQ(h.symmetry, "general");
+  EXPECT_EQ(h.rows, 3);
+  EXPECT_EQ(h.cols, 4);
+  EXPECT_EQ(h.entries, 4);
+}
+
+TEST(MatrixMarketRead, NoNewlineAtEndAndCaseInsensitiveBanner) {
+  TempDir dir;
+  const fs::path p = dir / "A.mtx";
+  write_raw(p, "%%MatrixMarket MATRIX Coordinate Real General\n2 2 1\n2 2 3.0");
+  const SparseMatrix A = read_matrix_market_sparse(p);
+  EXPECT_EQ(A.coeff(1, 1), 3.0);
+  EXPECT_EQ(A.nonZeros(), 1);
+}
+
+TEST(MatrixMarketRead, SymmetricStorageIsExpanded) {
+  TempDir dir;
+  const fs::path p = dir / "S.mtx";
+  write_raw(p, kSymmetric + "3 3 4\n1 1 2\n2 1 -1\n3 2 -1\n3 3 2\n");
+  const SparseMatrix A = read_matrix_market_sparse(p);
+  Matrix expected(3, 3);
+  expected << 2, -1, 0, -1, 0, -1, 0, -1, 2;
+  EXPECT_EQ(to_dense(A), expected);
+  EXPECT_EQ(A.nonZeros(), 6);
+  EXPECT_EQ(read_matrix_market_dense(p), expected);
+  EXPECT_EQ(read_matrix_market_header(p).symmetry, "symmetric");
+}
+
+TEST(MatrixMarketRead, SkewSymmetricStorageIsExpanded) {
+  TempDir dir;
+  const fs::path p = dir / "S.mtx";
+  write_raw(p, "%%MatrixMarket matrix coordinate real skew-symmetric\n3 3 2\n2 1 5\n3 1 -4\n");
+  Matrix expected(3, 3);
+  expected << 0, -5, 4, 5, 0, 0, -4, 0, 0;
+  EXPECT_EQ(to_dense(read_matrix_market_sparse(p)), expected);
+  EXPECT_EQ(read_matrix_market_dense(p), expected);
+}
+
+TEST(MatrixMarketRead, PatternAndIntegerFields) {
+  TempDir dir;
+  const fs::path p = dir / "P.mtx";
+  write_raw(p, "%%MatrixMarket matrix coordinate pattern symmetric\n2 2 2\n1 1\n2 1\n");
+  Matrix expected(2, 2);
+  expected << 1, 1, 1, 0;
+  EXPECT_EQ(to_dense(read_matrix_market_sparse(p)), expected);
+  EXPECT_EQ(read_matrix_market_header(p).field, "pattern");
+
+  const fs::path q = dir / "I.mtx";
+  write_raw(q, "%%MatrixMarket matrix coordinate integer general\n2 2 2\n1 2 -7\n2 1 +12\n");
+  Matrix expected_int(2, 2);
+  expected_int << 0, -7, 12, 0;
+  EXPECT_EQ(to_dense(read_matrix_market_sparse(q)), expected_int);
+  EXPECT_EQ(read_matrix_market_header(q).field, "integer");
+}
+
+TEST(MatrixMarketRead, ArrayFormats) {
+  TempDir dir;
+  const fs::path g = dir / "G.mtx";
+  // Column-major: (1,1) (2,1) (1,2) (2,2) (1,3) (2,3)
+  write_raw(g, "%%MatrixMarket matrix array real general\n% c\n2 3\n1\n2\n3\n4\n5\n6\n");
+  Matrix expected(2, 3);
+  expected << 1, 3, 5, 2, 4, 6;
+  EXPECT_EQ(read_matrix_market_dense(g), expected);
+  EXPECT_EQ(to_dense(read_matrix_market_sparse(g)), expected);
+  const MatrixMarketHeader h = read_matrix_market_header(g);
+  EXPECT_EQ(h.format, "array");
+  EXPECT_EQ(h.entries, 6);
+
+  const fs::path s = dir / "S.mtx";
+  // Lower triangle, column-major: (1,1) (2,1) (3,1) (2,2) (3,2) (3,3)
+  write_raw(s, "%%MatrixMarket matrix array real symmetric\n3 3\n1\n2\n3\n4\n5\n6\n");
+  Matrix sym(3, 3);
+  sym << 1, 2, 3, 2, 4, 5, 3, 5, 6;
+  EXPECT_EQ(read_matrix_market_dense(s), sym);
+  EXPECT_EQ(read_matrix_market_header(s).entries, 6);
+
+  const fs::path k = dir / "K.mtx";
+  // Strict lower triangle: (2,1) (3,1) (3,2)
+  write_raw(k, "%%MatrixMarket matrix array integer skew-symmetric\n3 3\n1\n2\n3\n");
+  Matrix skew(3, 3);
+  skew << 0, -1, -2, 1, 0, -3, 2, 3, 0;
+  EXPECT_EQ(read_matrix_market_dense(k), skew);
+  EXPECT_EQ(read_matrix_market_header(k).entries, 3);
+}
+
+TEST(MatrixMarketRead, DuplicatesAreSummed) {
+  TempDir dir;
+  const fs::path p = dir / "D.mtx";
+  write_raw(p, kGeneral + "2 2 3\n1 1 1\n1 1 2.5\n2 2 1\n");
+  EXPECT_EQ(read_matrix_market_sparse(p).coeff(0, 0), 3.5);
+  EXPECT_EQ(read_matrix_market_dense(p)(0, 0), 3.5);
+}
+
+TEST(MatrixMarketRead, EmptyMatrices) {
+  TempDir dir;
+  const fs::path p = dir / "Z.mtx";
+  write_raw(p, kGeneral + "1 24 0\n");
+  EXPECT_EQ(read_matrix_market_dense(p), Matrix::Zero(1, 24));
+  const SparseMatrix A = read_matrix_market_sparse(p);
+  EXPECT_EQ(A.rows(), 1);
+  EXPECT_EQ(A.cols(), 24);
+  EXPECT_EQ(A.nonZeros(), 0);
+
+  const fs::path q = dir / "E.mtx";
+  write_raw(q, "%%MatrixMarket matrix array real general\n0 3\n");
+  EXPECT_EQ(read_matrix_market_dense(q).cols(), 3);
+  EXPECT_EQ(read_matrix_market_dense(q).rows(), 0);
+}
+
+TEST(MatrixMarketRead, SubnormalAndUnderflowingValues) {
+  TempDir dir;
+  const fs::path p = dir / "U.mtx";
+  write_raw(p, kGeneral + "2 1 2\n1 1 4.9406564584124654e-324\n2 1 -1e-400\n");
+  const Matrix A = read_matrix_market_dense(p);
+  EXPECT_EQ(A(0, 0), std::numeric_limits<double>::denorm_min());
+  EXPECT_EQ(A(1, 0), 0.0);  // underflows to (negative) zero: accepted
+}
+
+TEST(MatrixMarketRead, SharedModelFileIsReadQuickly) {
+  const fs::path p = fs::path(ECMOR_TEST_SOURCE_DIR) / "../shared/models/rail_20209/A.mtx";
+  ASSERT_TRUE(fs::exists(p)) << p;
+  const auto t0 = std::chrono::steady_clock::now();
+  const SparseMatrix A = read_matrix_market_sparse(p);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_EQ(A.rows(), 20209);
+  EXPECT_EQ(A.cols(), 20209);
+  EXPECT_EQ(A.nonZeros(), 139233);
+#ifdef NDEBUG
+  EXPECT_LT(seconds, 1.0) << "parsing a 4.7 MB file took " << seconds << " s";
+#else
+  EXPECT_LT(seconds, 10.0) << "parsing a 4.7 MB file took " << seconds << " s";
+#endif
+}
+
+// ---------------------------------------------------------------------------------------------
+// Malformed files: each error names the file, the line and the rule
+// ---------------------------------------------------------------------------------------------
+
+TEST(MatrixMarketErrors, MissingFile) {
+  TempDir dir;
+  const fs::path p = dir / "nothere.mtx";
+  try {
+    (void)read_matrix_market_sparse(p);
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(p.string()), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("does not exist"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW((void)read_matrix_market_header(p), InputError);
+  EXPECT_THROW((void)read_matrix_market_dense(dir.path()), InputError);  // a directory
+}
+
+TEST(MatrixMarketErrors, Banner) {
+  TempDir dir;
+  expect_error(dir, "empty.mtx", "", 1, "empty");
+  expect_error(dir, "blank.mtx", "\n3 3 0\n", 1, "missing Matrix Market banner");
+  expect_error(dir, "nobanner.mtx", "3 3 1\n1 1 1\n", 1, "missing Matrix Market banner");
+  expect_error(dir, "comment.mtx", "% just a comment\n3 3 0\n", 1, "missing Matrix Market banner");
+  expect_error(dir, "short.mtx", "%%MatrixMarket matrix coordinate real\n1 1 0\n", 1,
+               "bad Matrix Market banner");
+  expect_error(dir, "glued.mtx", "%%MatrixMarketmatrix coordinate real general\n1 1 0\n", 1,
+               "bad Matrix Market banner");
+  expect_error(dir, "vector.mtx", "%%MatrixMarket vector coordinate real general\n1 1 0\n", 1,
+               "object 'vector' is not supported");
+  expect_error(dir, "format.mtx", "%%MatrixMarket matrix sparse real general\n1 1 0\n", 1,
+               "unknown format 'sparse'");
+  expect_error(dir, "field.mtx", "%%MatrixMarket matrix coordinate float general\n1 1 0\n", 1,
+               "unknown field 'float'");
+  expect_error(dir, "sym.mtx", "%%MatrixMarket matrix coordinate real upper\n1 1 0\n", 1,
+               "unknown symmetry 'upper'");
+  expect_error(dir, "patarray.mtx", "%%MatrixMarket matrix array pattern general\n1 1\n", 1,
+               "'pattern' is only allowed with the 'coordinate' format");
+}
+
+TEST(MatrixMarketErrors, UnsupportedComplexAndHermitianSaidPlainly) {
+  TempDir dir;
+  expect_error(dir, "complex.mtx",
+               "%%MatrixMarket matrix coordinate complex general\n1 1 1\n1 1 1 2\n", 1,
+               "field 'complex' is not supported");
+  expect_error(dir, "herm.mtx", "%%MatrixMarket matrix coordinate real hermitian\n1 1 1\n1 1 1\n",
+               1, "symmetry 'hermitian' is not supported");
+}
+
+TEST(MatrixMarketErrors, SizeLine) {
+  TempDir dir;
+  expect_error(dir, "nosize.mtx", kGeneral + "% only comments\n\n", 3,
+               "the file ends before the size line");
+  expect_error(dir, "twotok.mtx", kGeneral + "% c\n3 3\n", 3, "bad size line '3 3'");
+  expect_error(dir, "fourtok.mtx", kGeneral + "3 3 1 1\n1 1 1\n", 2, "bad size line");
+  expect_error(dir, "arraythree.mtx",
+               "%%MatrixMarket matrix array real general\n2 2 4\n1\n2\n3\n4\n", 2, "bad size line");
+  expect_error(dir, "word.mtx", kGeneral + "3 x 3\n", 2, "bad column count 'x'");
+  expect_error(dir, "frac.mtx", kGeneral + "3 3 1.5\n1 1 1\n", 2, "bad entry count '1.5'");
+  expect_error(dir, "neg.mtx", kGeneral + "-3 3 1\n1 1 1\n", 2, "negative row count '-3'");
+  expect_error(dir, "negc.mtx", kGeneral + "3 -3 1\n1 1 1\n", 2, "negative column count '-3'");
+  expect_error(dir, "negn.mtx", kGeneral + "3 3 -1\n", 2, "negative entry count '-1'");
+  expect_error(dir, "huge.mtx", kGeneral + "99999999999999999999 3 1\n1 1 1\n", 2, "too large");
+  expect_error(dir, "nonsq.mtx", kSymmetric + "3 4 1\n1 1 1\n", 2, "must be square");
+}
+
+TEST(MatrixMarketErrors, SizeLinePromisesTooMuch) {
+  TempDir dir;
+  expect_error(dir, "toomany.mtx", kGeneral + "2 2 5\n1 1 1\n", 2,
+               "promises 5 entries, more than a 2 x 2 matrix can hold (4)");
+  expect_error(dir, "symtoomany.mtx", kSymmetric + "2 2 4\n1 1 1\n", 2,
+               "promises 4 entries, more than a 2 x 2 symmetric matrix's stored triangle can "
+               "hold (3)");
+  // A hostile header: the promised entry count is checked against the file size before any
+  // allocation happens (1e12 entries would need terabytes); the file is then reported as
+  // truncated where it ends.
+  expect_error(dir, "hostile.mtx", kGeneral + "1000000 1000000 1000000000000\n1 1 1\n", 3,
+               "expected 1000000000000 entries, file ends after 1 at line 3 (the size line at "
+               "line 2 promises more entries than the 6 bytes after it can hold)");
+  expect_error(dir, "hostile_array.mtx",
+               "%%MatrixMarket matrix array real general\n30000000 30000000\n1\n", 3,
+               "expected 900000000000000 entries, file ends after 1 at line 3", /*dense=*/true);
+  expect_error(dir, "hostile_garbage.mtx", kGeneral + "1000000 1000000 1000000\n1 1 x\n", 3,
+               "cannot parse 'x'", /*dense=*/true);
+  try {
+    (void)read_matrix_market_header(dir / "hostile.mtx");
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("file ends after 1 at line 3"), std::string::npos);
+  }
+  expect_error(dir, "hostile_dims.mtx", kGeneral + "4000000000 4000000000 0\n", 2,
+               "exceeds the supported dimension");
+  // Few entries but a huge dense shape: refused by the dense reader, fine for the sparse one.
+  expect_error(dir, "hostile_dense.mtx", kGeneral + "100000 100000 1\n1 1 1\n", 2,
+               "too large to read", /*dense=*/true);
+  EXPECT_EQ(read_matrix_market_sparse(dir / "hostile_dense.mtx").nonZeros(), 1);
+}
+
+TEST(MatrixMarketErrors, TruncatedData) {
+  TempDir dir;
+  std::string s = kGeneral + "120 1 120\n";                           // line 2
+  for (int k = 1; k <= 97; ++k) s += std::to_string(k) + " 1 1.5\n";  // lines 3..99
+  expect_error(dir, "trunc.mtx", s, 99, "expected 120 entries, file ends after 97 at line 99");
+  expect_error(dir, "trunc_array.mtx",
+               "%%MatrixMarket matrix array real general\n2 2\n1.0\n2.0\n3.0\n", 5,
+               "expected 4 entries, file ends after 3 at line 5");
+}
+
+TEST(MatrixMarketErrors, IndicesOutOfRange) {
+  TempDir dir;
+  expect_error(dir, "row.mtx", kGeneral + "3 3 2\n1 1 1\n4 1 1\n", 4,
+               "row index '4' is out of range 1..3");
+  expect_error(dir, "col.mtx", kGeneral + "3 2 2\n1 1 1\n% c\n1 3 1\n", 5,
+               "column index '3' is out of range 1..2");
+  expect_error(dir, "zero.mtx", kGeneral + "3 3 1\n0 1 1\n", 3,
+               "row index '0' is out of range 1..3");
+  expect_error(dir, "negidx.mtx", kGeneral + "3 3 1\n1 -2 1\n", 3,
+               "column index '-2' is out of range");
+  expect_error(dir, "fracidx.mtx", kGeneral + "3 3 1\n1.0 1 1\n", 3,
+               "bad row index '1.0': expected an integer");
+}
+
+TEST(MatrixMarketErrors, BadNumbers) {
+  TempDir dir;
+  expect_error(dir, "abc.mtx", kGeneral + "2 2 1\n1 1 abc\n", 3,
+               "cannot parse 'abc' as a real number");
+  expect_error(dir, "dots.mtx", kGeneral + "2 2 1\n1 1 1.2.3\n", 3, "cannot parse '1.2.3'");
+  expect_error(dir, "fortran.mtx", kGeneral + "2 2 1\n1 1 1.0D+00\n", 3, "cannot parse '1.0D+00'");
+  expect_error(dir, "nan.mtx", kGeneral + "2 2 2\n1 1 1\n2 2 NaN\n", 4,
+               "value 'NaN' is not finite");
+  expect_error(dir, "inf.mtx", kGeneral + "2 2 1\n1 1 -inf\n", 3, "value '-inf' is not finite");
+  expect_error(dir, "overflow.mtx", kGeneral + "2 2 1\n1 1 1e400\n", 3,
+               "value '1e400' overflows double precision");
+  expect_error(dir, "intfield.mtx",
+               "%%MatrixMarket matrix coordinate integer general\n2 2 1\n1 1 1.5\n", 3,
+               "bad value '1.5': the field is 'integer'");
+  expect_error(dir, "nan_array.mtx", "%%MatrixMarket matrix array real general\n2 1\n1\nnan\n", 4,
+               "not finite", /*dense=*/true);
+}
+
+TEST(MatrixMarketErrors, ExtraTokensAndGarbage) {
+  TempDir dir;
+  expect_error(dir, "extra.mtx", kGeneral + "2 2 1\n1 1 1 7\n", 3, "extra tokens in entry");
+  expect_error(dir, "few.mtx", kGeneral + "2 2 1\n1 1\n", 3, "too few tokens in entry");
+  expect_error(dir, "pattern_extra.mtx",
+               "%%MatrixMarket matrix coordinate pattern general\n2 2 1\n1 1 1\n", 3,
+               "extra tokens");
+  expect_error(dir, "garbage.mtx", kGeneral + "2 2 1\n1 1 1\n\n2 2 5\n", 5,
+               "unexpected data '2 2 5' after the 1 entry the size line promised");
+  expect_error(dir, "garbage2.mtx", kGeneral + "2 2 1\n1 1 1\nthe end\n", 4, "unexpected data");
+  expect_error(dir, "array_two.mtx", "%%MatrixMarket matrix array real general\n2 1\n1 2\n", 3,
+               "one value per line");
+}
+
+TEST(MatrixMarketErrors, SymmetricUpperTriangleEntry) {
+  TempDir dir;
+  expect_error(dir, "upper.mtx", kSymmetric + "3 3 2\n1 1 1\n1 2 5\n", 4,
+               "entry (1, 2) is above the diagonal: a symmetric file stores only the lower "
+               "triangle");
+  expect_error(dir, "skewdiag.mtx",
+               "%%MatrixMarket matrix coordinate real skew-symmetric\n2 2 1\n1 1 5\n", 3,
+               "is on the diagonal");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Writing and round trips
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+const std::vector<double> kAwkwardValues = {1.0 / 3.0,
+                                            -2.0 / 7.0,
+                                            1e-300,
+                                            std::numeric_limits<double>::denorm_min(),
+                                            std::numeric_limits<double>::max(),
+                                            -std::numeric_limits<double>::min(),
+                                            0.1,
+                                            -0.0,
+                                            123456789.123456789,
+                                            6.02214076e23};
+}
+
+TEST(MatrixMarketWrite, SparseRoundTripIsBitwise) {
+  TempDir dir;
+  std::mt19937 rng(42);
+  std::uniform_int_distribution<int> row(0, 49), col(0, 29);
+  std::normal_distribution<double> val(0.0, 1e3);
+  std::vector<Eigen::Triplet<double, int>> t;
+  for (int k = 0; k < 300; ++k) t.emplace_back(row(rng), col(rng), val(rng));
+  for (std::size_t k = 0; k < kAwkwardValues.size(); ++k)
+    t.emplace_back(static_cast<int>(k), 29, kAwkwardValues[k]);
+  SparseMatrix A(50, 30);
+  A.setFromTriplets(t.begin(), t.end());
+  A.makeCompressed();
+
+  const fs::path p = dir / "sub" / "dir" / "A.mtx";  // parent directories are created
+  write_matrix_market(p, A, "a comment\nover two lines");
+  const std::string text = read_raw(p);
+  EXPECT_EQ(text.rfind("%%MatrixMarket matrix coordinate real general\n% a comment\n% over two "
+                       "lines\n50 30 ",
+                       0),
+            0u)
+      << text.substr(0, 200);
+
+  const SparseMatrix B = read_matrix_market_sparse(p);
+  ASSERT_EQ(B.rows(), A.rows());
+  ASSERT_EQ(B.cols(), A.cols());
+  ASSERT_EQ(B.nonZeros(), A.nonZeros());
+  for (Index k = 0; k <= A.cols(); ++k) EXPECT_EQ(A.outerIndexPtr()[k], B.outerIndexPtr()[k]);
+  for (Index k = 0; k < A.nonZeros(); ++k) {
+    EXPECT_EQ(A.innerIndexPtr()[k], B.innerIndexPtr()[k]);
+    EXPECT_TRUE(bitwise_equal(A.valuePtr()[k], B.valuePtr()[k]))
+        << A.valuePtr()[k] << " vs " << B.valuePtr()[k];
+  }
+}
+
+TEST(MatrixMarketWrite, DenseRoundTripIsBitwise) {
+  TempDir dir;
+  Matrix A = Matrix::Random(7, 5) * 1e5;
+  for (std::size_t k = 0; k < kAwkwardValues.size(); ++k)
+    A(static_cast<Index>(k % 7), static_cast<Index>(k / 7)) = kAwkwardValues[k];
+  const fs::path p = dir / "A.mtx";
+  write_matrix_market(p, A);
+  EXPECT_EQ(read_raw(p).rfind("%%MatrixMarket matrix array real general\n7 5\n", 0), 0u);
+  const Matrix B = read_matrix_market_dense(p);
+  ASSERT_EQ(B.rows(), 7);
+  ASSERT_EQ(B.cols(), 5);
+  for (Index j = 0; j < 5; ++j)
+    for (Index i = 0; i < 7; ++i) EXPECT_TRUE(bitwise_equal(A(i, j), B(i, j))) << i << "," << j;
+  const MatrixMarketHeader h = read_matrix_market_header(p);
+  EXPECT_EQ(h.format, "array");
+  EXPECT_EQ(h.entries, 35);
+
+  // Degenerate shapes survive too.
+  write_matrix_market(p, Matrix(0, 3));
+  EXPECT_EQ(read_matrix_market_dense(p).cols(), 3);
+}
+
+TEST(MatrixMarketWrite, NonFiniteValueIsRefusedAndOldFileKept) {
+  TempDir dir;
+  const fs::path p = dir / "A.mtx";
+  write_matrix_market(p, Matrix(Matrix::Identity(2, 2)));
+  const std::string before = read_raw(p);
+  Matrix bad = Matrix::Identity(2, 2);
+  bad(1, 0) = std::numeric_limits<double>::quiet_NaN();
+  try {
+    write_matrix_market(p, bad);
+    ADD_FAILURE();
+  } catch (const NumericalError& e) {
+    EXPECT_NE(std::string(e.what()).find("entry (2, 1) is NaN"), std::string::npos) << e.what();
+  }
+  SparseMatrix sbad(2, 2);
+  sbad.insert(0, 1) = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(write_matrix_market(p, sbad), NumericalError);
+  EXPECT_EQ(read_raw(p), before);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Atomic files
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+std::size_t count_entries(const fs::path& dir) {
+  std::size_t n = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++n;
+  return n;
+}
+}  // namespace
+
+TEST(AtomicFile, WritesAndReplaces) {
+  TempDir dir;
+  const fs::path p = dir / "out.txt";
+  write_text_atomically(p, "first");
+  EXPECT_EQ(read_raw(p), "first");
+  write_text_atomically(p, "second, longer");
+  EXPECT_EQ(read_raw(p), "second, longer");
+  write_file_atomically(p, [](std::ostream& out) { out << "third " << 3; });
+  EXPECT_EQ(read_raw(p), "third 3");
+  EXPECT_EQ(count_entries(dir.path()), 1u);  // no temporary left behind
+}
+
+TEST(AtomicFile, FailingWriterLeavesOldFileIntact) {
+  TempDir dir;
+  const fs::path p = dir / "out.txt";
+  write_text_atomically(p, "old contents");
+  try {
+    write_file_atomically(p, [](std::ostream& out) {
+      out << "partial new contents";
+      out.flush();
+      throw std::runtime_error("disk on fire");
+    });
+    ADD_FAILURE() << "no exception";
+  } catch (const IoError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find(p.string()), std::string::npos) << msg;
+    EXPECT_NE(msg.find("disk on fire"), std::string::npos) << msg;
+  }
+  EXPECT_EQ(read_raw(p), "old contents");
+  EXPECT_EQ(count_entries(dir.path()), 1u);
+
+  // An ecmor error from the writer keeps its type.
+  EXPECT_THROW(write_file_atomically(p, [](std::ostream&) { throw InputError("bad"); }),
+               InputError);
+  EXPECT_EQ(read_raw(p), "old contents");
+  EXPECT_EQ(count_entries(dir.path()), 1u);
+}
+
+TEST(AtomicFile, FailuresNameThePath) {
+  TempDir dir;
+  // Target is an existing directory.
+  fs::create_directories(dir / "adir");
+  try {
+    write_text_atomically(dir / "adir", "x");
+    ADD_FAILURE();
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find((dir / "adir").string()), std::string::npos);
+  }
+  // A parent "directory" that is a regular file.
+  write_raw(dir / "afile", "x");
+  const fs::path under_file = dir / "afile" / "out.txt";
+  try {
+    write_text_atomically(under_file, "x");
+    ADD_FAILURE();
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find(under_file.string()), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(write_text_atomically("", "x"), IoError);
+}
+
+TEST(AtomicFile, UnwritableDirectory) {
+  if (::geteuid() == 0) GTEST_SKIP() << "permissions are not enforced for root";
+  TempDir dir;
+  const fs::path ro = dir / "ro";
+  fs::create_directories(ro);
+  write_text_atomically(ro / "keep.txt", "kept");
+  fs::permissions(ro, fs::perms::owner_read | fs::perms::owner_exec);
+  try {
+    write_text_atomically(ro / "keep.txt", "new");
+    ADD_FAILURE();
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find((ro / "keep.txt").string()), std::string::npos)
+        << e.what();
+  }
+  fs::permissions(ro, fs::perms::owner_all);
+  EXPECT_EQ(read_raw(ro / "keep.txt"), "kept");
+  EXPECT_EQ(count_entries(ro), 1u);
+}

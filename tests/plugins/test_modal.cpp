@@ -1,1 +1,448 @@
+// Tests of the "modal" reducer plugin, loaded through the registry like any plugin. References are
+// dense Eigen eigensolvers on the same (small) pencils, analytic chain spectra and the exact static
+// response C K^-1 B; bases are compared by principal angles, never by entries.
 #include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SparseCholesky>
+
+#include "ecmor/error.hpp"
+#include "ecmor/model_io.hpp"
+#include "ecmor/registry.hpp"
+#include "ecmor/shifted_solver.hpp"
+
+namespace ecmor {
+namespace {
+
+// ---- helpers ----------------------------------------------------------------------------------
+
+Registry& registry() {
+  static Registry r;
+  static bool loaded = false;
+  if (!loaded) {
+    r.load_plugin(std::filesystem::path(ECMOR_TEST_PLUGIN_DIR) / "libecmor_modal.so");
+    loaded = true;
+  }
+  return r;
+}
+
+struct Fixture {
+  Model model;
+  std::unique_ptr<ShiftedSolver> solver;
+  std::shared_ptr<Reducer> reducer;
+};
+
+// model must be stored before the solver is made (the solver references it).
+std::unique_ptr<Fixture> make(Model model, Band band, const ParameterMap& params) {
+  auto f = std::make_unique<Fixture>();
+  f->model = std::move(model);
+  f->solver = make_shifted_solver(f->model);
+  f->reducer = registry().create("modal", params);
+  ReductionContext ctx;
+  ctx.model = &f->model;
+  ctx.solver = f->solver.get();
+  ctx.band = band;
+  f->reducer->setup(ctx);
+  return f;
+}
+
+ParameterMap params(bool static_correction, int batch_size = 20) {
+  ParameterMap p("reducer 'modal'");
+  p.set("static_correction", static_correction);
+  p.set("batch_size", batch_size);
+  return p;
+}
+
+Model load(const std::string& name) { return load_model("../shared/models/" + name); }
+
+// Band in Hz from the models' suggested angular band (info.json lists rad/s).
+Band band_rad(double w_min, double w_max) { return {w_min / kTwoPi, w_max / kTwoPi}; }
+
+double largest_angle_sin(const Matrix& X, const Matrix& Y) {
+  const Matrix Qx = Eigen::HouseholderQR<Matrix>(X).householderQ() * Matrix::Identity(X.rows(), X.cols());
+  const Matrix Qy = Eigen::HouseholderQR<Matrix>(Y).householderQ() * Matrix::Identity(Y.rows(), Y.cols());
+  return Eigen::JacobiSVD<Matrix>(Matrix(Qx - Qy * (Qy.transpose() * Qx))).singularValues()(0);
+}
+
+// The ranking the plugin documents (README): rigid first, then modes within the band margin by log
+// distance to the band (ascending f on ties), then the rest by ascending f. Written from the spec.
+// Returns all indices in rank order.
+std::vector<Index> ranked_by_frequency(const std::vector<double>& f_hz, const std::vector<bool>& rigid,
+                                       const Band& band, double margin) {
+  struct K {
+    int tier;
+    double d, f;
+    Index j;
+  };
+  std::vector<K> keys;
+  for (std::size_t j = 0; j < f_hz.size(); ++j) {
+    const double f = f_hz[j];
+    const auto jj = static_cast<Index>(j);
+    if (rigid[j]) {
+      keys.push_back({0, 0, f, jj});
+    } else if (f < band.f_min_hz / margin || f > band.f_max_hz * margin) {
+      keys.push_back({2, 0, f, jj});
+    } else {
+      const double d = f < band.f_min_hz ? std::log(band.f_min_hz / f)
+                       : f > band.f_max_hz ? std::log(f / band.f_max_hz) : 0.0;
+      keys.push_back({1, d, f, jj});
+    }
+  }
+  std::stable_sort(keys.begin(), keys.end(), [](const K& a, const K& b) {
+    return std::tie(a.tier, a.d, a.f) < std::tie(b.tier, b.d, b.f);
+  });
+  std::vector<Index> out;
+  for (const K& k : keys) out.push_back(k.j);
+  return out;
+}
+
+// The first `count` modes of the symmetric pencil with eigenvalues lambda (f = sqrt(lambda)/2pi).
+std::vector<Index> expected_selection(const Vector& lambda, const Band& band, double margin,
+                                      double rigid_abs, Index count) {
+  std::vector<double> f;
+  std::vector<bool> rigid;
+  for (Index j = 0; j < lambda.size(); ++j) {
+    f.push_back(std::sqrt(std::max(lambda[j], 0.0)) / kTwoPi);
+    rigid.push_back(std::abs(lambda[j]) <= rigid_abs);
+  }
+  std::vector<Index> all = ranked_by_frequency(f, rigid, band, margin);
+  all.resize(static_cast<std::size_t>(count));
+  return all;
+}
+
+// Checks that V holds M-orthonormal eigenvectors of (K, M), each matching the dense eigenpair with
+// the nearest eigenvalue; returns their Rayleigh quotients.
+Vector check_modes(const SecondOrderModel& m, const Matrix& V, const Eigen::GeneralizedSelfAdjointEigenSolver<Matrix>& dense,
+                   double value_tol) {
+  const Index n = V.cols();
+  const Matrix gram = V.transpose() * (m.M * V);
+  EXPECT_LT((gram - Matrix::Identity(n, n)).cwiseAbs().maxCoeff(), 1e-11) << "M-orthonormality";
+  const double k_norm = Matrix(m.K).norm();
+  const double scale = dense.eigenvalues().cwiseAbs().maxCoeff();
+  Vector rq(n);
+  for (Index j = 0; j < n; ++j) {
+    const Vector phi = V.col(j);
+    rq[j] = phi.dot(m.K * phi);
+    const double res = (m.K * phi - rq[j] * (m.M * phi)).norm() / (k_norm * phi.norm());
+    EXPECT_LT(res, 1e-12) << "residual of column " << j;
+    Index best = 0;
+    for (Index k = 1; k < dense.eigenvalues().size(); ++k) {
+      if (std::abs(dense.eigenvalues()[k] - rq[j]) < std::abs(dense.eigenvalues()[best] - rq[j])) best = k;
+    }
+    EXPECT_NEAR(rq[j], dense.eigenvalues()[best],
+                value_tol * std::max(std::abs(dense.eigenvalues()[best]), 1e-14 * scale))
+        << "column " << j;
+  }
+  return rq;
+}
+
+// H(0) of a reduced second-order model: C Kr^-1 Br.
+Matrix reduced_static(const ReducedModel& r) {
+  const auto& so = std::get<ReducedSecondOrderModel>(r);
+  return so.C * so.K.partialPivLu().solve(so.B);
+}
+
+// Free-floating chain of n unit masses and unit springs (no ground): K singular, one rigid mode.
+// Spectrum: lambda_j = 4 sin^2(j pi / (2 n)), j = 0 .. n-1.
+SecondOrderModel free_chain(Index n) {
+  std::vector<Eigen::Triplet<double, int>> t;
+  for (int i = 0; i + 1 < n; ++i) {
+    t.emplace_back(i, i, 1.0);
+    t.emplace_back(i + 1, i + 1, 1.0);
+    t.emplace_back(i, i + 1, -1.0);
+    t.emplace_back(i + 1, i, -1.0);
+  }
+  SecondOrderModel m;
+  m.K.resize(n, n);
+  m.K.setFromTriplets(t.begin(), t.end());
+  m.M.resize(n, n);
+  m.M.setIdentity();
+  m.D = 0.01 * m.K;
+  m.B = Matrix::Zero(n, 1);
+  m.B(0, 0) = 1.0;
+  m.C = Matrix::Zero(1, n);
+  m.C(0, n - 1) = 1.0;
+  return m;
+}
+
+// ---- eigenpairs -------------------------------------------------------------------------------
+
+TEST(Modal, Lf10AllModesMatchDenseEigenpairs) {
+  auto f = make(load("lf10"), band_rad(1e2, 1e7), params(false));
+  const auto& m = std::get<SecondOrderModel>(f->model);
+  Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> dense{Matrix(m.K), Matrix(m.M)};
+  const ReducerResult r = f->reducer->reduce({18, {}});
+  ASSERT_EQ(r.V.cols(), 18);
+  const Vector rq = check_modes(m, r.V, dense, 1e-10);
+  // All 18 distinct eigenvalues appear once: sorted Rayleigh quotients = dense spectrum.
+  Vector sorted = rq;
+  std::sort(sorted.data(), sorted.data() + sorted.size());
+  for (Index j = 0; j < 18; ++j) {
+    EXPECT_NEAR(sorted[j], dense.eigenvalues()[j], 1e-10 * dense.eigenvalues()[j]) << j;
+    // One mode at a time (the lf10 spectrum is simple).
+    Index col = 0;
+    while (rq[col] != sorted[j]) ++col;
+    EXPECT_LT(largest_angle_sin(r.V.col(col), dense.eigenvectors().col(j)), 1e-8) << j;
+  }
+  // Reduced model: Mr = I, Kr = diag(lambda).
+  const auto& red = std::get<ReducedSecondOrderModel>(r.model);
+  EXPECT_LT((red.M - Matrix::Identity(18, 18)).cwiseAbs().maxCoeff(), 1e-11);
+  EXPECT_LT((red.K - Matrix(rq.asDiagonal())).cwiseAbs().maxCoeff(), 1e-11 * rq.maxCoeff());
+}
+
+// A band in the middle of the spectrum, between the eigenfrequencies of modes lo and hi (0-based,
+// ascending), so that the selection differs from "lowest modes first".
+Band mid_band(const Vector& lambda, Index lo, Index hi) {
+  return {std::sqrt(lambda[lo]) / kTwoPi, std::sqrt(lambda[hi]) / kTwoPi};
+}
+
+TEST(Modal, TriplechainSelectsBandModesLikeTheDenseReference) {
+  const Model model = load("triplechain_saak09_n451");
+  const auto& m0 = std::get<SecondOrderModel>(model);
+  Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> dense{Matrix(m0.K), Matrix(m0.M)};
+  const Band band = mid_band(dense.eigenvalues(), 150, 170);
+  auto f = make(model, band, params(false, 12));
+  const auto& m = std::get<SecondOrderModel>(f->model);
+  const Index n = 40;
+  const ReducerResult r = f->reducer->reduce({n, {}});
+  ASSERT_EQ(r.V.cols(), n);
+  check_modes(m, r.V, dense, 1e-10);
+  const std::vector<Index> sel = expected_selection(dense.eigenvalues(), band, 10.0, 0.0, n);
+  Matrix ref(m.K.rows(), n);
+  for (Index k = 0; k < n; ++k) ref.col(k) = dense.eigenvectors().col(sel[static_cast<std::size_t>(k)]);
+  EXPECT_LT(largest_angle_sin(r.V, ref), 1e-8);
+  EXPECT_GT(r.diagnostics.at("batches"), 1.0) << "the slicing must have been exercised";
+}
+
+TEST(Modal, NestedAndIncrementalGrowthEqualsFreshComputation) {
+  // A band high in the spectrum: its modes lie many slices above sigma_0.
+  const Model model = load("triplechain_saak09_n451");
+  const auto& m0 = std::get<SecondOrderModel>(model);
+  const Band band = mid_band(
+      Eigen::GeneralizedSelfAdjointEigenSolver<Matrix>(Matrix(m0.K), Matrix(m0.M), Eigen::EigenvaluesOnly).eigenvalues(),
+      100, 110);
+  auto grown = make(model, band, params(false, 8));
+  const ReducerResult r10 = grown->reducer->reduce({10, {}});
+  const ReducerResult r25 = grown->reducer->reduce({25, {}});
+  const ReducerResult r60 = grown->reducer->reduce({60, {}});
+  // Nested: leading columns of larger orders span the smaller bases.
+  EXPECT_LT(largest_angle_sin(r10.V, r25.V.leftCols(10)), 1e-12);
+  EXPECT_LT(largest_angle_sin(r25.V, r60.V.leftCols(25)), 1e-12);
+  // Re-requesting a smaller order computes nothing new.
+  const double batches = r60.diagnostics.at("batches");
+  const ReducerResult again = grown->reducer->reduce({25, {}});
+  EXPECT_EQ(again.diagnostics.at("batches"), batches);
+  EXPECT_LT(largest_angle_sin(again.V, r25.V), 1e-12);
+
+  auto fresh = make(model, band, params(false, 8));
+  const ReducerResult f60 = fresh->reducer->reduce({60, {}});
+  EXPECT_LT(largest_angle_sin(r60.V, f60.V), 1e-8);
+}
+
+TEST(Modal, FreeFloatingChainReturnsTheRigidModeFirst) {
+  const Index n = 80;
+  auto f = make(Model(free_chain(n)), Band{1e-3, 0.1}, params(false, 10));
+  const ReducerResult r = f->reducer->reduce({12, {}});
+  ASSERT_EQ(r.V.cols(), 12);
+  EXPECT_EQ(r.diagnostics.at("rigid_modes"), 1.0);
+  EXPECT_LT(largest_angle_sin(r.V.col(0), Vector::Ones(n)), 1e-8);
+  const auto& red = std::get<ReducedSecondOrderModel>(r.model);
+  EXPECT_LT(std::abs(red.K(0, 0)), 1e-10);
+  // Elastic modes: analytic free-free chain eigenvalues, all in the band here ascending.
+  std::vector<double> got;
+  for (Index j = 1; j < 12; ++j) got.push_back(red.K(j, j));
+  std::sort(got.begin(), got.end());
+  for (Index j = 1; j < 12; ++j) {
+    const double s = std::sin(static_cast<double>(j) * kPi / (2.0 * n));
+    EXPECT_NEAR(got[static_cast<std::size_t>(j - 1)], 4 * s * s, 1e-10 * 4 * s * s) << j;
+  }
+  EXPECT_NE(r.note.find("1 rigid"), std::string::npos) << r.note;
+}
+
+// ---- static correction ------------------------------------------------------------------------
+
+TEST(Modal, StaticCorrectionReproducesTheStaticResponse) {
+  const Band band = band_rad(1e-4, 1e2);
+  const Model model = load("triplechain_saak09_n451");
+  const auto& m = std::get<SecondOrderModel>(model);
+  // Independent of the plugin and the shifted solver: Eigen's sparse LDL'.
+  const Matrix h0 = m.C * Matrix(Eigen::SimplicialLDLT<SparseMatrix>(m.K).solve(m.B));
+  auto with = make(model, band, params(true));
+  auto without = make(model, band, params(false));
+  for (const Index n : {2, 6, 15}) {
+    const ReducerResult rw = with->reducer->reduce({n, {}});
+    const ReducerResult ro = without->reducer->reduce({n, {}});
+    EXPECT_EQ(rw.V.cols(), n);
+    EXPECT_EQ(rw.diagnostics.at("static_columns"), 1.0);
+    const double err_with = (reduced_static(rw.model) - h0).norm() / h0.norm();
+    const double err_without = (reduced_static(ro.model) - h0).norm() / h0.norm();
+    EXPECT_LT(err_with, 1e-10) << "order " << n;
+    EXPECT_GT(err_without, 1e-6) << "order " << n << ": plain truncation should miss H(0)";
+    // The static column is M-orthogonal to the modes: Mr = I still.
+    const auto& red = std::get<ReducedSecondOrderModel>(rw.model);
+    EXPECT_LT((red.M - Matrix::Identity(n, n)).cwiseAbs().maxCoeff(), 1e-11);
+  }
+  // Order 1 = m: no room for a mode and the static column: one mode, said in the note.
+  const ReducerResult r1 = with->reducer->reduce({1, {}});
+  EXPECT_EQ(r1.V.cols(), 1);
+  EXPECT_NE(r1.note.find("static correction omitted"), std::string::npos) << r1.note;
+}
+
+// ---- general and descriptor paths --------------------------------------------------------------
+
+// Dense finite eigenvalues of the pencil (A, E).
+std::vector<Complex> pencil_eigenvalues(const Matrix& A, const Matrix& E) {
+  Eigen::GeneralizedEigenSolver<Matrix> ges(A, E, false);
+  std::vector<Complex> out;
+  for (Index j = 0; j < A.rows(); ++j) {
+    if (std::abs(ges.betas()[j]) > 1e-13 * std::abs(ges.alphas()[j])) out.push_back(ges.alphas()[j] / ges.betas()[j]);
+  }
+  return out;
+}
+
+// Each of `got` is one of `ref` (relative tol), and `got` are distinct.
+void expect_subset(const std::vector<Complex>& got, const std::vector<Complex>& ref, double tol) {
+  for (const Complex& g : got) {
+    double best = std::numeric_limits<double>::infinity();
+    for (const Complex& r : ref) best = std::min(best, std::abs(r - g));
+    EXPECT_LT(best, tol * std::abs(g)) << "eigenvalue " << g;
+  }
+}
+
+TEST(Modal, BuildDescriptorPetrovGalerkinKeepsTheSelectedPoles) {
+  const Band band = band_rad(1e-1, 1e3);
+  auto f = make(load("build"), band, params(true));
+  const auto& m = std::get<DescriptorModel>(f->model);
+  const ReducerResult r = f->reducer->reduce({10, {}});
+  ASSERT_GE(r.V.cols(), 9);
+  const auto& red = std::get<ReducedDescriptorModel>(r.model);
+  EXPECT_LT((red.E - Matrix::Identity(r.V.cols(), r.V.cols())).cwiseAbs().maxCoeff(), 1e-10);
+  // Modal truncation on exact invariant subspaces: the reduced poles are full poles.
+  const Eigen::VectorXcd reduced = red.A.eigenvalues();
+  std::vector<Complex> got(reduced.data(), reduced.data() + reduced.size());
+  expect_subset(got, pencil_eigenvalues(Matrix(m.A), Matrix(m.E)), 1e-8);
+  // ... and they are the first poles in the documented ranking by f = |lambda| / 2pi.
+  const std::vector<Complex> ref = pencil_eigenvalues(Matrix(m.A), Matrix(m.E));
+  std::vector<double> f_ref;
+  for (const Complex& l : ref) f_ref.push_back(std::abs(l) / kTwoPi);
+  const std::vector<Index> order = ranked_by_frequency(f_ref, std::vector<bool>(ref.size(), false), band, 10.0);
+  std::vector<Complex> first;
+  for (std::size_t k = 0; k < got.size(); ++k) first.push_back(ref[static_cast<std::size_t>(order[k])]);
+  expect_subset(first, got, 1e-8);
+}
+
+TEST(Modal, Rail371SymmetricDescriptorIsGalerkin) {
+  const Band band{1e-5, 1e-1};
+  auto f = make(load("rail_371"), band, params(false));
+  const auto& m = std::get<DescriptorModel>(f->model);
+  const ReducerResult r = f->reducer->reduce({15, {}});
+  ASSERT_EQ(r.V.cols(), 15);
+  EXPECT_LT(largest_angle_sin(r.V, r.W), 1e-14);
+  const auto& red = std::get<ReducedDescriptorModel>(r.model);
+  const Vector poles = Eigen::GeneralizedSelfAdjointEigenSolver<Matrix>(red.A, red.E).eigenvalues();
+  // Dense reference: -A phi = mu E phi; the reduced poles are -mu of the selected modes.
+  const Vector mu = Eigen::GeneralizedSelfAdjointEigenSolver<Matrix>(Matrix(-m.A), Matrix(m.E)).eigenvalues();
+  const std::vector<Index> sel = [&] {
+    // mu is the angular frequency here: rank on lambda = mu^2 with the second-order formula.
+    return expected_selection(Vector(mu.array().square()), band, 10.0, 0.0, 15);
+  }();
+  std::vector<double> expected;
+  for (Index j : sel) expected.push_back(-mu[j]);
+  std::sort(expected.begin(), expected.end());
+  for (Index j = 0; j < 15; ++j) {
+    EXPECT_NEAR(poles[j], expected[static_cast<std::size_t>(j)], 1e-10 * std::abs(expected[static_cast<std::size_t>(j)]));
+  }
+}
+
+TEST(Modal, BuildSoUnsymmetricStiffnessUsesTheGeneralEigenproblem) {
+  auto f = make(load("build_so"), band_rad(1e-1, 1e3), params(true));
+  const auto& m = std::get<SecondOrderModel>(f->model);
+  const ReducerResult r = f->reducer->reduce({8, {}});
+  ASSERT_GE(r.V.cols(), 7);
+  EXPECT_NE(r.note.find("general"), std::string::npos) << r.note;
+  const auto& red = std::get<ReducedSecondOrderModel>(r.model);
+  EXPECT_LT((red.M - Matrix::Identity(r.V.cols(), r.V.cols())).cwiseAbs().maxCoeff(), 1e-11);
+  // The span is invariant under M^-1 K: eigenvalues of (Kr, Mr) are eigenvalues of (K, M).
+  const Eigen::VectorXcd reduced = red.K.eigenvalues();
+  std::vector<Complex> got(reduced.data(), reduced.data() + reduced.size());
+  expect_subset(got, pencil_eigenvalues(Matrix(m.K), Matrix(m.M)), 1e-8);
+}
+
+// ---- requests, parameters and bad input ---------------------------------------------------------
+
+TEST(Modal, OrderBeyondNReturnsAllModesAndSaysSo) {
+  auto f = make(load("lf10"), band_rad(1e2, 1e7), params(true));
+  EXPECT_EQ(f->reducer->max_order(), 18);
+  const ReducerResult r = f->reducer->reduce({30, {}});
+  EXPECT_EQ(r.V.cols(), 18);
+  EXPECT_NE(r.note.find("order 30 requested, 18 available"), std::string::npos) << r.note;
+}
+
+TEST(Modal, IndefiniteMassIsAnInputErrorNamingM) {
+  SecondOrderModel m = free_chain(40);
+  m.M.coeffRef(7, 7) = -1.0;
+  try {
+    make(Model(m), Band{1e-3, 1.0}, params(true));
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("M"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("positive definite"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Modal, NegativeStiffnessIsAnInputErrorNamingK) {
+  SecondOrderModel m = free_chain(40);
+  m.K.coeffRef(5, 5) -= 3.0;  // an unstable spring: K indefinite
+  auto f = make(Model(m), Band{1e-3, 1.0}, params(false));
+  try {
+    f->reducer->reduce({5, {}});
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("K has a negative eigenvalue"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Modal, InvalidParametersAreNamed) {
+  ParameterMap p("reducer 'modal'");
+  p.set("batch_size", 0);
+  try {
+    registry().create("modal", p);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("batch_size"), std::string::npos) << e.what();
+  }
+  ParameterMap q("reducer 'modal'");
+  q.set("band_margn", 3.0);
+  try {
+    registry().create("modal", q);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("band_margin"), std::string::npos) << e.what();
+  }
+  auto f = make(load("lf10"), band_rad(1e2, 1e7), params(true));
+  EXPECT_THROW(f->reducer->reduce({0, {}}), InputError);
+}
+
+TEST(Modal, InfoDocumentsEveryParameter) {
+  const auto entries = registry().entries();
+  const auto it = std::find_if(entries.begin(), entries.end(),
+                               [](const Registry::Entry& e) { return e.info.name == "modal"; });
+  ASSERT_NE(it, entries.end());
+  std::vector<std::string> names;
+  for (const auto& p : it->info.parameters) names.push_back(p.name);
+  for (const char* key : {"static_correction", "batch_size", "tolerance", "band_margin",
+                          "max_iterations", "symmetry_tolerance", "rigid_tolerance", "seed"}) {
+    EXPECT_NE(std::find(names.begin(), names.end(), key), names.end()) << key;
+  }
+  EXPECT_TRUE(it->info.second_order);
+  EXPECT_TRUE(it->info.descriptor);
+}
+
+}  // namespace
+}  // namespace ecmor

@@ -15,7 +15,9 @@ namespace ecmor {
 /// Calls writer(stream) on a temporary file next to `path`, then renames it to `path`.
 /// Creates missing parent directories.
 /// \throws IoError naming the path if the file cannot be created, written or renamed; the
-///         temporary file is removed and `path` is left untouched.
+///         temporary file is removed and `path` is left untouched. An ecmor::Error thrown by
+///         `writer` propagates unchanged (after the same clean-up); any other exception from
+///         `writer` becomes an IoError naming the path.
 ECMOR_API void write_file_atomically(const std::filesystem::path& path,
                                      const std::function<void(std::ostream&)>& writer);
 

@@ -26,7 +26,7 @@
 namespace ecmor {
 
 /// A frequency band in Hz.
-struct Band {
+struct ECMOR_API Band {
   double f_min_hz = 0.0;
   double f_max_hz = 0.0;
   /// \throws ConfigError unless 0 < f_min_hz < f_max_hz and both finite.
@@ -41,7 +41,7 @@ ECMOR_API ErrorNorm parse_error_norm(const std::string& name);
 /// Norm of a (small, dense) complex matrix: largest singular value or Frobenius norm.
 ECMOR_API double matrix_norm(const ComplexMatrix& A, ErrorNorm norm);
 
-struct BandErrorOptions {
+struct ECMOR_API BandErrorOptions {
   ErrorNorm norm = ErrorNorm::Spectral;  ///< which relative error the supremum is taken of
   Index grid_points = 200;     ///< initial log-spaced samples over the band, >= 2
   bool pole_samples = true;    ///< also sample at Im(p)/2pi of reduced poles inside the band
@@ -55,7 +55,7 @@ struct BandErrorOptions {
 };
 
 /// One evaluation of the error of a reduced model over the band.
-struct BandError {
+struct ECMOR_API BandError {
   double sup_relative = 0.0;  ///< sup over the sampled band of the chosen relative error
   double f_peak_hz = 0.0;     ///< where it peaks
   double hinf_absolute = 0.0; ///< band H-infinity of H - Hr (Eq. 20), sampled

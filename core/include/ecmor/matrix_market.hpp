@@ -6,6 +6,15 @@
 /// bad or missing header, bad size line, truncated data, out-of-range index, duplicate entry in a
 /// symmetric file's upper triangle, non-finite value (NaN, Inf), trailing garbage, sizes that promise
 /// more than the file can hold. Writing is atomic (temporary file + rename).
+///
+/// Messages read "<path>: line <n>: <rule>", e.g.
+///   "A.mtx: line 99: truncated data: expected 120 entries, file ends after 97 at line 99".
+/// Comment lines (starting with %) and blank lines are allowed anywhere after the banner; CRLF line
+/// endings are accepted; banner words are case-insensitive; an 'array' file holds one value per
+/// line. Sanity limits, checked before anything is allocated: rows, cols <= 2^25; the promised
+/// entry count must fit both the matrix (rows * cols, or the stored triangle) and the bytes left in
+/// the file; a dense result may have at most 2^28 entries. Values that underflow read as zero;
+/// NaN, Inf and overflowing values are errors. A missing or unreadable file is an InputError.
 
 #include <filesystem>
 #include <string>
@@ -36,10 +45,15 @@ ECMOR_API SparseMatrix read_matrix_market_sparse(const std::filesystem::path& pa
 ECMOR_API Matrix read_matrix_market_dense(const std::filesystem::path& path);
 
 /// Writes a sparse matrix as `coordinate real general` (17 significant digits), atomically.
+/// `comment` (may span lines) is written as % lines after the banner. Reading the file back
+/// reproduces the matrix bitwise.
+/// \throws NumericalError for a non-finite entry (nothing is written); IoError (see
+///         write_file_atomically).
 ECMOR_API void write_matrix_market(const std::filesystem::path& path, const SparseMatrix& A,
                                    const std::string& comment = {});
 
-/// Writes a dense matrix as `array real general` (column-major, 17 significant digits), atomically.
+/// Writes a dense matrix as `array real general` (column-major, one value per line, 17 significant
+/// digits), atomically; same comment, round-trip and error rules as the sparse writer.
 ECMOR_API void write_matrix_market(const std::filesystem::path& path, const Matrix& A,
                                    const std::string& comment = {});
 

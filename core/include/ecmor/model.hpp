@@ -72,21 +72,28 @@ ECMOR_API Index outputs_of(const ReducedModel& model);
 /// B with N rows, C (and Cv) with N columns and equal row counts, every stored value finite.
 /// \param origin prefix for messages (e.g. the model directory).
 /// \throws InputError naming the matrix and the rule broken, e.g.
-///         "model dir/: D.mtx is 450 x 451: must be square".
+///         "model dir: D is 450 x 451: must be square",
+///         "model dir: B has 300 rows: must equal N = 301 (the size of K)",
+///         "model dir: K has a non-finite value (NaN) at (3, 4)" (1-based indices).
+///         N is the size of K (second order) or A (descriptor); N, m and p must be >= 1.
 ECMOR_API void validate(const Model& model, std::string_view origin = "model");
 ECMOR_API void validate(const ReducedModel& model, std::string_view origin = "reduced model");
 
-/// Relative asymmetry ||A - A'||_F / ||A||_F (0 for an all-zero matrix).
+/// Relative asymmetry ||A - A'||_F / ||A||_F (0 for an all-zero matrix, +inf if not square).
 ECMOR_API double relative_asymmetry(const SparseMatrix& A);
 ECMOR_API double relative_asymmetry(const Matrix& A);
 
 /// True if the symmetric matrix A admits a Cholesky factorisation (CHOLMOD). A is checked for
-/// symmetry first (relative asymmetry <= symmetry_tol), else false.
+/// symmetry first (relative asymmetry <= symmetry_tol), else false. The symmetric part is
+/// factorised after symmetric diagonal (Jacobi) scaling, so bad scaling alone does not matter;
+/// indefinite and singular matrices give false, including numerically singular ones whose scaled
+/// pivots span a ratio below N * eps (CHOLMOD's rcond estimate).
 ECMOR_API bool is_positive_definite(const SparseMatrix& A, double symmetry_tol = 1e-10);
 
 /// Require M (second-order) or E (descriptor) symmetric positive definite.
-/// \throws InputError "M is not positive definite (Cholesky failed at column 17)" or
-///         "M is not symmetric (relative asymmetry 3e-3 > 1e-10)".
+/// \throws InputError "<origin>: M is not positive definite (Cholesky failed at column 17)"
+///         (1-based column), "<origin>: M is not symmetric (relative asymmetry 0.003 > 1e-10)" or
+///         "<origin>: E is numerically singular (...)".
 ECMOR_API void require_spd_mass(const Model& model, std::string_view origin = "model",
                                 double symmetry_tol = 1e-10);
 

@@ -33,6 +33,8 @@ struct StrategyContext {
   Reducer* reducer = nullptr;
   BandErrorEstimator* estimator = nullptr;
   double tolerance = 1e-3;
+  /// A pass is re-checked on a grid this many times denser than the estimator's (independent).
+  Index verify_factor = 4;
   /// Called after every iteration with its record; return false to stop (Interrupted).
   std::function<bool(const IterationRecord&)> on_iteration;
   /// Cumulative counters for the records (solver and full-model evaluations).

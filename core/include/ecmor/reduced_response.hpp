@@ -1,0 +1,36 @@
+#pragma once
+/// \file reduced_response.hpp
+/// Fast repeated evaluation of a reduced model's transfer matrix Hr(s) at many frequencies.
+///
+/// The reduced model is brought once to a first-order realisation x' = F x + G u, y = L x
+/// (second order: x = [q; q'], F = [[0, I], [-Mr^-1 Kr, -Mr^-1 Dr]], G = [0; Mr^-1 Br],
+/// L = [Cr, Cvr]; descriptor: F = Er^-1 Ar) and F to upper Hessenberg form Q' F Q (orthogonal Q,
+/// backward stable). Each frequency then costs O(n^2) (Gaussian elimination with partial pivoting
+/// on the Hessenberg matrix s I - Q' F Q) instead of the O(n^3) of a dense LU: Laub's method
+/// (A. J. Laub, "Efficient multivariable frequency response computations", IEEE TAC 26, 1981).
+/// When Mr (or Er) is singular or ill-conditioned (reciprocal condition < 1e-12), the evaluator
+/// falls back to a dense LU of P_r(s) per frequency.
+
+#include "ecmor/export.hpp"
+#include "ecmor/model.hpp"
+
+namespace ecmor {
+
+class ECMOR_API ReducedResponse {
+ public:
+  /// Precomputes the Hessenberg form (O(n^3) once). The model is copied where needed.
+  explicit ReducedResponse(const ReducedModel& model);
+  /// Hr(s). \throws NumericalError when s is (numerically) a pole of the reduced model.
+  ComplexMatrix operator()(Complex s) const;
+  /// True when the O(n^2) Hessenberg path is used.
+  bool hessenberg() const { return m_hessenberg; }
+
+ private:
+  ReducedModel m_model;  // for the fallback path
+  bool m_hessenberg = false;
+  Matrix m_H;   // upper Hessenberg Q' F Q
+  Matrix m_G;   // Q' G
+  Matrix m_L;   // L Q
+};
+
+}  // namespace ecmor

@@ -1,0 +1,35 @@
+#pragma once
+/// \file grow_order.hpp
+/// grow_order: increase the reduced order until the relative band error meets the tolerance (and
+/// the independent re-check agrees), then bisect back to the smallest order that still meets it.
+
+#include "ecmor/strategies/strategy.hpp"
+
+namespace ecmor {
+
+struct GrowOrderOptions {
+  Index initial_order = 2;      ///< first order tried, >= 1
+  double growth_factor = 1.5;   ///< next order = max(n + order_step, ceil(growth_factor * n)), >= 1
+  Index order_step = 1;         ///< minimal increment (rounded up to the reducer's order_step), >= 1
+  Index max_order = 200;        ///< order budget, >= initial_order
+  Index max_iterations = 200;   ///< iteration budget (grow + shrink + verify), >= 1
+  bool shrink = true;           ///< bisect to the smallest passing order after the first pass
+  /// Stagnated when the best error has not improved by stagnation_ratio over this many growth
+  /// steps (0: never). The ratio compares the new best with the best `window` steps earlier.
+  Index stagnation_window = 0;
+  double stagnation_ratio = 0.99;
+
+  static GrowOrderOptions from(const ParameterMap& params);
+  void validate() const;
+};
+
+class GrowOrder final : public Strategy {
+ public:
+  explicit GrowOrder(GrowOrderOptions options) : m_options(options) {}
+  StrategyResult run(StrategyContext& context) override;
+
+ private:
+  GrowOrderOptions m_options;
+};
+
+}  // namespace ecmor

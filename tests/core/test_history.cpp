@@ -1,0 +1,271 @@
+// The convergence history files: what is written reads back exactly (CSV with quoting, JSON lines
+// with every field), and the files are complete after every append.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "ecmor/error.hpp"
+#include "ecmor/history.hpp"
+
+namespace fs = std::filesystem;
+using namespace ecmor;
+
+namespace {
+
+std::string read(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// RFC 4180 reader, independent of the writer: fields separated by commas, records by newlines,
+// quoted fields may contain both, "" is a literal quote.
+std::vector<std::vector<std::string>> parse_csv(const std::string& text) {
+  std::vector<std::vector<std::string>> rows(1);
+  std::string field;
+  bool quoted = false;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < text.size() && text[i + 1] == '"') {
+        field += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        field += c;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      rows.back().push_back(field);
+      field.clear();
+    } else if (c == '\n') {
+      rows.back().push_back(field);
+      field.clear();
+      rows.emplace_back();
+    } else {
+      field += c;
+    }
+  }
+  EXPECT_FALSE(quoted) << "unterminated quote";
+  if (rows.back().empty() && field.empty()) rows.pop_back();  // trailing newline
+  return rows;
+}
+
+IterationRecord sample_record(Index iteration) {
+  IterationRecord r;
+  r.iteration = iteration;
+  r.phase = "grow";
+  r.order = 10 * iteration;
+  r.points = {{Complex(0.0, kTwoPi * 12.5), 2}, {Complex(3.1, 0.0), 1}};
+  r.band_error = 1.0 / (3.0 * static_cast<double>(iteration));  // not a short decimal
+  r.f_peak_hz = 0.123456789012345;
+  r.meets_tolerance = iteration > 1;
+  r.stable = iteration != 1;
+  r.seconds = 0.5 * static_cast<double>(iteration);
+  r.step_seconds = 0.5;
+  r.counters.factorizations = 3 * iteration;
+  r.counters.cholesky_factorizations = iteration;
+  r.counters.solves = 40 * iteration;
+  r.counters.factorization_seconds = 0.01;
+  r.counters.solve_seconds = 0.002;
+  r.full_evaluations = 200;
+  r.sampling = "200 log grid + 12 poles + 50 refinement";
+  r.note = "12 modes, 1 \"static\" correction";  // comma and quotes must survive CSV
+  r.diagnostics = {{"orthogonality_loss", 1e-15}, {"eigen_residual", 2.5e-9}};
+  return r;
+}
+
+class History : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    m_dir = fs::temp_directory_path() /
+            ("ecmor_history_" + std::to_string(::getpid()) + "_" + info->name());
+    fs::remove_all(m_dir);
+  }
+  void TearDown() override { fs::remove_all(m_dir); }
+  fs::path m_dir;
+};
+
+}  // namespace
+
+TEST(FormatPoints, ImaginaryRealAndComplexPoints) {
+  EXPECT_EQ(format_points({}), "-");
+  EXPECT_EQ(format_points({{Complex(0.0, kTwoPi * 12.5), 2}}), "0+i12.5Hz x2");
+  EXPECT_EQ(format_points({{Complex(3.1, 0.0), 1}}), "s=3.1");
+  EXPECT_EQ(format_points({{Complex(0.0, 0.0), 3}}), "s=0 x3");
+  EXPECT_EQ(format_points({{Complex(-0.0, kTwoPi * 2.0), 1}}), "0+i2Hz");  // no "-0"
+  EXPECT_EQ(format_points({{Complex(-1.5, -kTwoPi * 4.0), 1}}), "-1.5-i4Hz");
+  EXPECT_EQ(format_points({{Complex(0.0, kTwoPi * 1e-3), 1},
+                           {Complex(2.0, 0.0), 4},
+                           {Complex(0.0, kTwoPi * 250.0), 1}}),
+            "0+i0.001Hz, s=2 x4, 0+i250Hz");
+}
+
+TEST_F(History, ConstructorCreatesDirectoryButWritesNothing) {
+  HistoryWriter writer(m_dir / "nested" / "out");
+  EXPECT_TRUE(fs::is_directory(m_dir / "nested" / "out"));
+  EXPECT_FALSE(fs::exists(m_dir / "nested" / "out" / "history.csv"));
+  EXPECT_TRUE(writer.records().empty());
+}
+
+TEST_F(History, CsvReadsBackExactly) {
+  HistoryWriter writer(m_dir);
+  writer.append(sample_record(1));
+  writer.append(sample_record(2));
+  const auto rows = parse_csv(read(m_dir / "history.csv"));
+  ASSERT_EQ(rows.size(), 3u);
+  const std::vector<std::string> header = {"iteration",
+                                           "phase",
+                                           "order",
+                                           "points",
+                                           "band_error",
+                                           "f_peak_hz",
+                                           "meets_tolerance",
+                                           "stable",
+                                           "seconds",
+                                           "step_seconds",
+                                           "factorizations",
+                                           "solves",
+                                           "factorization_seconds",
+                                           "solve_seconds",
+                                           "full_evaluations",
+                                           "sampling",
+                                           "note"};
+  EXPECT_EQ(rows[0], header);
+  for (Index i = 1; i <= 2; ++i) {
+    const IterationRecord expected = sample_record(i);
+    const auto& row = rows[static_cast<std::size_t>(i)];
+    ASSERT_EQ(row.size(), header.size());
+    EXPECT_EQ(std::stoll(row[0]), expected.iteration);
+    EXPECT_EQ(row[1], "grow");
+    EXPECT_EQ(std::stoll(row[2]), expected.order);
+    EXPECT_EQ(row[3], "0+i12.5Hz x2, s=3.1");
+    // Doubles are written to round-trip: parsing gives the identical value.
+    EXPECT_EQ(std::stod(row[4]), expected.band_error);
+    EXPECT_EQ(std::stod(row[5]), expected.f_peak_hz);
+    EXPECT_EQ(row[6], expected.meets_tolerance ? "true" : "false");
+    EXPECT_EQ(row[7], expected.stable ? "true" : "false");
+    EXPECT_EQ(std::stod(row[8]), expected.seconds);
+    EXPECT_EQ(std::stod(row[9]), expected.step_seconds);
+    EXPECT_EQ(std::stoll(row[10]), expected.counters.factorizations);
+    EXPECT_EQ(std::stoll(row[11]), expected.counters.solves);
+    EXPECT_EQ(std::stod(row[12]), expected.counters.factorization_seconds);
+    EXPECT_EQ(std::stod(row[13]), expected.counters.solve_seconds);
+    EXPECT_EQ(std::stoll(row[14]), expected.full_evaluations);
+    EXPECT_EQ(row[15], expected.sampling);
+    EXPECT_EQ(row[16], expected.note);
+  }
+}
+
+TEST_F(History, JsonLinesCarryEveryField) {
+  HistoryWriter writer(m_dir);
+  writer.append(sample_record(1));
+  writer.append(sample_record(2));
+  std::ifstream in(m_dir / "history.jsonl");
+  std::string line;
+  Index n = 0;
+  while (std::getline(in, line)) {
+    ++n;
+    const IterationRecord e = sample_record(n);
+    const nlohmann::json j = nlohmann::json::parse(line);  // one complete object per line
+    EXPECT_EQ(j.at("iteration").get<Index>(), e.iteration);
+    EXPECT_EQ(j.at("phase"), e.phase);
+    EXPECT_EQ(j.at("order").get<Index>(), e.order);
+    ASSERT_EQ(j.at("points").size(), 2u);
+    EXPECT_EQ(j["points"][0].at("re").get<double>(), 0.0);
+    EXPECT_EQ(j["points"][0].at("im").get<double>(), kTwoPi * 12.5);
+    EXPECT_NEAR(j["points"][0].at("f_hz").get<double>(), 12.5, 1e-13);
+    EXPECT_EQ(j["points"][0].at("moments").get<Index>(), 2);
+    EXPECT_EQ(j["points"][1].at("re").get<double>(), 3.1);
+    EXPECT_EQ(j["points"][1].at("f_hz").get<double>(), 0.0);
+    EXPECT_EQ(j.at("band_error").get<double>(), e.band_error);
+    EXPECT_EQ(j.at("f_peak_hz").get<double>(), e.f_peak_hz);
+    EXPECT_EQ(j.at("meets_tolerance").get<bool>(), e.meets_tolerance);
+    EXPECT_EQ(j.at("stable").get<bool>(), e.stable);
+    EXPECT_EQ(j.at("seconds").get<double>(), e.seconds);
+    EXPECT_EQ(j.at("step_seconds").get<double>(), e.step_seconds);
+    const auto& c = j.at("counters");
+    EXPECT_EQ(c.at("factorizations").get<Index>(), e.counters.factorizations);
+    EXPECT_EQ(c.at("cholesky_factorizations").get<Index>(), e.counters.cholesky_factorizations);
+    EXPECT_EQ(c.at("lu_factorizations").get<Index>(), 0);
+    EXPECT_EQ(c.at("solves").get<Index>(), e.counters.solves);
+    EXPECT_EQ(c.at("factorization_seconds").get<double>(), e.counters.factorization_seconds);
+    EXPECT_EQ(c.at("solve_seconds").get<double>(), e.counters.solve_seconds);
+    EXPECT_EQ(c.size(), 10u);  // every SolverCounters field
+    EXPECT_EQ(j.at("full_evaluations").get<Index>(), e.full_evaluations);
+    EXPECT_EQ(j.at("sampling"), e.sampling);
+    EXPECT_EQ(j.at("note"), e.note);
+    EXPECT_EQ(j.at("diagnostics").at("orthogonality_loss").get<double>(), 1e-15);
+    EXPECT_EQ(j.at("diagnostics").at("eigen_residual").get<double>(), 2.5e-9);
+  }
+  EXPECT_EQ(n, 2);
+}
+
+TEST_F(History, NonFiniteValuesAreNamedNotNull) {
+  HistoryWriter writer(m_dir);
+  IterationRecord r = sample_record(1);
+  r.band_error = std::numeric_limits<double>::infinity();  // reduced model hit a pole
+  r.f_peak_hz = std::numeric_limits<double>::quiet_NaN();
+  r.points.clear();
+  r.diagnostics = {{"x", -std::numeric_limits<double>::infinity()}};
+  writer.append(r);
+  std::ifstream in(m_dir / "history.jsonl");
+  std::string line;
+  ASSERT_TRUE(std::getline(in, line));
+  const nlohmann::json j = nlohmann::json::parse(line);
+  EXPECT_EQ(j.at("band_error"), "inf");
+  EXPECT_EQ(j.at("f_peak_hz"), "nan");
+  EXPECT_EQ(j.at("diagnostics").at("x"), "-inf");
+  EXPECT_TRUE(j.at("points").is_array());
+  EXPECT_TRUE(j.at("points").empty());
+  const auto rows = parse_csv(read(m_dir / "history.csv"));
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_EQ(rows[1][3], "-");
+  EXPECT_EQ(rows[1][4], "inf");
+  EXPECT_EQ(rows[1][5], "nan");
+}
+
+TEST_F(History, FilesAreCompleteAfterEveryAppendAndNoTempFilesRemain) {
+  HistoryWriter writer(m_dir);
+  for (Index i = 1; i <= 5; ++i) {
+    IterationRecord r = sample_record(i);
+    r.note = "line one\nline two";  // a newline inside a quoted field
+    writer.append(r);
+    EXPECT_EQ(parse_csv(read(m_dir / "history.csv")).size(), static_cast<std::size_t>(i + 1));
+    std::ifstream in(m_dir / "history.jsonl");
+    std::string line;
+    Index lines = 0;
+    while (std::getline(in, line)) {
+      EXPECT_EQ(nlohmann::json::parse(line).at("note"), "line one\nline two");
+      ++lines;
+    }
+    EXPECT_EQ(lines, i);
+    EXPECT_EQ(writer.records().size(), static_cast<std::size_t>(i));
+  }
+  std::vector<std::string> files;
+  for (const auto& entry : fs::directory_iterator(m_dir))
+    files.push_back(entry.path().filename().string());
+  std::sort(files.begin(), files.end());
+  EXPECT_EQ(files, (std::vector<std::string>{"history.csv", "history.jsonl"}));
+}
+
+TEST_F(History, UnusableDirectoryIsAnIoErrorNamingIt) {
+  fs::create_directories(m_dir);
+  const fs::path file = m_dir / "a_file";
+  std::ofstream(file) << "x";
+  try {
+    HistoryWriter writer(file / "sub");
+    FAIL() << "no IoError";
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find((file / "sub").string()), std::string::npos) << e.what();
+  }
+}

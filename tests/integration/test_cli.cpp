@@ -1,0 +1,642 @@
+// End-to-end tests of the `ecmor` command line: the real executable is run on bad input and must
+// exit with the documented code and a message that names the file, line, key or matrix and the rule
+// broken; good runs must leave complete outputs (and no temporary files) behind.
+//
+// Every case builds its inputs in a fresh temporary directory. Small models are written with
+// ecmor::write_matrix_market and corrupted by hand where a case needs a malformed file; the
+// expected line numbers are counted from the corrupted file itself, not taken from the reader's
+// output.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "ecmor/matrix_market.hpp"
+#include "ecmor/model_io.hpp"
+
+namespace fs = std::filesystem;
+
+namespace ecmor {
+namespace {
+
+const fs::path kLf10 = "../shared/models/lf10";
+
+struct Result {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), {});
+}
+
+void write_text(const fs::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out << text;
+  ASSERT_TRUE(out.good()) << "cannot write " << path;
+}
+
+std::vector<std::string> read_lines(const fs::path& path) {
+  std::ifstream in(path);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+void write_lines(const fs::path& path, const std::vector<std::string>& lines) {
+  std::string text;
+  for (const std::string& l : lines) text += l + "\n";
+  write_text(path, text);
+}
+
+// Single quotes keep every path literal for /bin/sh.
+std::string quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) {
+    if (c == '\'')
+      q += "'\\''";
+    else
+      q += c;
+  }
+  return q + "'";
+}
+
+// Index (0-based) of the first data line of a coordinate file: the size line is the first line
+// after the banner that is not a comment, the entries follow it.
+std::size_t first_entry_line(const std::vector<std::string>& lines) {
+  std::size_t k = 1;
+  while (k < lines.size() && (lines[k].empty() || lines[k][0] == '%')) ++k;
+  return k + 1;
+}
+
+// A small, well-posed second-order model: K = tridiag(-1, 2, -1) (SPD), M = diag(mass),
+// D = 0.01 K + 0.1 I, B = ones (N x 1), C = ones (1 x N).
+struct SmallModel {
+  std::vector<double> mass = {1.0, 1.0, 1.0};
+  Index b_rows = -1;  // -1: N
+};
+
+SparseMatrix tridiagonal(Index n) {
+  std::vector<Eigen::Triplet<double>> t;
+  for (Index i = 0; i < n; ++i) {
+    t.emplace_back(i, i, 2.0);
+    if (i + 1 < n) {
+      t.emplace_back(i, i + 1, -1.0);
+      t.emplace_back(i + 1, i, -1.0);
+    }
+  }
+  SparseMatrix K(n, n);
+  K.setFromTriplets(t.begin(), t.end());
+  return K;
+}
+
+void write_small_model(const fs::path& dir, const SmallModel& spec = {}) {
+  fs::create_directories(dir);
+  const Index n = static_cast<Index>(spec.mass.size());
+  const SparseMatrix K = tridiagonal(n);
+  SparseMatrix M(n, n);
+  SparseMatrix I(n, n);
+  I.setIdentity();
+  for (Index i = 0; i < n; ++i) M.insert(i, i) = spec.mass[static_cast<std::size_t>(i)];
+  const SparseMatrix D = 0.01 * K + 0.1 * I;
+  write_matrix_market(dir / "M.mtx", M);
+  write_matrix_market(dir / "D.mtx", D);
+  write_matrix_market(dir / "K.mtx", K);
+  write_matrix_market(dir / "B.mtx", Matrix(Matrix::Ones(spec.b_rows < 0 ? n : spec.b_rows, 1)));
+  write_matrix_market(dir / "C.mtx", Matrix(Matrix::Ones(1, n)));
+}
+
+// Files whose name shows they are an unfinished atomic write (".x.tmp", ".x.tmp.<pid>.<n>").
+std::vector<std::string> temporary_files(const fs::path& dir) {
+  std::vector<std::string> found;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    if (e.path().filename().string().find(".tmp") != std::string::npos)
+      found.push_back(e.path().string());
+  }
+  return found;
+}
+
+nlohmann::json read_json(const fs::path& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    m_dir = fs::temp_directory_path() /
+            ("ecmor_cli_" + std::to_string(::getpid()) + "_" + info->name());
+    fs::remove_all(m_dir);
+    fs::create_directories(m_dir);
+  }
+  void TearDown() override {
+    // Kept on failure so the inputs of a failing case can be inspected.
+    if (!HasFailure()) fs::remove_all(m_dir);
+  }
+
+  /// Runs `ecmor ARGS...` from the project root (the test's working directory) with only the
+  /// build tree's plugin directory as default plugin location.
+  Result run(const std::vector<std::string>& args) {
+    const fs::path out = m_dir / "stdout.txt";
+    const fs::path err = m_dir / "stderr.txt";
+    // Built with append: GCC 12 gives a false -Wrestrict on `" " + std::string`.
+    std::string cmd = "env -u ECMOR_PLUGIN_PATH ";
+    cmd.append(quote(std::string(ECMOR_TEST_BINARY_DIR) + "/bin/ecmor"));
+    for (const std::string& a : args) cmd.append(" ").append(quote(a));
+    cmd.append(" </dev/null >").append(quote(out.string()));
+    cmd.append(" 2>").append(quote(err.string()));
+    const int status = std::system(cmd.c_str());
+    Result r;
+    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = read_text(out);
+    r.err = read_text(err);
+    return r;
+  }
+
+  /// Writes `yaml` as run.yaml in the case directory and runs `ecmor reduce` on it.
+  Result reduce(const std::string& yaml, const std::vector<std::string>& extra = {}) {
+    write_text(config(), yaml);
+    std::vector<std::string> args = {"reduce", config().string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return run(args);
+  }
+
+  fs::path config() const { return m_dir / "run.yaml"; }
+  fs::path model() const { return m_dir / "model"; }
+  fs::path output() const { return m_dir / "out"; }
+
+  /// A valid configuration around `model()`, with the given reducer and strategy lines.
+  std::string yaml(const std::string& reducer = "{name: modal}",
+                   const std::string& strategy = "{name: grow_order}") const {
+    return "model:    {dir: " + model().string() +
+           "}\n"
+           "band:     {f_min_hz: 0.01, f_max_hz: 1.0}\n"
+           "target:   {tolerance: 1.0e-3}\n"
+           "reducer:  " +
+           reducer +
+           "\n"
+           "strategy: " +
+           strategy +
+           "\n"
+           "output:   {dir: " +
+           output().string() + "}\n";
+  }
+
+  fs::path m_dir;
+};
+
+// Expects exit code 1 and every fragment in stderr (the message must name the problem).
+#define EXPECT_ERROR(result, ...)                                                                  \
+  do {                                                                                             \
+    const Result& r_ = (result);                                                                   \
+    EXPECT_EQ(r_.exit_code, 1) << "stdout:\n" << r_.out << "stderr:\n" << r_.err;                  \
+    for (const std::string& f_ : std::vector<std::string>{__VA_ARGS__})                            \
+      EXPECT_NE(r_.err.find(f_), std::string::npos) << "stderr lacks '" << f_ << "':\n" << r_.err; \
+  } while (false)
+
+// ---------------------------------------------------------------- 1. configuration file
+
+TEST_F(Cli, MissingConfigFileIsNamed) {
+  const fs::path missing = m_dir / "no_such_run.yaml";
+  EXPECT_ERROR(run({"reduce", missing.string()}), missing.string(), "not found");
+}
+
+TEST_F(Cli, YamlSyntaxErrorNamesFileAndLine) {
+  write_small_model(model());
+  // Line 3 opens a flow mapping that line 4 does not close properly.
+  const std::string text = "model: {dir: " + model().string() +
+                           "}\n"
+                           "band: {f_min_hz: 0.01, f_max_hz: 1.0}\n"
+                           "target: {tolerance: 1.0e-3\n"
+                           "reducer: {name: modal}]\n"
+                           "output: {dir: out}\n";
+  const Result r = reduce(text);
+  EXPECT_ERROR(r, config().string() + ":", "YAML syntax error");
+  // yaml-cpp reports where it notices the unclosed mapping: line 3 or 4, never elsewhere.
+  EXPECT_TRUE(r.err.find(config().string() + ":3:") != std::string::npos ||
+              r.err.find(config().string() + ":4:") != std::string::npos)
+      << r.err;
+}
+
+TEST_F(Cli, UnknownKeyIsNamedWithLineAndSuggestion) {
+  write_small_model(model());
+  std::string text = yaml();
+  text.replace(text.find("tolerance"), 9, "tolerence");
+  EXPECT_ERROR(reduce(text), config().string() + ":3:", "unknown key 'tolerence'", "'target'",
+               "did you mean 'tolerance'");
+}
+
+TEST_F(Cli, WrongTypeIsNamedWithLine) {
+  write_small_model(model());
+  std::string text = yaml();
+  text.replace(text.find("0.01"), 4, "low");
+  EXPECT_ERROR(reduce(text), config().string() + ":2:", "band.f_min_hz", "'low'",
+               "must be a number");
+}
+
+TEST_F(Cli, NonPositiveToleranceIsRejected) {
+  write_small_model(model());
+  for (const std::string bad : {"0", "-1.0e-3"}) {
+    std::string text = yaml();
+    text.replace(text.find("1.0e-3"), 6, bad);
+    EXPECT_ERROR(reduce(text), config().string() + ":3:", "target.tolerance = " + bad,
+                 "must be in (0, 1e3]");
+  }
+}
+
+TEST_F(Cli, EmptyBandIsRejected) {
+  write_small_model(model());
+  for (const std::string f_max : {"0.01", "0.001"}) {  // f_max == f_min, f_max < f_min
+    std::string text = yaml();
+    text.replace(text.find("f_max_hz: 1.0"), 13, "f_max_hz: " + f_max);
+    EXPECT_ERROR(reduce(text), config().string() + ":2:", "band.f_max_hz = " + f_max,
+                 "must be > band.f_min_hz = 0.01");
+  }
+}
+
+TEST_F(Cli, MissingModelDirIsNamed) {
+  std::string text = yaml();
+  text.replace(0, text.find('\n'), "model: {}");
+  EXPECT_ERROR(reduce(text), config().string() + ":1:", "missing required key 'model.dir'");
+}
+
+// ---------------------------------------------------------------- 2. model files
+
+TEST_F(Cli, MissingModelDirectoryIsNamed) {
+  EXPECT_ERROR(reduce(yaml()), model().string(), "directory does not exist");
+}
+
+TEST_F(Cli, DirectoryWithoutModelFilesListsWhatItFound) {
+  fs::create_directories(model());
+  write_matrix_market(model() / "B.mtx", Matrix(Matrix::Ones(3, 1)));
+  write_text(model() / "notes.txt", "not a matrix\n");
+  EXPECT_ERROR(reduce(yaml()), model().string(), "no model files", "M.mtx", "E.mtx",
+               "found: B.mtx");
+}
+
+class CliCorruptK : public Cli {
+ protected:
+  /// Writes the small model, lets `corrupt` edit K.mtx's lines (it returns the 1-based line the
+  /// message must name), runs and checks file, line and rule.
+  template <class Corrupt>
+  void check(Corrupt corrupt, const std::vector<std::string>& rule) {
+    write_small_model(model());
+    const fs::path k = model() / "K.mtx";
+    std::vector<std::string> lines = read_lines(k);
+    const std::size_t line = corrupt(lines);
+    write_lines(k, lines);
+    const Result r = reduce(yaml());
+    EXPECT_ERROR(r, k.string() + ": line " + std::to_string(line) + ":");
+    for (const std::string& f : rule)
+      EXPECT_NE(r.err.find(f), std::string::npos) << "stderr lacks '" << f << "':\n" << r.err;
+  }
+};
+
+TEST_F(CliCorruptK, BadHeader) {
+  check(
+      [](std::vector<std::string>& l) {
+        l[0] = "%%MatrixMarket matrix coordinate reel general";  // typo of 'real'
+        return std::size_t{1};
+      },
+      {"unknown field 'reel'"});
+}
+
+TEST_F(CliCorruptK, Truncated) {
+  // K = tridiag of size 3 has 7 entries; the last one is dropped.
+  check(
+      [](std::vector<std::string>& l) {
+        l.pop_back();
+        return l.size();  // the reader notices at the last line there is
+      },
+      {"truncated data", "expected 7 entries", "file ends after 6"});
+}
+
+TEST_F(CliCorruptK, IndexOutOfRange) {
+  check(
+      [](std::vector<std::string>& l) {
+        const std::size_t k = first_entry_line(l) + 2;
+        std::istringstream ss(l[k]);
+        std::string i, j, v;
+        ss >> i >> j >> v;
+        l[k] = "9 " + j + " " + v;
+        return k + 1;
+      },
+      {"index '9' is out of range 1..3"});
+}
+
+TEST_F(CliCorruptK, NanValue) {
+  check(
+      [](std::vector<std::string>& l) {
+        const std::size_t k = first_entry_line(l) + 1;
+        std::istringstream ss(l[k]);
+        std::string i, j, v;
+        ss >> i >> j >> v;
+        l[k] = i + " " + j + " nan";
+        return k + 1;
+      },
+      {"'nan'", "not finite"});
+}
+
+TEST_F(Cli, InputMatrixWithWrongRowCountNamesBothFiles) {
+  SmallModel spec;
+  spec.b_rows = 2;
+  write_small_model(model(), spec);
+  EXPECT_ERROR(reduce(yaml()), model().string(), "B.mtx is 2 x 1", "K.mtx is 3 x 3",
+               "B must have N = 3 rows");
+}
+
+// ---------------------------------------------------------------- 3. model unsuited to the reducer
+
+TEST_F(Cli, IndefiniteMassIsRejectedByModal) {
+  SmallModel spec;
+  spec.mass = {1.0, -1.0, 1.0};
+  write_small_model(model(), spec);
+  const Result r = reduce(yaml());
+  EXPECT_ERROR(r, "modal", "M is not positive definite");
+  EXPECT_FALSE(fs::exists(output() / "summary.json")) << "an error must not look like a result";
+}
+
+// ---------------------------------------------------------------- 4. reducer and strategy names
+
+TEST_F(Cli, UnknownReducerListsRegisteredOnes) {
+  write_small_model(model());
+  EXPECT_ERROR(reduce(yaml("{name: modul}")), "unknown reducer 'modul'", "did you mean 'modal'",
+               "registered reducers:", "modal");
+}
+
+TEST_F(Cli, UnknownReducerParameterSuggestsNearest) {
+  write_small_model(model());
+  EXPECT_ERROR(reduce(yaml("{name: modal, static_corection: true}")),
+               config().string() + ":4:", "unknown key 'static_corection'", "reducer 'modal'",
+               "did you mean 'static_correction'");
+}
+
+TEST_F(Cli, InvalidReducerParameterValueIsNamed) {
+  write_small_model(model());
+  EXPECT_ERROR(reduce(yaml("{name: modal, batch_size: 0}")),
+               config().string() + ":4:", "reducer 'modal'", "batch_size = 0", "must be >= 1");
+}
+
+TEST_F(Cli, UnknownStrategyIsNamed) {
+  write_small_model(model());
+  EXPECT_ERROR(reduce(yaml("{name: modal}", "{name: grow_ordr}")), "unknown strategy 'grow_ordr'",
+               "grow_order");
+}
+
+// ---------------------------------------------------------------- 5. plugins
+
+TEST_F(Cli, MissingPluginPathIsNamed) {
+  write_small_model(model());
+  const fs::path plugin = m_dir / "nonexistent.so";
+  EXPECT_ERROR(reduce(yaml() + "plugins: [" + plugin.string() + "]\n"), plugin.string(),
+               "file not found");
+}
+
+TEST_F(Cli, TextFileAsPluginNamesTheCause) {
+  write_small_model(model());
+  const fs::path plugin = m_dir / "fake_plugin.so";
+  write_text(plugin, std::string(200, '#') + "\nthis is a text file, not a shared library\n");
+  EXPECT_ERROR(reduce(yaml() + "plugins: [" + plugin.string() + "]\n"), plugin.string(),
+               "not a loadable shared library", "invalid ELF header");
+}
+
+TEST_F(Cli, PluginOptionWithTextFileIsAnError) {
+  const fs::path plugin = m_dir / "fake_plugin.so";
+  write_text(plugin, std::string(200, '#') + "\n");
+  EXPECT_ERROR(run({"plugins", "--plugin", plugin.string()}), plugin.string(),
+               "not a loadable shared library");
+}
+
+// ---------------------------------------------------------------- 6. info and plugins
+
+TEST_F(Cli, InfoDescribesLf10) {
+  const Result r = run({"info", kLf10.string(), "--eigenfrequencies", "0"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("second order model, N = 18, 1 input(s), 1 output(s)"), std::string::npos)
+      << r.out;
+  // The matrix table: one row per matrix, "M  18x18  nnz  asymmetry  definiteness".
+  std::istringstream lines(r.out);
+  bool found_m = false;
+  for (std::string line; std::getline(lines, line);) {
+    std::istringstream words(line);
+    std::string name, size;
+    words >> name >> size;
+    if (name != "M") continue;
+    found_m = true;
+    EXPECT_EQ(size, "18x18") << line;
+    EXPECT_NE(line.find("positive definite"), std::string::npos) << line;
+    EXPECT_EQ(line.find("not positive definite"), std::string::npos) << line;
+  }
+  EXPECT_TRUE(found_m) << r.out;
+}
+
+TEST_F(Cli, InfoEigenfrequenciesMatchAnalyticValues) {
+  // M = I, K = tridiag(-1, 2, -1) of size n: lambda_k = 2 - 2 cos(k pi / (n + 1)), f = sqrt/2pi.
+  SmallModel spec;
+  spec.mass.assign(8, 1.0);
+  write_small_model(model(), spec);
+  const Result r = run({"info", model().string(), "--eigenfrequencies", "4"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::istringstream lines(r.out);
+  std::string line;
+  while (std::getline(lines, line) && line.find("eigenfrequencies") == std::string::npos) {
+  }
+  ASSERT_FALSE(lines.eof()) << r.out;
+  for (int k = 1; k <= 4; ++k) {
+    ASSERT_TRUE(std::getline(lines, line)) << r.out;
+    std::istringstream words(line);
+    int index = 0;
+    double f = 0.0;
+    words >> index >> f;
+    EXPECT_EQ(index, k) << line;
+    const double lambda = 2.0 - 2.0 * std::cos(k * M_PI / 9.0);
+    // Printed with 7 significant digits: half a unit in the last place is 5e-7 relative.
+    EXPECT_NEAR(f, std::sqrt(lambda) / (2.0 * M_PI), 6e-7 * f) << line;
+  }
+}
+
+TEST_F(Cli, InfoOnMissingDirectoryFails) {
+  const fs::path missing = m_dir / "no_model_here";
+  EXPECT_ERROR(run({"info", missing.string()}), missing.string(), "directory does not exist");
+}
+
+TEST_F(Cli, PluginsListsModalWithItsLibrary) {
+  const Result r = run({"plugins"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::size_t at = r.out.find("modal  (version");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  const std::size_t lib = r.out.find("library: ", at);
+  ASSERT_NE(lib, std::string::npos) << r.out;
+  const std::string path = r.out.substr(lib + 9, r.out.find('\n', lib) - lib - 9);
+  EXPECT_TRUE(fs::exists(path)) << path;
+  EXPECT_EQ(fs::path(path).filename(), "libecmor_modal.so");
+  EXPECT_EQ(fs::canonical(fs::path(path).parent_path()),
+            fs::canonical(fs::path(ECMOR_TEST_PLUGIN_DIR)));
+  // Its parameters, with defaults, as documented in the plugin's README.
+  EXPECT_NE(r.out.find("static_correction"), std::string::npos) << r.out;
+}
+
+// ---------------------------------------------------------------- 7.-9. real runs on lf10
+
+// 10 Hz .. 10 kHz holds lf10's first seven eigenfrequencies (196 Hz .. 9.8 kHz).
+constexpr double kLf10BandHz[2] = {10.0, 10000.0};
+
+std::string lf10_yaml(const fs::path& out, double tolerance, const std::string& strategy) {
+  std::ostringstream y;
+  y << "model:    {dir: " << kLf10.string() << "}\n"
+    << "band:     {f_min_hz: " << kLf10BandHz[0] << ", f_max_hz: " << kLf10BandHz[1] << "}\n"
+    << "target:   {tolerance: " << tolerance << "}\n"
+    << "reducer:  {name: modal, static_correction: true}\n"
+    << "strategy: " << strategy << "\n"
+    << "output:   {dir: " << out.string() << "}\n";
+  return y.str();
+}
+
+// history.csv: header + one row per iteration, iterations numbered 1..n in order.
+void expect_history_rows(const fs::path& dir, Index iterations) {
+  const std::vector<std::string> csv = read_lines(dir / "history.csv");
+  ASSERT_FALSE(csv.empty());
+  EXPECT_EQ(csv.front().rfind("iteration,phase,order,", 0), 0u) << csv.front();
+  ASSERT_EQ(static_cast<Index>(csv.size()), iterations + 1);
+  for (std::size_t k = 1; k < csv.size(); ++k)
+    EXPECT_EQ(csv[k].substr(0, csv[k].find(',')), std::to_string(k)) << csv[k];
+  EXPECT_EQ(static_cast<Index>(read_lines(dir / "history.jsonl").size()), iterations);
+}
+
+TEST_F(Cli, MissedTargetExitsTwoWithModelAndHistory) {
+  const Result r = reduce(lf10_yaml(output(), 1e-14, "{max_order: 3}"));
+  ASSERT_EQ(r.exit_code, 2) << r.out << r.err;
+  const nlohmann::json s = read_json(output() / "summary.json");
+  EXPECT_FALSE(s["target_met"].get<bool>());
+  EXPECT_TRUE(s["has_model"].get<bool>());
+  EXPECT_NE(s["termination"].get<std::string>(), "converged");
+  EXPECT_FALSE(s["message"].get<std::string>().empty());
+  EXPECT_LE(s["final_order"].get<Index>(), 3);
+  EXPECT_GT(s["verified_band_error"].get<double>(), 1e-14);
+  const Index iterations = s["iterations"].get<Index>();
+  EXPECT_GE(iterations, 1);
+  expect_history_rows(output(), iterations);
+  EXPECT_NE(r.out.find(s["termination"].get<std::string>()), std::string::npos) << r.out;
+  EXPECT_TRUE(temporary_files(output()).empty());
+}
+
+// H_r(i 2 pi f) = Cr (s^2 Mr + s Dr + Kr)^-1 Br of a reduced second-order model, computed here
+// with a dense LU so the check does not go through the library's frequency response code.
+Complex reduced_siso_response(const ReducedSecondOrderModel& m, double f_hz) {
+  const Complex s(0.0, 2.0 * M_PI * f_hz);
+  const ComplexMatrix P =
+      s * s * m.M.cast<Complex>() + s * m.D.cast<Complex>() + m.K.cast<Complex>();
+  const ComplexMatrix X = P.partialPivLu().solve(m.B.cast<Complex>());
+  return (m.C.cast<Complex>() * X)(0, 0);
+}
+
+TEST_F(Cli, MetTargetWritesEveryOutput) {
+  // Order 3 misses 1e-5 on this band and order 5 meets it, so the run grows, verifies and shrinks.
+  const double tolerance = 1e-5;
+  const Result r = reduce(lf10_yaml(output(), tolerance, "{name: grow_order}"), {"-q"});
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  for (const char* f : {"Mr.mtx", "Dr.mtx", "Kr.mtx", "Br.mtx", "Cr.mtx", "V.mtx", "W.mtx",
+                        "history.csv", "history.jsonl", "band_error.csv", "summary.json"})
+    EXPECT_TRUE(fs::is_regular_file(output() / f)) << f;
+  const nlohmann::json s = read_json(output() / "summary.json");
+  EXPECT_TRUE(s["target_met"].get<bool>());
+  EXPECT_TRUE(s["has_model"].get<bool>());
+  EXPECT_EQ(s["termination"].get<std::string>(), "converged");
+  EXPECT_LE(s["verified_band_error"].get<double>(), tolerance);
+  const Index order = s["final_order"].get<Index>();
+  EXPECT_GE(order, 1);
+  EXPECT_LE(order, 18);
+  const ReducedModel reduced = read_reduced_model(output());
+  ASSERT_EQ(size_of(reduced), order);
+  EXPECT_EQ(read_matrix_market_dense(output() / "V.mtx").cols(), order);
+  EXPECT_EQ(read_matrix_market_dense(output() / "V.mtx").rows(), 18);
+  const Index iterations = s["iterations"].get<Index>();
+  expect_history_rows(output(), iterations);
+
+  // The reported model is the smallest that passed: every smaller order tried failed.
+  std::ifstream jsonl(output() / "history.jsonl");
+  for (std::string line; std::getline(jsonl, line);) {
+    const nlohmann::json rec = nlohmann::json::parse(line);
+    if (rec["order"].get<Index>() < order) {
+      EXPECT_FALSE(rec["meets_tolerance"].get<bool>()) << line;
+    }
+  }
+
+  // band_error.csv: the re-check curve, every sample inside the band and within the tolerance.
+  const std::vector<std::string> curve = read_lines(output() / "band_error.csv");
+  ASSERT_GT(curve.size(), 2u);
+  EXPECT_EQ(curve.front(),
+            "f_hz,relative_spectral,relative_frobenius,absolute_spectral,reference_spectral");
+  for (std::size_t k = 1; k < curve.size(); ++k) {
+    std::istringstream ss(curve[k]);
+    std::string f, rel;
+    std::getline(ss, f, ',');
+    std::getline(ss, rel, ',');
+    EXPECT_GE(std::stod(f), kLf10BandHz[0] * (1 - 1e-12)) << curve[k];
+    EXPECT_LE(std::stod(f), kLf10BandHz[1] * (1 + 1e-12)) << curve[k];
+    EXPECT_LE(std::stod(rel), tolerance) << curve[k];
+  }
+
+  // Independently of the driver: the written model against the shared reference response
+  // (omega, sigma_max, re_H_0_0, im_H_0_0) at every reference frequency inside the band. The
+  // reference is accurate to ~1e-12 relative, far below the tolerance, so no slack beyond that.
+  const auto& so = std::get<ReducedSecondOrderModel>(reduced);
+  std::ifstream ref(kLf10 / "ref_freq_response.csv");
+  int checked = 0;
+  for (std::string line; std::getline(ref, line);) {
+    if (line.empty() || line[0] == '#' || line[0] == 'o') continue;  // comment, header
+    std::istringstream ss(line);
+    std::string cell;
+    std::vector<double> v;
+    while (std::getline(ss, cell, ',')) v.push_back(std::stod(cell));
+    ASSERT_EQ(v.size(), 4u) << line;
+    const double f = v[0] / (2.0 * M_PI);
+    if (f < kLf10BandHz[0] || f > kLf10BandHz[1]) continue;
+    const Complex H(v[2], v[3]);
+    EXPECT_LE(std::abs(H - reduced_siso_response(so, f)) / std::abs(H), tolerance + 1e-10)
+        << "at f = " << f << " Hz";
+    ++checked;
+  }
+  EXPECT_GT(checked, 50) << "the reference grid should cover the band";
+
+  // -q prints only the summary lines: no convergence table.
+  EXPECT_EQ(r.out.find("f_peak Hz"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("converged"), std::string::npos) << r.out;
+  EXPECT_TRUE(temporary_files(output()).empty());
+}
+
+TEST_F(Cli, RerunIntoUsedOutputDirectoryLeavesNoTemporaryFiles) {
+  // A missed run, then a met run into the same directory, then a configuration error: each
+  // rewrite replaces files atomically and nothing half-written stays behind.
+  ASSERT_EQ(reduce(lf10_yaml(output(), 1e-14, "{max_order: 3}"), {"-q"}).exit_code, 2);
+  ASSERT_EQ(reduce(lf10_yaml(output(), 1e-5, "{name: grow_order}"), {"-q"}).exit_code, 0);
+  EXPECT_TRUE(read_json(output() / "summary.json")["target_met"].get<bool>());
+  ASSERT_EQ(reduce(lf10_yaml(output(), 0.0, "{name: grow_order}"), {"-q"}).exit_code, 1);
+  EXPECT_TRUE(read_json(output() / "summary.json")["target_met"].get<bool>())
+      << "a failed configuration must not touch earlier outputs";
+  const std::vector<std::string> tmp = temporary_files(output());
+  EXPECT_TRUE(tmp.empty()) << tmp.front();
+}
+
+TEST_F(Cli, OutputOptionOverridesConfiguredDirectory) {
+  const fs::path elsewhere = m_dir / "elsewhere";
+  const Result r =
+      reduce(lf10_yaml(output(), 1e-3, "{name: grow_order}"), {"-q", "-o", elsewhere.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(elsewhere / "summary.json"));
+  EXPECT_FALSE(fs::exists(output()));
+}
+
+}  // namespace
+}  // namespace ecmor
