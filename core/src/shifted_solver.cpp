@@ -728,7 +728,12 @@ class SuiteSparseSolver final : public ShiftedSolver {
     });
     // The factor was allocated through cc; CHOLMOD's memory accounting is per common only, so
     // freeing it later through another common is fine.
-    return std::make_shared<CholmodFactorization>(m_shared, std::move(w), L, rc);
+    try {
+      return std::make_shared<CholmodFactorization>(m_shared, std::move(w), L, rc);
+    } catch (...) {  // bad_alloc: do not leak the factor
+      cholmod_free_factor(&L, &cc.c);
+      throw;
+    }
   }
 
   std::shared_ptr<const Factorization> umfpack_lu(std::vector<Complex> w, bool is_cplx) {
@@ -755,17 +760,18 @@ class SuiteSparseSolver final : public ShiftedSolver {
       else
         umfpack_di_free_numeric(&numeric);
     };
-    const double rc = info[UMFPACK_RCOND];
-    if (status == UMFPACK_WARNING_singular_matrix ||
-        (status == UMFPACK_OK && !(rc >= S.options.singular_rcond))) {
-      free_numeric();
-      throw_singular(w, status == UMFPACK_WARNING_singular_matrix ? 0.0 : rc, "UMFPACK");
-    }
-    if (status != UMFPACK_OK) {
+    // Negative status: error. Positive: warnings; of those only "singular" matters (determinant
+    // under/overflow warnings are harmless for solves).
+    if (status < 0) {
       free_numeric();
       throw NumericalError("UMFPACK numeric factorisation failed with status " +
                            std::to_string(status) +
                            (status == UMFPACK_ERROR_out_of_memory ? " (out of memory)" : ""));
+    }
+    const double rc = status == UMFPACK_WARNING_singular_matrix ? 0.0 : info[UMFPACK_RCOND];
+    if (!(rc >= S.options.singular_rcond)) {
+      free_numeric();
+      throw_singular(w, rc, "UMFPACK");
     }
     const double dt = seconds_since(t0);
     S.counters->update([&](SolverCounters& c) {
@@ -776,8 +782,13 @@ class SuiteSparseSolver final : public ShiftedSolver {
     });
     // The values are needed in the solves only for iterative refinement.
     if (S.options.refinement_steps == 0) std::vector<double>().swap(x);
-    return std::make_shared<UmfpackFactorization>(m_shared, std::move(w), std::move(x), numeric,
-                                                  is_cplx, rc);
+    try {
+      return std::make_shared<UmfpackFactorization>(m_shared, std::move(w), std::move(x), numeric,
+                                                    is_cplx, rc);
+    } catch (...) {  // bad_alloc: do not leak the LU factors
+      free_numeric();
+      throw;
+    }
   }
 
   std::shared_ptr<SharedState> m_shared;

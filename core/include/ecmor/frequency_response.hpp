@@ -17,17 +17,21 @@ namespace ecmor {
 /// n log-spaced frequencies from f_min_hz to f_max_hz inclusive (n >= 2, 0 < f_min < f_max).
 ECMOR_API std::vector<double> log_grid(double f_min_hz, double f_max_hz, Index n);
 
-/// H(s) of a full model from a factorisation of P(s) (one factorisation, m solves).
+/// H(s) of a full model from a factorisation of P(s): min(m, p) solves (p < m: transposed solves
+/// Y = P^-T (C + s Cv)^T, H = Y^T B). A real factorisation at real s gives a real-arithmetic H.
 ECMOR_API ComplexMatrix transfer_function(const Model& model, const Factorization& p_of_s,
                                           Complex s);
 /// H(s) of a full model (factorises P(s)).
 ECMOR_API ComplexMatrix transfer_function(const Model& model, ShiftedSolver& solver, Complex s);
-/// H(s) of a reduced model by a dense LU of P_r(s).
-/// \throws NumericalError if P_r(s) is singular (s is a pole of the reduced model).
+/// H(s) of a reduced model by a dense LU (partial pivoting) of the row-equilibrated P_r(s).
+/// \throws NumericalError "... singular ..." if the LU's reciprocal condition estimate is below
+///         machine epsilon or the result is not finite (s is a pole of the reduced model).
 ECMOR_API ComplexMatrix transfer_function(const ReducedModel& model, Complex s);
 
 /// H(i 2 pi f) at each frequency (Hz) of a full model, in parallel over frequencies
-/// (threads <= 0: OpenMP's default).
+/// (threads <= 0: OpenMP's default). The result does not depend on the thread count (bitwise).
+/// \throws NumericalError for a non-finite frequency or a singular P(s) (the first error raised
+///         in the parallel loop is rethrown after it; the remaining frequencies are skipped).
 ECMOR_API std::vector<ComplexMatrix> frequency_response(const Model& model, ShiftedSolver& solver,
                                                         const std::vector<double>& f_hz,
                                                         int threads = 0);
@@ -35,8 +39,10 @@ ECMOR_API std::vector<ComplexMatrix> frequency_response(const Model& model, Shif
 ECMOR_API std::vector<ComplexMatrix> frequency_response(const ReducedModel& model,
                                                         const std::vector<double>& f_hz);
 
-/// Poles of a reduced model: eigenvalues of the 2n x 2n linearisation (second order) or of the
-/// pencil (A, E) (descriptor); infinite eigenvalues are dropped.
+/// Poles of a reduced model: eigenvalues of the 2n x 2n linearisation [[0, I], [-K, -D]] z =
+/// lambda diag(I, M) z (second order) or of the pencil (A, E) (descriptor). When M (E) is well
+/// conditioned (LU rcond >= 1e-8) the standard eigenproblem of E^-1 A is solved (QR, faster);
+/// otherwise QZ on the pencil, and infinite eigenvalues (|beta| <= dim eps ||E||_F) are dropped.
 ECMOR_API ComplexVector poles(const ReducedModel& model);
 
 /// Memo of the full model's response H(i 2 pi f), keyed by the exact frequency value.
@@ -45,7 +51,8 @@ class ECMOR_API ResponseCache {
   /// model and solver must outlive the cache.
   ResponseCache(const Model& model, ShiftedSolver& solver, int threads = 0);
 
-  /// H at each frequency; computes the missing ones in parallel and stores them.
+  /// H at each frequency; computes the missing ones in parallel and stores them. Holds the lock
+  /// while computing, so concurrent callers never factorise a frequency twice.
   std::vector<ComplexMatrix> evaluate(const std::vector<double>& f_hz);
   /// H at one frequency.
   ComplexMatrix evaluate(double f_hz);
