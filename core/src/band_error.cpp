@@ -94,10 +94,31 @@ std::vector<Sample> sample(ResponseCache& full, const ReducedResponse& reduced,
                            const std::vector<double>& f_hz) {
   std::vector<Sample> out(f_hz.size());
   if (f_hz.empty()) return out;
-  const std::vector<ComplexMatrix> H = full.evaluate(f_hz);
+  std::vector<ComplexMatrix> H;
+  std::vector<bool> full_singular(f_hz.size(), false);
+  try {
+    H = full.evaluate(f_hz);
+  } catch (const NumericalError&) {
+    // Some frequency is (numerically) a pole of the full model on the imaginary axis (an undamped
+    // mode): evaluate one by one and mark those samples, instead of failing the whole batch.
+    H.assign(f_hz.size(), ComplexMatrix());
+    for (std::size_t k = 0; k < f_hz.size(); ++k) {
+      try {
+        H[k] = full.evaluate(f_hz[k]);
+      } catch (const NumericalError&) {
+        full_singular[k] = true;
+      }
+    }
+  }
   for (std::size_t k = 0; k < f_hz.size(); ++k) {
     Sample& s = out[k];
     s.f_hz = f_hz[k];
+    if (full_singular[k]) {
+      // |H| is unbounded here: the relative error is undefined (reported as such).
+      s.ref2 = s.refF = kInf;
+      s.abs2 = s.absF = kNaN;
+      continue;
+    }
     s.ref2 = matrix_norm(H[k], ErrorNorm::Spectral);
     s.refF = H[k].norm();
     try {
@@ -117,8 +138,10 @@ std::vector<Sample> sample(ResponseCache& full, const ReducedResponse& reduced,
 }
 
 double relative_of(const Sample& s, ErrorNorm norm, double zero_level2, double zero_levelF) {
-  if (norm == ErrorNorm::Spectral) return s.ref2 <= zero_level2 ? kNaN : s.abs2 / s.ref2;
-  return s.refF <= zero_levelF ? kNaN : s.absF / s.refF;
+  if (norm == ErrorNorm::Spectral) {
+    return (s.ref2 <= zero_level2 || std::isinf(s.ref2)) ? kNaN : s.abs2 / s.ref2;
+  }
+  return (s.refF <= zero_levelF || std::isinf(s.refF)) ? kNaN : s.absF / s.refF;
 }
 
 }  // namespace
@@ -128,6 +151,10 @@ BandErrorEstimator::BandErrorEstimator(ResponseCache& full, Band band, BandError
   m_band.validate();
   m_options.validate();
   m_grid = log_grid(m_band.f_min_hz, m_band.f_max_hz, m_options.grid_points);
+  for (const ComplexMatrix& H : m_full.evaluate(m_grid)) {
+    m_scale2 = std::max(m_scale2, matrix_norm(H, ErrorNorm::Spectral));
+    m_scaleF = std::max(m_scaleF, H.norm());
+  }
 }
 
 BandError BandErrorEstimator::evaluate(const ReducedModel& reduced) {
@@ -143,7 +170,12 @@ BandError BandErrorEstimator::evaluate(const ReducedModel& reduced) {
       if (!(im > 0.0) || !std::isfinite(im)) continue;
       const double fp = im / kTwoPi;
       if (fp < m_band.f_min_hz || fp > m_band.f_max_hz) continue;
-      candidates.emplace_back(std::abs(p(i).real()) / std::abs(p(i)), fp);
+      const double zeta = std::abs(p(i).real()) / std::abs(p(i));
+      // A (numerically) undamped pole: Hr, and near it H, are singular to working precision at
+      // Im(p); a sample there measures round-off, not the error. The grid and the refinement
+      // still see the resonance.
+      if (zeta < 1e-8) continue;
+      candidates.emplace_back(zeta, fp);
     }
     std::sort(candidates.begin(), candidates.end());
     for (const auto& c : candidates) {
@@ -152,12 +184,13 @@ BandError BandErrorEstimator::evaluate(const ReducedModel& reduced) {
       ++pole_count;
     }
   }
-  return assemble(reduced, std::move(f), static_cast<Index>(m_grid.size()), pole_count, true);
+  return assemble(reduced, std::move(f), static_cast<Index>(m_grid.size()), pole_count, true,
+                  false);
 }
 
 BandError BandErrorEstimator::evaluate_on(const ReducedModel& reduced,
                                           const std::vector<double>& f_hz) {
-  return assemble(reduced, f_hz, static_cast<Index>(f_hz.size()), 0, false);
+  return assemble(reduced, f_hz, static_cast<Index>(f_hz.size()), 0, false, false);
 }
 
 BandError BandErrorEstimator::verify(const ReducedModel& reduced, Index factor) {
@@ -176,28 +209,20 @@ BandError BandErrorEstimator::verify(const ReducedModel& reduced, Index factor) 
     f.push_back(std::exp(x0 + (static_cast<double>(k) + 0.5) * (x1 - x0) / static_cast<double>(M)));
   }
   f.push_back(m_band.f_max_hz);
-  return assemble(reduced, std::move(f), M + 2, 0, true);
+  return assemble(reduced, std::move(f), M + 2, 0, true, true);
 }
 
 BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<double> f_hz,
-                                       Index grid, Index pole_count, bool refine) {
+                                       Index grid, Index pole_count, bool refine,
+                                       bool dense_peaks) {
   std::sort(f_hz.begin(), f_hz.end());
   f_hz.erase(std::unique(f_hz.begin(), f_hz.end()), f_hz.end());
   const ReducedResponse reduced_response(reduced);
   std::vector<Sample> samples = sample(m_full, reduced_response, f_hz);
   const ErrorNorm norm = m_options.norm;
 
-  auto levels = [&](double& z2, double& zF) {
-    double max2 = 0.0, maxF = 0.0;
-    for (const Sample& s : samples) {
-      max2 = std::max(max2, s.ref2);
-      maxF = std::max(maxF, s.refF);
-    }
-    z2 = m_options.zero_threshold * max2;
-    zF = m_options.zero_threshold * maxF;
-  };
-  double zero2 = 0.0, zeroF = 0.0;
-  levels(zero2, zeroF);
+  const double zero2 = m_options.zero_threshold * m_scale2;
+  const double zeroF = m_options.zero_threshold * m_scaleF;
 
   Index refinement_count = 0;
   if (refine && m_options.refine_peaks > 0 && m_options.refine_evaluations > 0 &&
@@ -225,13 +250,14 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
     struct Bracket {
       double a, c, b;  // log f; c is the best point so far
       Sample best;
+      Index stalled = 0;  // consecutive steps without a relative gain above 1e-4
     };
     std::vector<Bracket> brackets;
     for (std::size_t i : peaks) {
       const double c = std::log(samples[i].f_hz);
       const double a = i == 0 ? c : std::log(samples[i - 1].f_hz);
       const double b = i + 1 == samples.size() ? c : std::log(samples[i + 1].f_hz);
-      if (b - a > 0.0) brackets.push_back({a, c, b, samples[i]});
+      if (b - a > 0.0) brackets.push_back({a, c, b, samples[i], 0});
     }
     constexpr double kGolden = 0.3819660112501051;  // 2 - golden ratio
     std::vector<Sample> added;
@@ -252,7 +278,9 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
         const double x = trial[j];
         added.push_back(got[j]);
         ++refinement_count;
-        if (rel(got[j]) > rel(br.best)) {
+        const double before = rel(br.best);
+        br.stalled = rel(got[j]) > before * (1.0 + 1e-4) ? 0 : br.stalled + 1;
+        if (rel(got[j]) > before) {
           // New best: the old centre becomes a bracket end.
           if (x > br.c) br.a = br.c; else br.b = br.c;
           br.c = x;
@@ -260,15 +288,42 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
         } else {
           if (x > br.c) br.b = x; else br.a = x;
         }
-        // Stop when the bracket is below 1e-9 relative in f: far below any resonance width.
-        if (br.b - br.a > 1e-9) next.push_back(br);
+        // A peak is done when the bracket is below 1e-9 relative in f (far below any resonance
+        // width) or its value has stopped rising for 6 steps; one still rising near a zero of H
+        // or an undamped pole goes on to the budget, so that a sharp peak is not under-reported.
+        if (br.b - br.a > 1e-9 && br.stalled < 6) next.push_back(br);
       }
       brackets = std::move(next);
     }
     samples.insert(samples.end(), added.begin(), added.end());
     std::sort(samples.begin(), samples.end(),
               [](const Sample& x, const Sample& y) { return x.f_hz < y.f_hz; });
-    levels(zero2, zeroF);
+  }
+  if (dense_peaks && !samples.empty()) {
+    // The re-check must not rest on the fast path alone: re-evaluate the largest errors with a
+    // dense LU of P_r(s) (transfer_function), an independent computation of Hr.
+    std::vector<std::size_t> order(samples.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    auto rel = [&](std::size_t i) {
+      const double r = relative_of(samples[i], norm, zero2, zeroF);
+      return std::isnan(r) ? -1.0 : r;
+    };
+    const std::size_t top = std::min<std::size_t>(samples.size(), 10);
+    std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(top), order.end(),
+                      [&](std::size_t a, std::size_t b) { return rel(a) > rel(b); });
+    for (std::size_t j = 0; j < top; ++j) {
+      Sample& s = samples[order[j]];
+      if (s.singular || std::isinf(s.ref2)) continue;
+      try {
+        const ComplexMatrix H = m_full.evaluate(s.f_hz);
+        const ComplexMatrix E = H - transfer_function(reduced, s_from_hz(s.f_hz));
+        s.abs2 = std::max(s.abs2, matrix_norm(E, ErrorNorm::Spectral));
+        s.absF = std::max(s.absF, E.norm());
+      } catch (const NumericalError&) {
+        s.singular = true;
+        s.abs2 = s.absF = kInf;
+      }
+    }
   }
 
   BandError out;
@@ -299,14 +354,16 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
       sup = out.relative[k];
       out.f_peak_hz = s.f_hz;
     }
-    if (s.abs2 > hinf) {
+    if (!std::isnan(s.abs2) && s.abs2 > hinf) {
       hinf = s.abs2;
       out.f_hinf_hz = s.f_hz;
     }
     if (k > 0) {
       // Trapezoidal rule in f of ||E||_F^2.
       const double a = samples[k - 1].absF, b = s.absF;
-      h2sq += 0.5 * (a * a + b * b) * (s.f_hz - samples[k - 1].f_hz);
+      if (!std::isnan(a) && !std::isnan(b)) {
+        h2sq += 0.5 * (a * a + b * b) * (s.f_hz - samples[k - 1].f_hz);
+      }
     }
   }
   if (sup < 0.0) {

@@ -10,7 +10,9 @@
 namespace ecmor {
 namespace {
 
-constexpr double kMinRcond = 1e-12;
+// Forming Mr^-1 [Kr Dr] loses about log10(1/rcond) digits: accept at most 8 of 16, far below any
+// tolerance a user sets; worse-conditioned mass matrices take the dense LU per frequency.
+constexpr double kMinRcond = 1e-8;
 
 // Solves X = A^-1 B with a pivoted LU if A is well conditioned; returns false otherwise.
 bool solve_if_well_conditioned(const Matrix& A, const Matrix& B, Matrix& X) {
@@ -62,6 +64,7 @@ ReducedResponse::ReducedResponse(const ReducedModel& model) : m_model(model) {
   m_H = hess.matrixH();
   m_G = Q.transpose() * G;
   m_L = L * Q;
+  m_scale = m_H.size() > 0 ? m_H.cwiseAbs().maxCoeff() : 0.0;
   m_hessenberg = m_H.allFinite() && m_G.allFinite() && m_L.allFinite();
 }
 
@@ -73,7 +76,7 @@ ComplexMatrix ReducedResponse::operator()(Complex s) const {
   ComplexMatrix T = (-m_H).cast<Complex>();
   T.diagonal().array() += s;
   ComplexMatrix X = m_G.cast<Complex>();
-  const double scale = T.cwiseAbs().maxCoeff();
+  const double scale = m_scale + std::abs(s);  // bounds max |T_ij| without a pass over T
   const double tiny = scale * static_cast<double>(n) * std::numeric_limits<double>::epsilon();
   for (Index k = 0; k + 1 < n; ++k) {
     if (std::abs(T(k + 1, k)) > std::abs(T(k, k))) {

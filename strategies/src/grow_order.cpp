@@ -39,12 +39,18 @@ std::string sci(double v) {
   return os.str();
 }
 
+// A diagnostic: a failing eigen-decomposition marks the model "not shown stable" rather than
+// ending the run.
 bool is_stable(const ReducedModel& model) {
-  const ComplexVector p = poles(model);
-  for (Index i = 0; i < p.size(); ++i) {
-    if (!(p(i).real() < 0.0)) return false;
+  try {
+    const ComplexVector p = poles(model);
+    for (Index i = 0; i < p.size(); ++i) {
+      if (!(p(i).real() < 0.0)) return false;
+    }
+    return true;
+  } catch (const std::exception&) {
+    return false;
   }
-  return true;
 }
 
 // One evaluated order.
@@ -141,7 +147,7 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
     std::vector<double> best_trace;  // best error after each growth step
     while (true) {
       if (iteration >= m_options.max_iterations) {
-        return finish(Termination::MaxOrderReached,
+        return finish(Termination::IterationLimit,
                       "iteration budget " + std::to_string(m_options.max_iterations) +
                           " used up before the tolerance was met");
       }
@@ -158,6 +164,13 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
         // complex-conjugate pairs, or deflated a direction): the same model again would only repeat
         // the last evaluation, so ask for more until the order budget is reached.
         if (order >= max_order) {
+          if (m_options.max_order < reducer.max_order()) {
+            return finish(Termination::MaxOrderReached,
+                          "order budget " + std::to_string(max_order) + " reached (delivered " +
+                              std::to_string(delivered) + "): band error " +
+                              sci(most_accurate->error.sup_relative) + " > tolerance " +
+                              sci(ctx.tolerance));
+          }
           return finish(Termination::ReducerExhausted,
                         "the reducer delivers at most order " + std::to_string(delivered) +
                             " (requested " + std::to_string(order) + "); band error " +
@@ -199,12 +212,16 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
       order = next_order(order);
     }
 
+    std::string shrink_note;
     // Phase 2: bisect between the largest failing and the smallest passing order. The band error
     // of nested bases is not guaranteed monotone in the order, so this finds the smallest passing
     // order under the assumption that it is monotone between the two (documented).
     if (m_options.shrink) {
       Index lo = last_fail;                       // fails (or 0)
       Index hi = smallest_pass->result.V.cols();  // passes
+      // Bisection on requested orders: a failing request raises lo to the request even when the
+      // reducer delivered less (pairs, deflation), a passing one lowers hi to what was delivered;
+      // each step moves one of them, so the loop ends.
       while (hi - lo > step && iteration < m_options.max_iterations) {
         Index mid = lo + ((hi - lo) / (2 * step)) * step;
         if (mid <= lo) mid = lo + step;
@@ -212,18 +229,26 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
         const Candidate c = try_order(mid, "shrink");
         if (stop) break;
         const Index delivered = c.result.V.cols();
-        if (c.passed) hi = std::min(hi, delivered);
-        else lo = std::max(lo, std::max(mid, delivered));
-        if (delivered != mid && !c.passed) break;  // the reducer cannot hit orders in between
+        if (c.passed && delivered < hi) {
+          hi = delivered;
+        } else {
+          lo = mid;  // failed, or passed without being smaller than the best so far
+        }
       }
+      if (stop || hi - lo > step) shrink_note = " (search for a smaller order cut short)";
     }
     return finish(Termination::Converged,
                   "band error " + sci(smallest_pass->error.sup_relative) + " <= tolerance " +
                       sci(ctx.tolerance) + " at order " +
                       std::to_string(smallest_pass->result.V.cols()) + " (verified on a " +
-                      std::to_string(ctx.verify_factor) + "x denser independent grid)");
+                      std::to_string(ctx.verify_factor) + "x denser independent grid)" +
+                      shrink_note);
   } catch (const Error& e) {
     return finish(Termination::Failed, std::string("reduction failed: ") + e.what());
+  } catch (const std::exception& e) {
+    // A plugin may throw anything; the best model so far is kept and written all the same.
+    return finish(Termination::Failed, std::string("reduction failed (unexpected exception): ") +
+                                           e.what());
   }
 }
 

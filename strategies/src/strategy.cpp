@@ -11,6 +11,7 @@ std::string to_string(Termination t) {
   switch (t) {
     case Termination::Converged: return "converged";
     case Termination::MaxOrderReached: return "max_order_reached";
+    case Termination::IterationLimit: return "iteration_limit";
     case Termination::ReducerExhausted: return "reducer_exhausted";
     case Termination::Stagnated: return "stagnated";
     case Termination::Interrupted: return "interrupted";

@@ -49,6 +49,25 @@ TEST(BandError, IdenticalModelsHaveZeroError) {
   EXPECT_TRUE(e.undefined_f_hz.empty());
 }
 
+// An undamped model (D = 0): H is singular at its resonance. Samples next to the pole must neither
+// inflate the "H vanishes" threshold (which once discarded most of the band) nor break the run.
+TEST(BandError, UndampedModelsAreHandled) {
+  const Model full = oscillator(1.0, 0.0, 4.0);  // resonance at 1/pi Hz, inside the band
+  auto solver = make_shifted_solver(full);
+  ResponseCache cache(full, *solver);
+  BandErrorEstimator est(cache, Band{0.01, 10.0}, BandErrorOptions{});
+  const BandError same = est.evaluate(dense(std::get<SecondOrderModel>(full)));
+  EXPECT_TRUE(same.undefined_f_hz.empty()) << same.sampling();
+  EXPECT_LT(same.sup_relative, 1e-8);
+  // A detuned reduced model: |H - Hr| / |H| = dk / |kr - w^2| has no finite supremum near the
+  // reduced resonance; the estimator must report a large error there, not a small one.
+  auto detuned = dense(std::get<SecondOrderModel>(full));
+  detuned.K(0, 0) = 4.04;
+  const BandError e = est.verify(detuned);
+  EXPECT_GT(e.sup_relative, 1.0);
+  EXPECT_NEAR(e.f_peak_hz, std::sqrt(4.04) / kTwoPi, 1e-3);
+}
+
 // With light damping the relative error |dk| / |k_r - m w^2 + i d w| peaks in a resonance far
 // narrower than the grid spacing; the pole samples and the refinement must find the true supremum.
 TEST(BandError, LocalisesANarrowResonancePeak) {

@@ -122,6 +122,38 @@ TEST(GrowOrder, FindsTheSmallestOrderMeetingTheTolerance) {
   EXPECT_NE(r.message.find("order 13"), std::string::npos) << r.message;
 }
 
+// A reducer that adds states in pairs (like complex-conjugate modes) delivers only even orders:
+// the strategy must keep raising its request and still find the smallest passing even order.
+TEST(GrowOrder, ReducerDeliveringPairsStillYieldsTheSmallestPassingOrder) {
+  class Pairs final : public Reducer {
+   public:
+    void setup(const ReductionContext& ctx) override { m_model = ctx.model; }
+    ReducerResult reduce(const ReductionRequest& request) override {
+      const Index n = std::min<Index>(request.order / 2 * 2, kN);
+      ReducerResult r;
+      r.V = Matrix::Identity(kN, n);
+      r.W = r.V;
+      r.model = project(*m_model, r.V, r.W);
+      return r;
+    }
+    Index max_order() const override { return kN; }
+
+   private:
+    const Model* m_model = nullptr;
+  };
+  for (Index target : {7, 13, 20}) {
+    Fixture fx;
+    const double e_target = exact_sup_error(target, 0.01, 10.0);
+    const double e_before = exact_sup_error(target - 1, 0.01, 10.0);
+    const double tol = std::sqrt(e_target * e_before);
+    Pairs reducer;
+    const StrategyResult r = fx.run(reducer, tol, ParameterMap("strategy"));
+    ASSERT_EQ(r.termination, Termination::Converged) << r.message;
+    const Index smallest_even = (target + 1) / 2 * 2;
+    EXPECT_EQ(r.best->V.cols(), smallest_even) << "target " << target << ": " << r.message;
+  }
+}
+
 TEST(GrowOrder, OrderBudgetEndsWithTheMostAccurateModel) {
   Fixture fx;
   ParameterMap p("strategy");

@@ -47,7 +47,9 @@ struct ECMOR_API BandErrorOptions {
   bool pole_samples = true;    ///< also sample at Im(p)/2pi of reduced poles inside the band
   Index max_pole_samples = 400;///< at most this many pole samples (the least damped first)
   Index refine_peaks = 5;      ///< local maxima refined per evaluation, >= 0
-  Index refine_evaluations = 10;  ///< golden-section steps per refined peak, >= 0
+  /// Golden-section steps per refined peak at most, >= 0; a peak stops earlier once its value has
+  /// not risen (by 1e-4 relative) for 6 steps or its bracket is below 1e-9 relative in f.
+  Index refine_evaluations = 40;
   /// ||H(f)|| <= zero_threshold * max_f ||H|| means "H vanishes here": relative error undefined.
   double zero_threshold = 1e-13;
   /// \throws ConfigError naming the field, value and rule.
@@ -87,7 +89,8 @@ class ECMOR_API BandErrorEstimator {
   /// Error on exactly the given frequencies (no refinement, no pole samples).
   BandError evaluate_on(const ReducedModel& reduced, const std::vector<double>& f_hz);
   /// Re-check on an independent grid: `factor` times denser than the options' grid, offset so that
-  /// no frequency coincides with it, plus refinement of its own local maxima.
+  /// no frequency coincides with it, plus refinement of its own local maxima; the largest errors
+  /// are re-evaluated with a dense LU of P_r(s), independently of the fast Hessenberg path.
   BandError verify(const ReducedModel& reduced, Index factor = 4);
 
   const Band& band() const { return m_band; }
@@ -96,11 +99,15 @@ class ECMOR_API BandErrorEstimator {
 
  private:
   BandError assemble(const ReducedModel& reduced, std::vector<double> f_hz, Index grid,
-                     Index poles, bool refine);
+                     Index poles, bool refine, bool dense_peaks);
   ResponseCache& m_full;
   Band m_band;
   BandErrorOptions m_options;
   std::vector<double> m_grid;
+  // Largest ||H||_2 and ||H||_F on the fixed grid: the scale of "H vanishes". Taken from the grid
+  // only, so that a sample next to a lightly damped resonance cannot inflate it.
+  double m_scale2 = 0.0;
+  double m_scaleF = 0.0;
 };
 
 }  // namespace ecmor

@@ -8,7 +8,7 @@
 /// backward stable). Each frequency then costs O(n^2) (Gaussian elimination with partial pivoting
 /// on the Hessenberg matrix s I - Q' F Q) instead of the O(n^3) of a dense LU: Laub's method
 /// (A. J. Laub, "Efficient multivariable frequency response computations", IEEE TAC 26, 1981).
-/// When Mr (or Er) is singular or ill-conditioned (reciprocal condition < 1e-12), the evaluator
+/// When Mr (or Er) is singular or ill-conditioned (reciprocal condition < 1e-8), the evaluator
 /// falls back to a dense LU of P_r(s) per frequency.
 
 #include "ecmor/export.hpp"
@@ -31,6 +31,7 @@ class ECMOR_API ReducedResponse {
   Matrix m_H;   // upper Hessenberg Q' F Q
   Matrix m_G;   // Q' G
   Matrix m_L;   // L Q
+  double m_scale = 0.0;  // max |H_ij|, for the singularity test
 };
 
 }  // namespace ecmor

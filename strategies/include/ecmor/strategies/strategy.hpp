@@ -21,6 +21,7 @@ namespace ecmor {
 enum class Termination {
   Converged,         ///< a model meets the tolerance (the smallest found is reported)
   MaxOrderReached,   ///< the order budget ended before the tolerance was met
+  IterationLimit,    ///< the iteration budget ended before the tolerance was met
   ReducerExhausted,  ///< the reducer cannot deliver a larger order (e.g. all modes used)
   Stagnated,         ///< the error stopped improving
   Interrupted,       ///< stopped by the observer (user interrupt, time budget)
