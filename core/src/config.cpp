@@ -370,7 +370,8 @@ RunConfig Parser::parse(const std::string& yaml) {
                                                     error["zero_threshold"].Scalar()));
     eo.zero_threshold = *v;
   }
-  if (auto v = integer(error, "error", "verify_factor", 1)) config.verify_factor = *v;
+  // The re-check grid must be denser than the estimator's to be a check at all.
+  if (auto v = integer(error, "error", "verify_factor", 2)) config.verify_factor = *v;
 
   const YAML::Node solver =
       section(m_root, "solver", {"threads", "use_cholesky", "symmetry_tol", "singular_rcond"});

@@ -184,7 +184,9 @@ CholeskyResult cholesky(const SparseMatrix& A_in) {
       r.success = true;
       r.rcond = cholmod_rcond(f, &c);
     } else if (f->minor < f->n) {
-      r.failed_column = static_cast<Index>(f->minor);
+      // f->minor counts columns of the fill-reducing permuted matrix; report the user's column.
+      const auto* perm = static_cast<const int*>(f->Perm);
+      r.failed_column = static_cast<Index>(perm != nullptr ? perm[f->minor] : f->minor);
     }
     cholmod_free_factor(&f, &c);
   }

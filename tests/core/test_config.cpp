@@ -304,8 +304,9 @@ TEST(RunConfig, RangesAreChecked) {
             "run.yaml:12: error.grid_points = 1: must be >= 2");
   EXPECT_EQ(parse_error(kMinimal + "error: {refine_peaks: -1}\n"),
             "run.yaml:12: error.refine_peaks = -1: must be >= 0");
-  EXPECT_EQ(parse_error(kMinimal + "error: {verify_factor: 0}\n"),
-            "run.yaml:12: error.verify_factor = 0: must be >= 1");
+  // A re-check grid no denser than the estimator's would check nothing.
+  EXPECT_EQ(parse_error(kMinimal + "error: {verify_factor: 1}\n"),
+            "run.yaml:12: error.verify_factor = 1: must be >= 2");
   EXPECT_EQ(parse_error(kMinimal + "error: {zero_threshold: 1}\n"),
             "run.yaml:12: error.zero_threshold = 1: must be in [0, 1)");
   EXPECT_EQ(parse_error(kMinimal + "solver: {threads: -2}\n"),
