@@ -384,7 +384,7 @@ class FactorizationBase : public Factorization {
  protected:
   void check_rows(Index rows) const {
     if (rows != m_shared->n)
-      throw std::invalid_argument("Factorization::solve: right-hand side has " +
+      throw InputError("Factorization::solve: right-hand side has " +
                                   std::to_string(rows) + " rows, expected " +
                                   std::to_string(m_shared->n));
   }
@@ -584,7 +584,7 @@ class SuiteSparseSolver final : public ShiftedSolver {
       std::span<const Complex> weights) override {
     SharedState& S = *m_shared;
     if (weights.size() != S.term.size())
-      throw std::invalid_argument("factorize_combination: " + std::to_string(weights.size()) +
+      throw InputError("factorize_combination: " + std::to_string(weights.size()) +
                                   " weights for " + std::to_string(S.term.size()) + " terms");
     bool is_cplx = false, symmetric = true;
     for (std::size_t k = 0; k < weights.size(); ++k) {
@@ -593,10 +593,16 @@ class SuiteSparseSolver final : public ShiftedSolver {
         throw NumericalError("factorize: non-finite weight w_" + std::to_string(k) + " = " +
                              format_complex(w) + " in " + format_weights(weights));
       }
-      if (w.imag() != 0.0) is_cplx = true;
-      if (w != Complex(0.0, 0.0) && !S.symmetric[k]) symmetric = false;
     }
     std::vector<Complex> w(weights.begin(), weights.end());
+    for (std::size_t k = 0; k < w.size(); ++k) {
+      // A weight on an all-zero term (D = 0 of an undamped model) changes nothing: it must not
+      // turn the real K - omega^2 M into a complex factorisation. (The weights are kept as given,
+      // for messages; the real assembly uses only their real parts.)
+      if (S.term[k]->nonZeros() == 0) continue;
+      if (w[k].imag() != 0.0) is_cplx = true;
+      if (w[k] != Complex(0.0, 0.0) && !S.symmetric[k]) symmetric = false;
+    }
     if (!is_cplx && symmetric && S.options.use_cholesky) {
       if (auto f = try_cholesky(w)) return f;
     }
@@ -607,10 +613,10 @@ class SuiteSparseSolver final : public ShiftedSolver {
                                   const ComplexMatrix& x) const override {
     const SharedState& S = *m_shared;
     if (weights.size() != S.term.size())
-      throw std::invalid_argument("apply_combination: " + std::to_string(weights.size()) +
+      throw InputError("apply_combination: " + std::to_string(weights.size()) +
                                   " weights for " + std::to_string(S.term.size()) + " terms");
     if (x.rows() != S.n)
-      throw std::invalid_argument("apply_combination: x has " + std::to_string(x.rows()) +
+      throw InputError("apply_combination: x has " + std::to_string(x.rows()) +
                                   " rows, expected " + std::to_string(S.n));
     std::vector<double> v;
     S.assemble_complex(weights, v);

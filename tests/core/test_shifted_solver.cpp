@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "ecmor/error.hpp"
+#include "ecmor/frequency_response.hpp"
 #include "ecmor/shifted_solver.hpp"
 
 namespace {
@@ -348,7 +349,7 @@ TEST(ShiftedSolver, NonFiniteWeightsThrow) {
   EXPECT_THROW(solver->factorize(Complex(std::numeric_limits<double>::infinity(), 0.0)),
                NumericalError);
   const std::vector<Complex> two{1.0, 1.0};
-  EXPECT_THROW(solver->factorize_combination(two), std::invalid_argument);
+  EXPECT_THROW(solver->factorize_combination(two), InputError);
 }
 
 TEST(ShiftedSolver, OptionsValidation) {
@@ -495,3 +496,30 @@ TEST(ShiftedSolver, CountersArithmetic) {
 }
 
 }  // namespace
+
+namespace ecmor {
+namespace {
+
+// D = 0 (undamped): P(i w) = K - w^2 M is real, so no complex factorisation is needed, and H is
+// still right: 1 / (k - m w^2).
+TEST(ShiftedSolverUndamped, ZeroDampingGivesARealFactorisation) {
+  SecondOrderModel s;
+  s.M = SparseMatrix(1, 1);
+  s.M.insert(0, 0) = 2.0;
+  s.K = SparseMatrix(1, 1);
+  s.K.insert(0, 0) = 8.0;
+  s.D = SparseMatrix(1, 1);  // no entries
+  s.B = Matrix::Ones(1, 1);
+  s.C = Matrix::Ones(1, 1);
+  const Model model = s;
+  auto solver = make_shifted_solver(model);
+  const Complex iw(0.0, 1.5);
+  const auto f = solver->factorize(iw);
+  EXPECT_FALSE(f->is_complex());
+  EXPECT_EQ(solver->counters().complex_factorizations, 0);
+  const ComplexMatrix H = transfer_function(model, *f, iw);
+  EXPECT_NEAR(std::abs(H(0, 0) - 1.0 / (8.0 - 2.0 * 2.25)), 0.0, 1e-15);
+}
+
+}  // namespace
+}  // namespace ecmor
