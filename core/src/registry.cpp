@@ -134,6 +134,20 @@ void Registry::load_plugin(const std::filesystem::path& path) {
         ECMOR_PLUGIN_ABI_VERSION));
   }
 
+  // Same entry-point ABI is not enough: Eigen objects cross the boundary by value, so a plugin
+  // compiled with another Eigen, alignment (-mavx) or string ABI would corrupt memory silently.
+  if (!library->has("ecmor_plugin_configuration")) {
+    throw PluginError(prefix + ": is not an ecmor plugin (no ecmor_plugin_configuration symbol)");
+  }
+  const char* configuration = library->get<const char*()>("ecmor_plugin_configuration")();
+  const std::string ours = ECMOR_PLUGIN_CONFIGURATION;
+  if (configuration == nullptr || ours != configuration) {
+    throw PluginError(fmt::format(
+        "{}: was compiled with a different configuration ({}) than this ecmor ({}): rebuild it "
+        "with the same Eigen and compiler flags (find_package(ecmor) and ecmor_add_plugin do that)",
+        prefix, configuration != nullptr ? configuration : "none", ours));
+  }
+
   auto register_function = library->get<void(Registry*)>("ecmor_plugin_register");
   m_impl->loading = library;
   m_impl->loading_path = key;

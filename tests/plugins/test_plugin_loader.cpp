@@ -9,6 +9,7 @@
 #include <fstream>
 
 #include "ecmor/error.hpp"
+#include "ecmor/plugin.hpp"
 #include "ecmor/registry.hpp"
 #include "ecmor/version.hpp"
 
@@ -147,8 +148,23 @@ TEST_F(PluginLoader, AbiMismatchNamesBothVersions) {
             "plugin " + path.string() +
                 ": was built for ecmor plugin ABI 0 (ecmor 0.0.1, g++ 10.2.1, cxx11-abi 1), this "
                 "ecmor (" ECMOR_VERSION_STRING
-                ") needs ABI 1: rebuild the plugin against this "
-                "ecmor");
+                ") needs ABI " + std::to_string(ECMOR_PLUGIN_ABI_VERSION) +
+                ": rebuild the plugin against this ecmor");
+  EXPECT_TRUE(registry.names().empty());
+}
+
+// Same entry-point ABI, other Eigen configuration: refused before registration, naming both.
+TEST_F(PluginLoader, ConfigurationMismatchNamesBothConfigurations) {
+  Registry registry;
+  const fs::path path = fixture("wrong_config");
+  const std::string msg = message_of<PluginError>([&] { registry.load_plugin(path); });
+  EXPECT_NE(msg.find(path.string() + ": was compiled with a different configuration (eigen 3.3.7, "
+                                     "max-align 32"),
+            std::string::npos)
+      << msg;
+  EXPECT_NE(msg.find(std::string("than this ecmor (") + ECMOR_PLUGIN_CONFIGURATION + ")"),
+            std::string::npos)
+      << msg;
   EXPECT_TRUE(registry.names().empty());
 }
 

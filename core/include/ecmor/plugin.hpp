@@ -5,6 +5,7 @@
 ///
 ///   int         ecmor_plugin_abi_version();    // must equal the loader's ECMOR_PLUGIN_ABI_VERSION
 ///   const char* ecmor_plugin_build_info();     // "ecmor 0.1.0, g++ 12.2.0, cxx11-abi 1"
+///   const char* ecmor_plugin_configuration();  // must equal ECMOR_PLUGIN_CONFIGURATION of ecmor
 ///   void        ecmor_plugin_register(ecmor::Registry*);
 ///
 /// Example:
@@ -15,8 +16,9 @@
 #include "ecmor/version.hpp"
 
 /// Bumped whenever a type that crosses the plugin boundary changes layout or meaning
-/// (model.hpp, reducer.hpp, parameters.hpp, shifted_solver.hpp, registry.hpp).
-#define ECMOR_PLUGIN_ABI_VERSION 1
+/// (model.hpp, reducer.hpp, parameters.hpp, shifted_solver.hpp, registry.hpp), or the entry points
+/// change. 2: ecmor_plugin_configuration added.
+#define ECMOR_PLUGIN_ABI_VERSION 2
 
 #define ECMOR_PLUGIN_STRINGIFY2(x) #x
 #define ECMOR_PLUGIN_STRINGIFY(x) ECMOR_PLUGIN_STRINGIFY2(x)
@@ -24,7 +26,18 @@
   "ecmor " ECMOR_VERSION_STRING ", g++ " __VERSION__ ", cxx11-abi " ECMOR_PLUGIN_STRINGIFY( \
       _GLIBCXX_USE_CXX11_ABI)
 
+/// The compile configuration that must be identical in ecmor and a plugin, because Eigen matrices,
+/// std::string and std::variant cross the boundary by value: the Eigen version, Eigen's alignment
+/// (changed by -mavx and friends), its index type and libstdc++'s string ABI. Compared as a string
+/// by the loader before anything in the plugin is called.
+#define ECMOR_PLUGIN_CONFIGURATION                                                             \
+  "eigen " ECMOR_PLUGIN_STRINGIFY(EIGEN_WORLD_VERSION) "." ECMOR_PLUGIN_STRINGIFY(              \
+      EIGEN_MAJOR_VERSION) "." ECMOR_PLUGIN_STRINGIFY(EIGEN_MINOR_VERSION) ", max-align " ECMOR_PLUGIN_STRINGIFY(EIGEN_MAX_ALIGN_BYTES) ", static-align " ECMOR_PLUGIN_STRINGIFY(EIGEN_MAX_STATIC_ALIGN_BYTES) ", index " ECMOR_PLUGIN_STRINGIFY(EIGEN_DEFAULT_DENSE_INDEX_TYPE) ", cxx11-abi " ECMOR_PLUGIN_STRINGIFY(_GLIBCXX_USE_CXX11_ABI)
+
 #define ECMOR_PLUGIN(register_function)                                                   \
+  extern "C" __attribute__((visibility("default"))) const char* ecmor_plugin_configuration() { \
+    return ECMOR_PLUGIN_CONFIGURATION;                                                     \
+  }                                                                                        \
   extern "C" __attribute__((visibility("default"))) int ecmor_plugin_abi_version() {     \
     return ECMOR_PLUGIN_ABI_VERSION;                                                       \
   }                                                                                        \
