@@ -9,6 +9,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <exception>
 #include <string>
 
 namespace ecmor::test {
@@ -39,6 +40,22 @@ class TempDir {
  private:
   std::filesystem::path m_path;
 };
+
+/// The message of the exception of type E that f() throws; a test failure (and "") if f throws
+/// nothing or another type.
+template <class E, class F>
+std::string message_of(F&& f) {
+  try {
+    f();
+  } catch (const E& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "unexpected exception type: " << e.what();
+    return {};
+  }
+  ADD_FAILURE() << "no exception thrown";
+  return {};
+}
 
 /// Writes `contents` to `p` byte for byte.
 inline void write_raw(const std::filesystem::path& p, const std::string& contents) {

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "ecmor/config.hpp"
+#include "common/test_support.hpp"
 #include "ecmor/error.hpp"
 
 namespace fs = std::filesystem;
@@ -17,16 +18,7 @@ namespace {
 
 template <class F>
 std::string config_error(F&& f) {
-  try {
-    f();
-  } catch (const ConfigError& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "not a ConfigError: " << e.what();
-    return {};
-  }
-  ADD_FAILURE() << "no ConfigError thrown";
-  return {};
+  return test::message_of<ConfigError>(std::forward<F>(f));
 }
 
 std::string parse_error(const std::string& yaml) {

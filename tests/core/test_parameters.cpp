@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "common/test_support.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/parameters.hpp"
 
@@ -14,16 +15,7 @@ namespace {
 
 template <class F>
 std::string config_error(F&& f) {
-  try {
-    f();
-  } catch (const ConfigError& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "not a ConfigError: " << e.what();
-    return {};
-  }
-  ADD_FAILURE() << "no ConfigError thrown";
-  return {};
+  return test::message_of<ConfigError>(std::forward<F>(f));
 }
 
 ParameterMap with(const std::string& key, ParameterValue::Storage value,

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "common/test_support.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/plugin.hpp"
 #include "ecmor/registry.hpp"
@@ -31,19 +32,7 @@ bool is_loaded(const fs::path& path) {
 }
 
 // Catches E and returns its message; fails the test if nothing (or something else) is thrown.
-template <class E, class F>
-std::string message_of(F&& f) {
-  try {
-    f();
-  } catch (const E& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "unexpected exception type: " << e.what();
-    return {};
-  }
-  ADD_FAILURE() << "no exception thrown";
-  return {};
-}
+using test::message_of;
 
 // A 4 x 4 second-order model with distinct entries so that a wrong projection shows.
 SecondOrderModel small_model() {
