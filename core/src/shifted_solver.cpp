@@ -611,19 +611,12 @@ class SuiteSparseSolver final : public ShiftedSolver {
 
   ComplexMatrix apply_combination(std::span<const Complex> weights,
                                   const ComplexMatrix& x) const override {
-    const SharedState& S = *m_shared;
-    if (weights.size() != S.term.size())
-      throw InputError("apply_combination: " + std::to_string(weights.size()) +
-                                  " weights for " + std::to_string(S.term.size()) + " terms");
-    if (x.rows() != S.n)
-      throw InputError("apply_combination: x has " + std::to_string(x.rows()) +
-                                  " rows, expected " + std::to_string(S.n));
-    std::vector<double> v;
-    S.assemble_complex(weights, v);
-    const Eigen::Map<const ComplexSparseMatrix> P(S.n, S.n, static_cast<Index>(S.nnz()),
-                                                  S.Ap.data(), S.Ai.data(),
-                                                  reinterpret_cast<const Complex*>(v.data()));
-    return P * x;
+    return apply(weights, x, false);
+  }
+
+  ComplexMatrix apply_combination_transposed(std::span<const Complex> weights,
+                                             const ComplexMatrix& x) const override {
+    return apply(weights, x, true);
   }
 
   SolverCounters counters() const override {
@@ -632,6 +625,25 @@ class SuiteSparseSolver final : public ShiftedSolver {
   }
 
  private:
+  ComplexMatrix apply(std::span<const Complex> weights, const ComplexMatrix& x,
+                      bool transposed) const {
+    const SharedState& S = *m_shared;
+    const char* what = transposed ? "apply_combination_transposed" : "apply_combination";
+    if (weights.size() != S.term.size())
+      throw InputError(std::string(what) + ": " + std::to_string(weights.size()) +
+                       " weights for " + std::to_string(S.term.size()) + " terms");
+    if (x.rows() != S.n)
+      throw InputError(std::string(what) + ": x has " + std::to_string(x.rows()) +
+                       " rows, expected " + std::to_string(S.n));
+    std::vector<double> v;
+    S.assemble_complex(weights, v);
+    const Eigen::Map<const ComplexSparseMatrix> P(S.n, S.n, static_cast<Index>(S.nnz()),
+                                                  S.Ap.data(), S.Ai.data(),
+                                                  reinterpret_cast<const Complex*>(v.data()));
+    if (transposed) return P.transpose() * x;
+    return P * x;
+  }
+
   void build_pattern() {
     SharedState& S = *m_shared;
     const int n = S.n;

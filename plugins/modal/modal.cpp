@@ -492,6 +492,11 @@ class ModalReducer final : public Reducer {
     if (request.order < 1) {
       throw InputError(fmt::format("modal: requested order {}: must be >= 1", request.order));
     }
+    if (!request.points.empty()) {
+      throw ConfigError(
+          "modal: given expansion points, but modal truncation selects modes, not points; use a "
+          "strategy that grows the order (grow_order)");
+    }
     return m_slicer ? reduce_symmetric(request.order) : reduce_general(request.order);
   }
 

@@ -70,6 +70,15 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   // Bad configuration is found before any heavy work.
   std::shared_ptr<Reducer> reducer = registry.create(config.reducer_name, config.reducer_params);
   std::unique_ptr<Strategy> strategy = make_strategy(config.strategy_name, config.strategy_params);
+  ReducerInfo reducer_info;
+  for (const Registry::Entry& e : registry.entries()) {
+    if (e.info.name == config.reducer_name) reducer_info = e.info;
+  }
+  if (strategy->moves_points() && !reducer_info.uses_expansion_points) {
+    throw ConfigError(config.source.string() + ": strategy '" + config.strategy_name +
+                      "' moves expansion points, but reducer '" + config.reducer_name +
+                      "' does not use them; use strategy grow_order with it");
+  }
 
   std::unique_ptr<ShiftedSolver> solver = make_shifted_solver(model, config.solver);
   ResponseCache cache(model, *solver, config.threads);
@@ -82,6 +91,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   HistoryWriter history(config.output_dir);
   StrategyContext ctx;
   ctx.reducer = reducer.get();
+  ctx.reducer_info = reducer_info;
   ctx.estimator = &estimator;
   ctx.tolerance = config.tolerance;
   ctx.verify_factor = config.verify_factor;

@@ -1,5 +1,7 @@
 #include "grow_order.hpp"
 
+#include "support.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -30,123 +32,29 @@ void GrowOrderOptions::validate() const {
   }
 }
 
-namespace {
-
-std::string sci(double v) {
-  std::ostringstream os;
-  os.precision(3);
-  os << std::scientific << v;
-  return os.str();
-}
-
-// A diagnostic: a failing eigen-decomposition marks the model "not shown stable" rather than
-// ending the run.
-bool is_stable(const ReducedModel& model) {
-  try {
-    const ComplexVector p = poles(model);
-    for (Index i = 0; i < p.size(); ++i) {
-      if (!(p(i).real() < 0.0)) return false;
-    }
-    return true;
-  } catch (const std::exception&) {
-    return false;
-  }
-}
-
-// One evaluated order.
-struct Candidate {
-  ReducerResult result;
-  BandError error;
-  bool passed = false;  // meets the tolerance on the estimator's sampling and on the re-check
-};
-
-}  // namespace
+using strategy_support::Candidate;
+using strategy_support::sci;
 
 StrategyResult GrowOrder::run(StrategyContext& ctx) {
-  StrategyResult out;
+  strategy_support::StrategyRun run(ctx);
   Reducer& reducer = *ctx.reducer;
-  BandErrorEstimator& estimator = *ctx.estimator;
   const Index step = std::max<Index>(m_options.order_step, reducer.order_step());
   const Index max_order = std::min(m_options.max_order, reducer.max_order());
-  Index iteration = 0;
-  auto last_time = std::chrono::steady_clock::now();
-
-  std::optional<Candidate> smallest_pass;  // smallest order that passed
-  std::optional<Candidate> most_accurate;  // lowest error seen (reported when nothing passes)
-  bool stop = false;
-
-  auto record = [&](const std::string& phase, const ReducerResult& r, const BandError& e,
-                    bool meets) {
-    IterationRecord rec;
-    rec.iteration = ++iteration;
-    rec.phase = phase;
-    rec.order = r.V.cols();
-    rec.points = r.points;
-    rec.band_error = e.sup_relative;
-    rec.f_peak_hz = e.f_peak_hz;
-    rec.meets_tolerance = meets;
-    rec.stable = is_stable(r.model);
-    const auto now = std::chrono::steady_clock::now();
-    rec.seconds = std::chrono::duration<double>(now - ctx.start).count();
-    rec.step_seconds = std::chrono::duration<double>(now - last_time).count();
-    last_time = now;
-    if (ctx.counters) rec.counters = ctx.counters();
-    if (ctx.full_evaluations) rec.full_evaluations = ctx.full_evaluations();
-    rec.sampling = e.sampling();
-    rec.note = r.note;
-    rec.diagnostics = r.diagnostics;
-    out.history.push_back(rec);
-    if (ctx.on_iteration && !ctx.on_iteration(rec)) stop = true;
-  };
-
-  // Estimate the error of a reduced model and re-check a pass on the independent grid.
-  auto assess = [&](ReducerResult result, const std::string& phase) -> Candidate {
-    Candidate c;
-    c.result = std::move(result);
-    c.error = estimator.evaluate(c.result.model);
-    bool meets = c.error.sup_relative <= ctx.tolerance;
-    record(phase, c.result, c.error, meets);
-    if (meets && !stop) {
-      // "Converged" must hold on a denser grid that shares no frequency with the estimator's.
-      BandError check = estimator.verify(c.result.model, ctx.verify_factor);
-      const bool verified = check.sup_relative <= ctx.tolerance;
-      record("verify", c.result, check, verified);
-      // Report the larger of the two estimates of the supremum.
-      if (check.sup_relative > c.error.sup_relative) c.error = check;
-      meets = verified;
-    }
-    c.passed = meets;
-    if (!most_accurate || c.error.sup_relative < most_accurate->error.sup_relative) {
-      most_accurate = c;
-    }
-    if (c.passed && (!smallest_pass || c.result.V.cols() < smallest_pass->result.V.cols())) {
-      smallest_pass = c;
-    }
-    return c;
-  };
   auto try_order = [&](Index order, const std::string& phase) -> Candidate {
-    return assess(reducer.reduce(ReductionRequest{order, {}}), phase);
+    return run.assess(reducer.reduce(ReductionRequest{order, {}}), phase);
   };
-
   auto finish = [&](Termination t, std::string message) {
-    out.termination = t;
-    out.message = std::move(message);
-    const std::optional<Candidate>& chosen = smallest_pass ? smallest_pass : most_accurate;
-    if (chosen) {
-      out.best = chosen->result;
-      out.best_error = chosen->error;
-    }
-    return out;
+    return run.finish(t, std::move(message));
   };
 
-  try {
+  return strategy_support::guarded(run, [&]() -> StrategyResult {
     // Phase 1: grow until a verified pass.
     Index order = std::min(m_options.initial_order, max_order);
     Index last_fail = 0;          // largest order known to fail
     Index previous_delivered = -1;
     std::vector<double> best_trace;  // best error after each growth step
     while (true) {
-      if (iteration >= m_options.max_iterations) {
+      if (run.iterations() >= m_options.max_iterations) {
         return finish(Termination::IterationLimit,
                       "iteration budget " + std::to_string(m_options.max_iterations) +
                           " used up before the tolerance was met");
@@ -168,24 +76,24 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
             return finish(Termination::MaxOrderReached,
                           "order budget " + std::to_string(max_order) + " reached (delivered " +
                               std::to_string(delivered) + "): band error " +
-                              sci(most_accurate->error.sup_relative) + " > tolerance " +
+                              sci(run.best_error()) + " > tolerance " +
                               sci(ctx.tolerance));
           }
           return finish(Termination::ReducerExhausted,
                         "the reducer delivers at most order " + std::to_string(delivered) +
                             " (requested " + std::to_string(order) + "); band error " +
-                            sci(most_accurate->error.sup_relative) + " > tolerance " +
+                            sci(run.best_error()) + " > tolerance " +
                             sci(ctx.tolerance));
         }
         order = next_order(order);
         continue;
       }
-      const Candidate c = assess(std::move(reduced), "grow");
-      if (stop) return finish(Termination::Interrupted, "stopped by request at order " +
+      const Candidate c = run.assess(std::move(reduced), "grow");
+      if (run.stopped()) return finish(Termination::Interrupted, "stopped by request at order " +
                                                             std::to_string(c.result.V.cols()));
       if (c.passed) break;
       last_fail = std::max(last_fail, delivered);
-      best_trace.push_back(most_accurate->error.sup_relative);
+      best_trace.push_back(run.best_error());
       previous_delivered = delivered;
       const Index w = m_options.stagnation_window;
       if (w > 0 && static_cast<Index>(best_trace.size()) > w) {
@@ -201,12 +109,12 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
         if (reducer.max_order() <= m_options.max_order) {
           return finish(Termination::ReducerExhausted,
                         "the reducer delivers at most order " + std::to_string(delivered) +
-                            "; band error " + sci(most_accurate->error.sup_relative) +
+                            "; band error " + sci(run.best_error()) +
                             " > tolerance " + sci(ctx.tolerance));
         }
         return finish(Termination::MaxOrderReached,
                       "order budget " + std::to_string(max_order) + " reached: band error " +
-                          sci(most_accurate->error.sup_relative) + " > tolerance " +
+                          sci(run.best_error()) + " > tolerance " +
                           sci(ctx.tolerance));
       }
       order = next_order(order);
@@ -218,16 +126,16 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
     // order under the assumption that it is monotone between the two (documented).
     if (m_options.shrink) {
       Index lo = last_fail;                       // fails (or 0)
-      Index hi = smallest_pass->result.V.cols();  // passes
+      Index hi = run.smallest_pass()->order();  // passes
       // Bisection on requested orders: a failing request raises lo to the request even when the
       // reducer delivered less (pairs, deflation), a passing one lowers hi to what was delivered;
       // each step moves one of them, so the loop ends.
-      while (hi - lo > step && iteration < m_options.max_iterations) {
+      while (hi - lo > step && run.iterations() < m_options.max_iterations) {
         Index mid = lo + ((hi - lo) / (2 * step)) * step;
         if (mid <= lo) mid = lo + step;
         if (mid >= hi) break;
         const Candidate c = try_order(mid, "shrink");
-        if (stop) break;
+        if (run.stopped()) break;
         const Index delivered = c.result.V.cols();
         if (c.passed && delivered < hi) {
           hi = delivered;
@@ -235,21 +143,13 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
           lo = mid;  // failed, or passed without being smaller than the best so far
         }
       }
-      if (stop || hi - lo > step) shrink_note = " (search for a smaller order cut short)";
+      if (run.stopped() || hi - lo > step) shrink_note = " (search for a smaller order cut short)";
     }
     return finish(Termination::Converged,
-                  "band error " + sci(smallest_pass->error.sup_relative) + " <= tolerance " +
+                  "band error " + sci(run.smallest_pass()->error.sup_relative) + " <= tolerance " +
                       sci(ctx.tolerance) + " at order " +
-                      std::to_string(smallest_pass->result.V.cols()) + " (verified on a " +
-                      std::to_string(ctx.verify_factor) + "x denser independent grid)" +
-                      shrink_note);
-  } catch (const Error& e) {
-    return finish(Termination::Failed, std::string("reduction failed: ") + e.what());
-  } catch (const std::exception& e) {
-    // A plugin may throw anything; the best model so far is kept and written all the same.
-    return finish(Termination::Failed, std::string("reduction failed (unexpected exception): ") +
-                                           e.what());
-  }
+                      std::to_string(run.smallest_pass()->order()) + run.verified_phrase() + shrink_note);
+  });
 }
 
 }  // namespace ecmor

@@ -291,6 +291,12 @@ TEST(ShiftedSolver, ApplyCombinationIsTheSparseProduct) {
   auto f = dsolver->factorize_combination(v);
   ComplexMatrix z = f->solve(y);
   EXPECT_LT(rel_err(dsolver->apply_combination(v, z), y), 1e-14);
+  // Transposed product of an unsymmetric descriptor pencil, and its transposed solve.
+  ComplexMatrix tref =
+      (-v[0] * Matrix(ds.A).cast<Complex>() + v[1] * Matrix(ds.E).cast<Complex>()).transpose() * y;
+  ASSERT_GT((Matrix(ds.A) - Matrix(ds.A).transpose()).norm(), 0.0);  // the case is unsymmetric
+  EXPECT_LT(rel_err(dsolver->apply_combination_transposed(v, y), tref), 1e-15);
+  EXPECT_LT(rel_err(dsolver->apply_combination_transposed(v, f->solve_transposed(y)), y), 1e-14);
 }
 
 TEST(ShiftedSolver, SingularShiftThrowsNamingTheShift) {

@@ -18,7 +18,7 @@
 /// Bumped whenever a type that crosses the plugin boundary changes layout or meaning
 /// (model.hpp, reducer.hpp, parameters.hpp, shifted_solver.hpp, registry.hpp), or the entry points
 /// change. 2: ecmor_plugin_configuration added.
-#define ECMOR_PLUGIN_ABI_VERSION 2
+#define ECMOR_PLUGIN_ABI_VERSION 3
 
 #define ECMOR_PLUGIN_STRINGIFY2(x) #x
 #define ECMOR_PLUGIN_STRINGIFY(x) ECMOR_PLUGIN_STRINGIFY2(x)

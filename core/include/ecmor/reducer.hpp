@@ -22,11 +22,19 @@
 
 namespace ecmor {
 
-/// An expansion (interpolation) point s0 and the number of moments matched there.
+/// An expansion (interpolation) point s0 and the number of moments matched there. Points inside
+/// a band are s0 = i 2 pi f (use point_at_hz); real points s0 >= 0 are allowed too. A complex point
+/// also interpolates at its conjugate, since projection bases are real.
 struct ExpansionPoint {
   Complex s{0.0, 0.0};
   Index moments = 1;
+  friend bool operator==(const ExpansionPoint&, const ExpansionPoint&) = default;
 };
+
+/// The point s0 = i 2 pi f_hz with `moments` moments.
+inline ExpansionPoint point_at_hz(double f_hz, Index moments = 1) {
+  return ExpansionPoint{Complex(0.0, kTwoPi * f_hz), moments};
+}
 
 /// What the driver hands a reducer once, before the first reduce().
 struct ReductionContext {
@@ -35,10 +43,15 @@ struct ReductionContext {
   Band band;                         ///< the frequency band of interest (Hz)
 };
 
-/// One request: the order n (number of columns of V) and optionally expansion points.
+/// One request for a reduced model.
+///  * points empty: order is the requested number of columns of V; the reducer chooses how (modal:
+///    modes selected for the band; Krylov: more moments at its configured points).
+///  * points given (reducers with ReducerInfo::uses_expansion_points): the reducer builds the
+///    subspace of exactly these points and moments; order > 0 then caps the number of columns
+///    (keeping the first ones built), order = 0 means "all that the points imply". Reducers that
+///    do not use points throw ConfigError when given some.
 struct ReductionRequest {
   Index order = 1;
-  /// Empty: the reducer chooses (e.g. modal: modes selected for the band).
   std::vector<ExpansionPoint> points;
 };
 

@@ -97,6 +97,10 @@ class ECMOR_API ShiftedSolver {
   /// y = (sum_k w_k T_k) x, a sparse product (no factorisation).
   virtual ComplexMatrix apply_combination(std::span<const Complex> weights,
                                           const ComplexMatrix& x) const = 0;
+  /// y = (sum_k w_k T_k)^T x (transpose, not conjugate transpose), e.g. for output-side Krylov
+  /// recurrences of unsymmetric models.
+  virtual ComplexMatrix apply_combination_transposed(std::span<const Complex> weights,
+                                                     const ComplexMatrix& x) const = 0;
 
   /// Snapshot of the cumulative counters.
   virtual SolverCounters counters() const = 0;

@@ -32,6 +32,8 @@ std::string to_string(Termination t);
 /// Everything a strategy works with. The pointers outlive the call to run().
 struct StrategyContext {
   Reducer* reducer = nullptr;
+  /// The reducer's static description (name for messages; uses_expansion_points).
+  ReducerInfo reducer_info;
   BandErrorEstimator* estimator = nullptr;
   double tolerance = 1e-3;
   /// A pass is re-checked on a grid this many times denser than the estimator's (independent).
@@ -57,6 +59,9 @@ class Strategy {
  public:
   virtual ~Strategy();
   virtual StrategyResult run(StrategyContext& context) = 0;
+  /// True for strategies that move expansion points: they need a reducer with
+  /// ReducerInfo::uses_expansion_points (the driver checks this before any heavy work).
+  virtual bool moves_points() const { return false; }
 };
 
 /// Creates a strategy by name ("grow_order", ...), reading its parameters.

@@ -1,0 +1,127 @@
+#include "support.hpp"
+
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "ecmor/error.hpp"
+#include "ecmor/frequency_response.hpp"
+
+namespace ecmor::strategy_support {
+
+std::string sci(double v) {
+  std::ostringstream os;
+  os.precision(3);
+  os << std::scientific << v;
+  return os.str();
+}
+
+bool is_stable(const ReducedModel& model) {
+  try {
+    const ComplexVector p = poles(model);
+    for (Index i = 0; i < p.size(); ++i) {
+      if (!(p(i).real() < 0.0)) return false;
+    }
+    return true;
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+StrategyRun::StrategyRun(StrategyContext& context)
+    : m_ctx(context), m_last(std::chrono::steady_clock::now()) {}
+
+void StrategyRun::record(const std::string& phase, const ReducerResult& r, const BandError& e,
+                         bool meets, bool stable, const std::map<std::string, double>& extra) {
+  IterationRecord rec;
+  rec.iteration = ++m_iteration;
+  rec.phase = phase;
+  rec.order = r.V.cols();
+  rec.points = r.points;
+  rec.band_error = e.sup_relative;
+  rec.f_peak_hz = e.f_peak_hz;
+  rec.meets_tolerance = meets;
+  rec.stable = stable;
+  const auto now = std::chrono::steady_clock::now();
+  rec.seconds = std::chrono::duration<double>(now - m_ctx.start).count();
+  rec.step_seconds = std::chrono::duration<double>(now - m_last).count();
+  m_last = now;
+  if (m_ctx.counters) rec.counters = m_ctx.counters();
+  if (m_ctx.full_evaluations) rec.full_evaluations = m_ctx.full_evaluations();
+  rec.sampling = e.sampling();
+  rec.note = r.note;
+  if (!stable) rec.note += rec.note.empty() ? "UNSTABLE reduced model" : "; UNSTABLE reduced model";
+  rec.diagnostics = r.diagnostics;
+  for (const auto& [k, v] : extra) rec.diagnostics[k] = v;
+  m_out.history.push_back(rec);
+  if (m_ctx.on_iteration && !m_ctx.on_iteration(rec)) m_stop = true;
+}
+
+Candidate StrategyRun::assess(ReducerResult result, const std::string& phase,
+                              const std::map<std::string, double>& extra) {
+  Candidate c;
+  c.result = std::move(result);
+  c.stable = is_stable(c.result.model);
+  c.error = m_ctx.estimator->evaluate(c.result.model);
+  bool meets = c.error.sup_relative <= m_ctx.tolerance;
+  record(phase, c.result, c.error, meets, c.stable, extra);
+  if (meets && c.stable && !m_stop) {
+    // "Converged" must hold on a denser grid that shares no frequency with the estimator's.
+    BandError check = m_ctx.estimator->verify(c.result.model, m_ctx.verify_factor);
+    const bool verified = check.sup_relative <= m_ctx.tolerance;
+    record("verify", c.result, check, verified, c.stable, extra);
+    // Report the larger of the two estimates of the supremum.
+    if (check.sup_relative > c.error.sup_relative) c.error = check;
+    meets = verified;
+  }
+  c.passed = meets && c.stable;
+  // An unstable model is kept as "most accurate" only when no stable one has been seen.
+  const bool better =
+      !m_most_accurate || (c.stable && !m_most_accurate->stable) ||
+      (c.stable == m_most_accurate->stable &&
+       c.error.sup_relative < m_most_accurate->error.sup_relative);
+  if (better) m_most_accurate = c;
+  if (c.passed && (!m_smallest_pass || c.order() < m_smallest_pass->order())) m_smallest_pass = c;
+  return c;
+}
+
+void StrategyRun::record_trial(const std::string& phase, const ReducerResult& result,
+                               const BandError& error,
+                               const std::map<std::string, double>& extra) {
+  record(phase, result, error, error.sup_relative <= m_ctx.tolerance, is_stable(result.model),
+         extra);
+}
+
+double StrategyRun::best_error() const {
+  return m_most_accurate ? m_most_accurate->error.sup_relative
+                         : std::numeric_limits<double>::infinity();
+}
+
+StrategyResult StrategyRun::finish(Termination t, std::string message) {
+  m_out.termination = t;
+  m_out.message = std::move(message);
+  const std::optional<Candidate>& chosen = m_smallest_pass ? m_smallest_pass : m_most_accurate;
+  if (chosen) {
+    m_out.best = chosen->result;
+    m_out.best_error = chosen->error;
+  }
+  return m_out;
+}
+
+std::string StrategyRun::verified_phrase() const {
+  return " (verified on a " + std::to_string(m_ctx.verify_factor) +
+         "x denser independent grid)";
+}
+
+double band_centre_hz(const Band& band) { return std::sqrt(band.f_min_hz * band.f_max_hz); }
+
+void require_point_reducer(const StrategyContext& context, const std::string& strategy) {
+  if (!context.reducer_info.uses_expansion_points) {
+    const std::string name =
+        context.reducer_info.name.empty() ? "this reducer" : "'" + context.reducer_info.name + "'";
+    throw ConfigError("strategy '" + strategy + "' moves expansion points, but reducer " + name +
+                      " does not use expansion points; use strategy grow_order with it");
+  }
+}
+
+}  // namespace ecmor::strategy_support

@@ -1,0 +1,102 @@
+#pragma once
+/// \file support.hpp
+/// What every strategy does the same way: evaluate a reduced model's band error, re-check a pass
+/// on the independent grid, record each step in the history, keep the smallest passing and the
+/// most accurate candidate, and finish with a reason. Strategies differ only in which reduced
+/// models they ask for.
+
+#include <chrono>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ecmor/error.hpp"
+#include "ecmor/strategies/strategy.hpp"
+
+namespace ecmor::strategy_support {
+
+/// "1.234e-04".
+std::string sci(double v);
+
+/// True when every pole of the reduced model lies in the open left half plane. A failing
+/// eigen-decomposition counts as "not shown stable" rather than ending the run.
+bool is_stable(const ReducedModel& model);
+
+/// One assessed reduced model.
+struct Candidate {
+  ReducerResult result;
+  BandError error;
+  bool stable = false;
+  /// Meets the tolerance on the estimator's sampling and on the independent re-check, and is
+  /// stable (an unstable model is never reported as converged).
+  bool passed = false;
+  Index order() const { return result.V.cols(); }
+};
+
+/// The bookkeeping of one strategy run: history records, best candidates, termination.
+class StrategyRun {
+ public:
+  explicit StrategyRun(StrategyContext& context);
+
+  StrategyContext& context() { return m_ctx; }
+  Index iterations() const { return m_iteration; }
+  /// True once the observer asked to stop (the strategy must then finish as Interrupted).
+  bool stopped() const { return m_stop; }
+
+  /// Appends one history record (and calls the observer). `extra` adds diagnostics.
+  void record(const std::string& phase, const ReducerResult& result, const BandError& error,
+              bool meets, bool stable, const std::map<std::string, double>& extra = {});
+
+  /// Evaluates the band error of `result` (estimator.evaluate), records it under `phase`, and, if
+  /// it meets the tolerance, re-checks it on the independent grid (recorded as "verify"). Tracks
+  /// the smallest passing and the most accurate candidate.
+  Candidate assess(ReducerResult result, const std::string& phase,
+                   const std::map<std::string, double>& extra = {});
+
+  /// Records a candidate whose error was evaluated elsewhere (e.g. on an optimiser's sample set)
+  /// without the pass/verify logic; it is not tracked as a best candidate.
+  void record_trial(const std::string& phase, const ReducerResult& result, const BandError& error,
+                    const std::map<std::string, double>& extra = {});
+
+  const std::optional<Candidate>& smallest_pass() const { return m_smallest_pass; }
+  const std::optional<Candidate>& most_accurate() const { return m_most_accurate; }
+  /// Error of the most accurate candidate so far (+inf if none).
+  double best_error() const;
+
+  /// Fills and returns the result: the smallest passing candidate, else the most accurate one.
+  StrategyResult finish(Termination termination, std::string message);
+
+  /// Message tail " (verified on a 4x denser independent grid)".
+  std::string verified_phrase() const;
+
+ private:
+  StrategyContext& m_ctx;
+  StrategyResult m_out;
+  Index m_iteration = 0;
+  bool m_stop = false;
+  std::chrono::steady_clock::time_point m_last;
+  std::optional<Candidate> m_smallest_pass;
+  std::optional<Candidate> m_most_accurate;
+};
+
+/// Runs `body` and turns exceptions into a Failed termination that keeps the best model so far.
+template <class Body>
+StrategyResult guarded(StrategyRun& run, Body&& body) {
+  try {
+    return body();
+  } catch (const Error& e) {
+    return run.finish(Termination::Failed, std::string("reduction failed: ") + e.what());
+  } catch (const std::exception& e) {
+    // A plugin may throw anything; the best model so far is kept and written all the same.
+    return run.finish(Termination::Failed,
+                      std::string("reduction failed (unexpected exception): ") + e.what());
+  }
+}
+
+/// Geometric centre of the band, sqrt(f_min f_max).
+double band_centre_hz(const Band& band);
+
+/// Throws ConfigError unless the reducer uses expansion points (for point-moving strategies).
+void require_point_reducer(const StrategyContext& context, const std::string& strategy);
+
+}  // namespace ecmor::strategy_support
