@@ -6,6 +6,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <iostream>
 
 #include "ecmor/atomic_file.hpp"
@@ -22,30 +23,6 @@ namespace {
 std::atomic<bool> g_interrupted{false};
 
 extern "C" void on_signal(int) { g_interrupted.store(true); }
-
-// Loads default plugin directories (failures are warnings: one broken plugin must not stop the
-// others) and explicitly requested plugins (failures are errors).
-void load_plugins(Registry& registry, const CommonOptions& common,
-                  const std::vector<std::filesystem::path>& from_config) {
-  if (!common.no_default_plugins) {
-    for (const auto& dir : default_plugin_directories()) {
-      for (const std::string& problem : registry.load_directory(dir)) {
-        fmt::print(stderr, "ecmor: warning: {}\n", problem);
-      }
-    }
-  }
-  std::vector<std::filesystem::path> explicit_paths = common.plugin_paths;
-  explicit_paths.insert(explicit_paths.end(), from_config.begin(), from_config.end());
-  for (const auto& path : explicit_paths) {
-    if (std::filesystem::is_directory(path)) {
-      for (const std::string& problem : registry.load_directory(path)) {
-        throw PluginError(problem);
-      }
-    } else {
-      registry.load_plugin(path);
-    }
-  }
-}
 
 // Prints the convergence table while the run goes on.
 class TablePrinter final : public RunObserver {
@@ -132,8 +109,9 @@ void plot_error(const RunSummary& s, const RunConfig& config, bool quiet) {
   }
 }
 
-template <class F>
-int guarded(F&& body) {
+}  // namespace
+
+int guarded(const std::function<int()>& body) {
   try {
     return body();
   } catch (const Error& e) {
@@ -145,7 +123,29 @@ int guarded(F&& body) {
   }
 }
 
-}  // namespace
+// Loads default plugin directories (failures are warnings: one broken plugin must not stop the
+// others) and explicitly requested plugins (failures are errors).
+void load_plugins(Registry& registry, const CommonOptions& common,
+                  const std::vector<std::filesystem::path>& from_config) {
+  if (!common.no_default_plugins) {
+    for (const auto& dir : default_plugin_directories()) {
+      for (const std::string& problem : registry.load_directory(dir)) {
+        fmt::print(stderr, "ecmor: warning: {}\n", problem);
+      }
+    }
+  }
+  std::vector<std::filesystem::path> explicit_paths = common.plugin_paths;
+  explicit_paths.insert(explicit_paths.end(), from_config.begin(), from_config.end());
+  for (const auto& path : explicit_paths) {
+    if (std::filesystem::is_directory(path)) {
+      for (const std::string& problem : registry.load_directory(path)) {
+        throw PluginError(problem);
+      }
+    } else {
+      registry.load_plugin(path);
+    }
+  }
+}
 
 int reduce(const std::filesystem::path& config_path, const CommonOptions& common) {
   return guarded([&] {

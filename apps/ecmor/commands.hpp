@@ -3,8 +3,13 @@
 /// The subcommands of the `ecmor` command line. Each returns the process exit code.
 
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
+
+namespace ecmor {
+class Registry;
+}
 
 namespace ecmor::app {
 
@@ -16,10 +21,28 @@ struct CommonOptions {
   bool no_plot = false;                             ///< --no-plot: skip error.png
 };
 
+/// Runs a command body; an ecmor::Error (or any exception) becomes a message on stderr and exit 1.
+int guarded(const std::function<int()>& body);
+
+/// Loads the plugins of the default directories (failures are warnings), then those given by
+/// --plugin and the config's `plugins:` key (failures throw PluginError).
+void load_plugins(Registry& registry, const CommonOptions& common,
+                  const std::vector<std::filesystem::path>& from_config);
+
 /// `ecmor reduce CONFIG`: 0 target met, 2 usable model but target missed, 1 error, 130 interrupted.
 int reduce(const std::filesystem::path& config, const CommonOptions& common);
 /// `ecmor plugins`: list the registered reducers with library, version and parameters.
 int plugins(const CommonOptions& common);
+/// Options of `ecmor bench`.
+struct BenchOptions {
+  std::vector<std::filesystem::path> configs;
+  std::vector<double> tolerances;            ///< empty: each config's own tolerance
+  std::filesystem::path output_dir = "out/bench";
+};
+/// `ecmor bench CONFIG...`: runs every config at every tolerance of the ladder, records order,
+/// errors, times and counters per run; writes bench.csv, bench.json and bench.md (a table).
+/// 0 when every run met its target, 2 when some did not, 1 on an error before the runs.
+int bench(const BenchOptions& options, const CommonOptions& common);
 /// `ecmor info MODEL_DIR`: sizes, nnz, symmetry, definiteness, lowest eigenfrequencies.
 int info(const std::filesystem::path& model_dir, int eigenfrequencies, const CommonOptions& common);
 

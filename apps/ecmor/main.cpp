@@ -40,6 +40,18 @@ int main(int argc, char** argv) {
   auto* plugins = cli.add_subcommand("plugins", "list the loaded reducers and their parameters");
   add_common(plugins);
 
+  ecmor::app::BenchOptions bench_options;
+  auto* bench = cli.add_subcommand(
+      "bench", "run configurations over a ladder of tolerances and tabulate order reached, "
+               "errors, times and counters (bench.csv, bench.json, bench.md)");
+  bench->add_option("configs", bench_options.configs, "YAML run configurations")->required();
+  bench->add_option("-t,--tolerances", bench_options.tolerances,
+                    "tolerance ladder, e.g. 1e-2,1e-3,1e-4 (default: each config's own)")
+      ->delimiter(',');
+  bench->add_option("-o,--output", bench_options.output_dir,
+                    "output directory (default out/bench)");
+  add_common(bench);
+
   std::filesystem::path model_dir;
   int eigenfrequencies = 10;
   auto* info = cli.add_subcommand(
@@ -58,6 +70,7 @@ int main(int argc, char** argv) {
     return cli.exit(e) == 0 ? 0 : 1;
   }
   if (*reduce) return ecmor::app::reduce(config, common);
+  if (*bench) return ecmor::app::bench(bench_options, common);
   if (*plugins) return ecmor::app::plugins(common);
   if (*info) return ecmor::app::info(model_dir, eigenfrequencies, common);
   return 1;

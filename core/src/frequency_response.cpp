@@ -8,6 +8,7 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <exception>
@@ -275,7 +276,9 @@ std::vector<ComplexMatrix> ResponseCache::evaluate(const std::vector<double>& f_
   std::sort(missing.begin(), missing.end());
   missing.erase(std::unique(missing.begin(), missing.end()), missing.end());
   if (!missing.empty()) {
+    const auto start = std::chrono::steady_clock::now();
     auto H = frequency_response(m_model, m_solver, missing, m_threads);
+    m_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     for (std::size_t i = 0; i < missing.size(); ++i) m_cache.emplace(missing[i], std::move(H[i]));
   }
   std::vector<ComplexMatrix> out;
@@ -286,6 +289,11 @@ std::vector<ComplexMatrix> ResponseCache::evaluate(const std::vector<double>& f_
 
 ComplexMatrix ResponseCache::evaluate(double f_hz) {
   return evaluate(std::vector<double>{f_hz})[0];
+}
+
+double ResponseCache::seconds() const {
+  std::lock_guard<std::mutex> lock(m_mutex);
+  return m_seconds;
 }
 
 Index ResponseCache::size() const {

@@ -57,6 +57,48 @@ bool all_poles_stable(const ReducedModel& m) {
 
 }  // namespace
 
+namespace {
+
+/// Wraps the configured reducer to measure the reduction proper: wall time and solver work inside
+/// reduce(), apart from the error estimation around it.
+class TimedReducer final : public Reducer {
+ public:
+  TimedReducer(Reducer& inner, const ShiftedSolver& solver) : m_inner(inner), m_solver(solver) {}
+  void setup(const ReductionContext& context) override { m_inner.setup(context); }
+  ReducerResult reduce(const ReductionRequest& request) override {
+    const auto start = std::chrono::steady_clock::now();
+    const SolverCounters before = m_solver.counters();
+    // Counted even when reduce() throws: the work was done.
+    struct Account {
+      TimedReducer& self;
+      std::chrono::steady_clock::time_point start;
+      SolverCounters before;
+      ~Account() {
+        self.m_seconds +=
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        self.m_counters += self.m_solver.counters() - before;
+        ++self.m_calls;
+      }
+    } account{*this, start, before};
+    return m_inner.reduce(request);
+  }
+  Index max_order() const override { return m_inner.max_order(); }
+  Index order_step() const override { return m_inner.order_step(); }
+
+  double seconds() const { return m_seconds; }
+  Index calls() const { return m_calls; }
+  const SolverCounters& counters() const { return m_counters; }
+
+ private:
+  Reducer& m_inner;
+  const ShiftedSolver& m_solver;
+  double m_seconds = 0.0;
+  Index m_calls = 0;
+  SolverCounters m_counters;
+};
+
+}  // namespace
+
 RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserver* observer) {
   const auto start = std::chrono::steady_clock::now();
   auto elapsed = [&] {
@@ -87,10 +129,11 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   BandErrorEstimator estimator(cache, config.band, error_options);
 
   reducer->setup(ReductionContext{&model, solver.get(), config.band});
+  TimedReducer timed(*reducer, *solver);
 
   HistoryWriter history(config.output_dir);
   StrategyContext ctx;
-  ctx.reducer = reducer.get();
+  ctx.reducer = &timed;
   ctx.reducer_info = reducer_info;
   ctx.estimator = &estimator;
   ctx.tolerance = config.tolerance;
@@ -114,6 +157,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   summary.output_dir = config.output_dir;
   summary.iterations = static_cast<Index>(result.history.size());
   summary.load_seconds = load_seconds;
+  summary.full_order = size_of(model);
 
   nlohmann::json j;
   if (result.best) {
@@ -147,6 +191,10 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
     }
   }
   summary.counters = solver->counters();
+  summary.reducer_seconds = timed.seconds();
+  summary.reducer_calls = timed.calls();
+  summary.reducer_counters = timed.counters();
+  summary.full_response_seconds = cache.seconds();
   summary.full_evaluations = cache.size();
   summary.seconds = elapsed();
   summary.peak_memory_mb = peak_memory_mb();
@@ -177,7 +225,12 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   j["reducer"] = config.reducer_name;
   j["strategy"] = config.strategy_name;
   j["iterations"] = summary.iterations;
-  j["seconds"] = {{"total", summary.seconds}, {"load", summary.load_seconds}};
+  j["seconds"] = {{"total", summary.seconds},
+                  {"load", summary.load_seconds},
+                  {"reducer", summary.reducer_seconds},
+                  {"full_response", summary.full_response_seconds}};
+  j["reducer_calls"] = summary.reducer_calls;
+  j["reducer_counters"] = counters_json(summary.reducer_counters);
   j["counters"] = counters_json(summary.counters);
   j["full_evaluations"] = summary.full_evaluations;
   j["peak_memory_mb"] = summary.peak_memory_mb;

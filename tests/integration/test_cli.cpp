@@ -638,5 +638,55 @@ TEST_F(Cli, OutputOptionOverridesConfiguredDirectory) {
   EXPECT_FALSE(fs::exists(output()));
 }
 
+// ---------------------------------------------------------------- ecmor bench
+
+TEST_F(Cli, BenchRunsTheToleranceLadderAndTabulatesEveryRun) {
+  write_text(config(), lf10_yaml(output(), 1e-3, "{name: grow_order}"));
+  const fs::path out = m_dir / "bench";
+  const Result r = run({"bench", config().string(), "-t", "1e-2,1e-5", "-o", out.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const nlohmann::json rows = read_json(out / "bench.json");
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_DOUBLE_EQ(rows[0]["tolerance"].get<double>(), 1e-2);
+  EXPECT_DOUBLE_EQ(rows[1]["tolerance"].get<double>(), 1e-5);
+  for (const auto& row : rows) {
+    EXPECT_TRUE(row["target_met"].get<bool>());
+    EXPECT_EQ(row["N"].get<Index>(), 18);
+    EXPECT_LE(row["verified_band_error"].get<double>(), row["tolerance"].get<double>());
+    EXPECT_GE(row["reducer_calls"].get<Index>(), 1);
+    // The reduction's time is part of the run's, never more.
+    EXPECT_LE(row["reducer_seconds"].get<double>(), row["seconds"].get<double>());
+  }
+  // A tighter tolerance never needs a smaller model (same nested modal bases).
+  EXPECT_LE(rows[0]["order"].get<Index>(), rows[1]["order"].get<Index>());
+  // Each run keeps its own outputs; the table has one line per run.
+  EXPECT_TRUE(fs::is_regular_file(out / "runs" / "run_tol1e-02" / "summary.json"));
+  EXPECT_TRUE(fs::is_regular_file(out / "runs" / "run_tol1e-05" / "summary.json"));
+  const std::string csv = read_text(out / "bench.csv");
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 3);
+}
+
+TEST_F(Cli, BenchRecordsAFailedRunAsARow) {
+  // The second config names a reducer that does not exist: its row says so, the other runs.
+  write_text(config(), lf10_yaml(output(), 1e-2, "{name: grow_order}"));
+  const fs::path bad = m_dir / "bad.yaml";
+  std::string text = lf10_yaml(output(), 1e-2, "{name: grow_order}");
+  text.replace(text.find("modal"), 5, "no_such_reducer");
+  write_text(bad, text);
+  const fs::path out = m_dir / "bench";
+  const Result r = run({"bench", config().string(), bad.string(), "-o", out.string()});
+  EXPECT_EQ(r.exit_code, 2) << r.out << r.err;
+  const nlohmann::json rows = read_json(out / "bench.json");
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_TRUE(rows[0]["target_met"].get<bool>());
+  EXPECT_EQ(rows[1]["termination"].get<std::string>(), "error");
+  EXPECT_NE(rows[1]["message"].get<std::string>().find("no_such_reducer"), std::string::npos);
+}
+
+TEST_F(Cli, BenchRejectsAToleranceOutsideZeroOne) {
+  write_text(config(), lf10_yaml(output(), 1e-2, "{name: grow_order}"));
+  EXPECT_ERROR(run({"bench", config().string(), "-t", "1e-2,2"}), "tolerance 2", "(0, 1)");
+}
+
 }  // namespace
 }  // namespace ecmor

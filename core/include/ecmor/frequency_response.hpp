@@ -59,6 +59,9 @@ class ECMOR_API ResponseCache {
 
   /// Number of stored frequencies (= full-model factorisations done through this cache).
   Index size() const;
+  /// Wall time spent computing full-model responses (the cost a reducer's run adds to the full
+  /// model's band sampling).
+  double seconds() const;
   const Model& model() const { return m_model; }
   ShiftedSolver& solver() { return m_solver; }
 
@@ -68,6 +71,7 @@ class ECMOR_API ResponseCache {
   int m_threads;
   mutable std::mutex m_mutex;
   std::map<double, ComplexMatrix> m_cache;
+  double m_seconds = 0.0;
 };
 
 }  // namespace ecmor

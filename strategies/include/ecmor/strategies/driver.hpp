@@ -20,6 +20,7 @@ namespace ecmor {
 struct RunSummary {
   Termination termination = Termination::Failed;
   std::string message;
+  Index full_order = 0;          ///< N of the full model
   bool has_model = false;        ///< a reduced model was written
   Index order = 0;
   double band_error = 0.0;       ///< sup relative band error of the reported model
@@ -32,6 +33,13 @@ struct RunSummary {
   double tolerance = 0.0;
   double seconds = 0.0;
   double load_seconds = 0.0;
+  /// Time inside the reducer's reduce() calls (the reduction proper), how many calls, and the
+  /// solver work done inside them (the unavoidable sparse part of the reduction).
+  double reducer_seconds = 0.0;
+  Index reducer_calls = 0;
+  SolverCounters reducer_counters;
+  /// Time spent computing full-model responses for the error estimates.
+  double full_response_seconds = 0.0;
   SolverCounters counters;
   Index full_evaluations = 0;
   double peak_memory_mb = 0.0;
