@@ -1,6 +1,7 @@
 #include "ecmor/strategies/strategy.hpp"
 
 #include "ecmor/error.hpp"
+#include "greedy_points.hpp"
 #include "grow_order.hpp"
 
 namespace ecmor {
@@ -20,12 +21,14 @@ std::string to_string(Termination t) {
   return "unknown";
 }
 
-std::vector<std::string> strategy_names() { return {"grow_order"}; }
+std::vector<std::string> strategy_names() { return {"grow_order", "greedy_points"}; }
 
 std::unique_ptr<Strategy> make_strategy(const std::string& name, const ParameterMap& params) {
   std::unique_ptr<Strategy> s;
   if (name == "grow_order") {
     s = std::make_unique<GrowOrder>(GrowOrderOptions::from(params));
+  } else if (name == "greedy_points") {
+    s = std::make_unique<GreedyPoints>(GreedyPointsOptions::from(params));
   } else {
     throw ConfigError("unknown strategy '" + name + "'" + suggestion(name, strategy_names()));
   }

@@ -1,0 +1,381 @@
+#include "greedy_points.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "ecmor/error.hpp"
+#include "support.hpp"
+
+namespace ecmor {
+
+namespace {
+
+constexpr const char* kStrategy = "greedy_points";
+
+std::string owner_prefix(const ParameterMap* p, const std::string& key) {
+  std::string prefix;
+  if (p != nullptr && !p->location(key).empty()) prefix = p->location(key) + ": ";
+  return prefix + "strategy '" + kStrategy + "': ";
+}
+
+std::string number(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+// The rules of GreedyPointsOptions; `p` (may be null) only adds the YAML location to messages.
+void check(const GreedyPointsOptions& o, const ParameterMap* p) {
+  auto fail = [&](const std::string& key, const std::string& what) {
+    throw ConfigError(owner_prefix(p, key) + what);
+  };
+  for (std::size_t i = 0; i < o.initial_points_hz.size(); ++i) {
+    const double f = o.initial_points_hz[i];
+    if (!std::isfinite(f) || f <= 0.0) {
+      fail("initial_points", "initial_points[" + std::to_string(i) + "] = " + number(f) +
+                                 ": must be a finite frequency > 0 Hz");
+    }
+  }
+  if (o.moments < 1) fail("moments", "moments = " + std::to_string(o.moments) + ": must be >= 1");
+  if (!(o.min_separation >= 0.0 && o.min_separation < 1.0)) {
+    fail("min_separation", "min_separation = " + number(o.min_separation) + ": must be in [0, 1)");
+  }
+  if (o.max_points < 1) {
+    fail("max_points", "max_points = " + std::to_string(o.max_points) + ": must be >= 1");
+  }
+  if (static_cast<std::size_t>(o.max_points) < o.initial_points_hz.size()) {
+    fail("max_points", "max_points = " + std::to_string(o.max_points) +
+                           ": must be >= the number of initial_points (" +
+                           std::to_string(o.initial_points_hz.size()) + ")");
+  }
+  if (o.max_order < 1) {
+    fail("max_order", "max_order = " + std::to_string(o.max_order) + ": must be >= 1");
+  }
+  if (o.max_iterations < 1) {
+    fail("max_iterations",
+         "max_iterations = " + std::to_string(o.max_iterations) + ": must be >= 1");
+  }
+  if (o.stagnation_window < 0) {
+    fail("stagnation_window",
+         "stagnation_window = " + std::to_string(o.stagnation_window) + ": must be >= 0");
+  }
+  if (!(o.stagnation_ratio > 0.0 && o.stagnation_ratio <= 1.0)) {
+    fail("stagnation_ratio",
+         "stagnation_ratio = " + number(o.stagnation_ratio) + ": must be in (0, 1]");
+  }
+}
+
+double hz_of(const ExpansionPoint& p) { return p.s.imag() / kTwoPi; }
+
+std::string hz_text(double f) { return strategy_support::sci(f) + " Hz"; }
+
+// Sum of the moments over a point set (for messages about pruning).
+Index total_moments(const std::vector<ExpansionPoint>& points) {
+  Index k = 0;
+  for (const auto& p : points) k += p.moments;
+  return k;
+}
+
+}  // namespace
+
+GreedyPointsOptions GreedyPointsOptions::from(const ParameterMap& p) {
+  GreedyPointsOptions o;
+  o.initial_points_hz = p.get_doubles("initial_points", o.initial_points_hz);
+  o.moments = p.get_int("moments", o.moments);
+  o.min_separation = p.get_double("min_separation", o.min_separation);
+  o.max_points = p.get_int("max_points", o.max_points);
+  o.max_order = p.get_int("max_order", o.max_order);
+  o.max_iterations = p.get_int("max_iterations", o.max_iterations);
+  o.stagnation_window = p.get_int("stagnation_window", o.stagnation_window);
+  o.stagnation_ratio = p.get_double("stagnation_ratio", o.stagnation_ratio);
+  o.prune = p.get_bool("prune", o.prune);
+  check(o, &p);
+  return o;
+}
+
+void GreedyPointsOptions::validate() const { check(*this, nullptr); }
+
+using strategy_support::Candidate;
+using strategy_support::sci;
+
+StrategyResult GreedyPoints::run(StrategyContext& ctx) {
+  // Configuration problems are the caller's to fix: they throw before any work is done.
+  strategy_support::require_point_reducer(ctx, kStrategy);
+  if (ctx.estimator == nullptr || ctx.reducer == nullptr) {
+    throw ConfigError(std::string("strategy '") + kStrategy + "': no reducer or estimator given");
+  }
+  const Band band = ctx.estimator->band();
+  // Frequencies closer than this in |ln f1 - ln f2| are one point.
+  const double separation = m_options.min_separation * std::log(band.f_max_hz / band.f_min_hz);
+  std::vector<ExpansionPoint> points;
+  {
+    std::vector<double> start = m_options.initial_points_hz;
+    if (start.empty()) start.push_back(strategy_support::band_centre_hz(band));
+    for (std::size_t i = 0; i < start.size(); ++i) {
+      const double f = start[i];
+      if (f < band.f_min_hz || f > band.f_max_hz) {
+        throw ConfigError(std::string("strategy '") + kStrategy + "': initial_points[" +
+                          std::to_string(i) + "] = " + number(f) + " Hz lies outside the band [" +
+                          number(band.f_min_hz) + ", " + number(band.f_max_hz) +
+                          "] Hz: points must lie in the band");
+      }
+      for (std::size_t j = 0; j < i; ++j) {
+        if (std::abs(std::log(f / start[j])) <= separation) {
+          throw ConfigError(
+              std::string("strategy '") + kStrategy + "': initial_points[" + std::to_string(i) +
+              "] = " + number(f) + " Hz and initial_points[" + std::to_string(j) +
+              "] = " + number(start[j]) +
+              " Hz are closer than min_separation = " + number(m_options.min_separation) +
+              " of the band in log f: give one point with more moments instead");
+        }
+      }
+      points.push_back(point_at_hz(f, m_options.moments));
+    }
+  }
+
+  strategy_support::StrategyRun run(ctx);
+  Reducer& reducer = *ctx.reducer;
+  const Index max_order = std::min(m_options.max_order, reducer.max_order());
+  const bool reducer_caps = reducer.max_order() <= m_options.max_order;
+  const Index max_iterations = m_options.max_iterations;
+
+  // Exactly these points, no cap on the order (ReductionRequest semantics for explicit points).
+  auto reduce = [&](const std::vector<ExpansionPoint>& pts) {
+    ReducerResult r = reducer.reduce(ReductionRequest{0, pts});
+    // The history must show the points; a reducer that leaves them out used the requested ones.
+    if (r.points.empty()) r.points = pts;
+    return r;
+  };
+  auto shortfall = [&]() {
+    return "band error " + sci(run.best_error()) + " > tolerance " + sci(ctx.tolerance);
+  };
+  auto over_budget = [&](Index delivered, const std::string& what) {
+    if (reducer_caps) {
+      return run.finish(Termination::ReducerExhausted,
+                        "the reducer delivers at most order " + std::to_string(max_order) + ", " +
+                            what + " gave order " + std::to_string(delivered) + "; " + shortfall());
+    }
+    return run.finish(Termination::MaxOrderReached,
+                      "order budget max_order = " + std::to_string(max_order) + " reached: " +
+                          what + " gave order " + std::to_string(delivered) + "; " + shortfall());
+  };
+
+  return strategy_support::guarded(run, [&]() -> StrategyResult {
+    // Phase 1: add points (or moments) where the error peaks until a verified, stable pass.
+    ReducerResult first = reduce(points);
+    Index previous = first.V.cols();
+    if (previous > max_order) {
+      return over_budget(previous, std::to_string(points.size()) + " initial points");
+    }
+    Candidate c =
+        run.assess(std::move(first), "initial", {{"points", static_cast<double>(points.size())}});
+    std::vector<double> best_trace;  // best error after each assessed model
+    while (true) {
+      if (run.stopped()) {
+        return run.finish(Termination::Interrupted,
+                          "stopped by request at order " + std::to_string(c.order()) + " with " +
+                              std::to_string(points.size()) + " points; best band error " +
+                              sci(run.best_error()) + ", tolerance " + sci(ctx.tolerance));
+      }
+      if (c.passed) break;
+      best_trace.push_back(run.best_error());
+      const Index w = m_options.stagnation_window;
+      if (w > 0 && static_cast<Index>(best_trace.size()) > w) {
+        const double then = best_trace[best_trace.size() - 1 - static_cast<std::size_t>(w)];
+        if (!(best_trace.back() < m_options.stagnation_ratio * then)) {
+          return run.finish(Termination::Stagnated,
+                            "band error stagnated at " + sci(best_trace.back()) +
+                                " over the last " + std::to_string(w) + " additions (was " +
+                                sci(then) + "; order " + std::to_string(c.order()) + ", " +
+                                std::to_string(points.size()) + " points); tolerance " +
+                                sci(ctx.tolerance));
+        }
+      }
+      if (run.iterations() >= max_iterations) {
+        return run.finish(Termination::IterationLimit,
+                          "iteration budget max_iterations = " + std::to_string(max_iterations) +
+                              " used up at order " + std::to_string(c.order()) + " with " +
+                              std::to_string(points.size()) + " points; " + shortfall());
+      }
+      // Where the error is worst (the re-check's peak when it found a larger error).
+      double f = c.error.f_peak_hz;
+      if (!std::isfinite(f) || f <= 0.0) {
+        throw NumericalError(std::string("strategy '") + kStrategy + "': the band error " +
+                             sci(c.error.sup_relative) +
+                             " has no finite peak frequency (f_peak = " + number(f) +
+                             " Hz): cannot place a point");
+      }
+      f = std::clamp(f, band.f_min_hz, band.f_max_hz);
+      std::size_t nearest = 0;
+      double distance = std::numeric_limits<double>::infinity();
+      for (std::size_t i = 0; i < points.size(); ++i) {
+        const double d = std::abs(std::log(f / hz_of(points[i])));
+        if (d < distance) {
+          distance = d;
+          nearest = i;
+        }
+      }
+      std::vector<ExpansionPoint> next = points;
+      std::string phase, what;
+      std::map<std::string, double> extra;
+      if (distance <= separation) {
+        // The peak sits on an existing point: interpolating there again would add nothing, a
+        // higher moment improves the match around it.
+        next[nearest].moments += 1;
+        phase = "add_moment";
+        what = "a moment at " + hz_text(hz_of(next[nearest])) + " (now " +
+               std::to_string(next[nearest].moments) + ")";
+        extra["added_moment_hz"] = hz_of(next[nearest]);
+      } else {
+        if (static_cast<Index>(points.size()) >= m_options.max_points) {
+          return run.finish(Termination::MaxOrderReached,
+                            "point budget max_points = " + std::to_string(m_options.max_points) +
+                                " reached (the error peaks at " + hz_text(f) +
+                                ", away from every point; order " + std::to_string(c.order()) +
+                                "); " + shortfall());
+        }
+        next.push_back(point_at_hz(f, m_options.moments));
+        phase = "add_point";
+        what = "a point at " + hz_text(f);
+        extra["added_point_hz"] = f;
+      }
+      ReducerResult r = reduce(next);
+      const Index delivered = r.V.cols();
+      if (delivered <= previous) {
+        return run.finish(Termination::ReducerExhausted,
+                          "the reducer returned no new columns for " + what + " (order " +
+                              std::to_string(delivered) + ", was " + std::to_string(previous) +
+                              "); " + shortfall());
+      }
+      if (delivered > max_order) return over_budget(delivered, "adding " + what);
+      points = std::move(next);
+      previous = delivered;
+      extra["points"] = static_cast<double>(points.size());
+      c = run.assess(std::move(r), phase, extra);
+    }
+
+    // Phase 2: drop what is not needed (order of trials and its cost: see greedy_points.hpp).
+    std::string prune_note;
+    if (m_options.prune) {
+      const Index order_before = c.order();
+      const std::size_t points_before = points.size();
+      const Index moments_before = total_moments(points);
+      Index trials = 0;
+      bool cut = false;
+      std::string trial_failure;
+      auto budget_left = [&] {
+        if (run.iterations() >= max_iterations || run.stopped()) cut = true;
+        return !cut;
+      };
+      // A trial that breaks down numerically is a failed trial, not the end of a run that already
+      // has a passing model.
+      struct Outcome {
+        bool passed = false;
+        double error = std::numeric_limits<double>::infinity();  // inf: broke down / undefined
+        Index order = std::numeric_limits<Index>::max();
+      };
+      auto trial = [&](const std::vector<ExpansionPoint>& pts,
+                       const std::map<std::string, double>& extra) -> Outcome {
+        ++trials;
+        try {
+          const Candidate t = run.assess(reduce(pts), "prune", extra);
+          const double e = t.error.sup_relative;
+          return {t.passed, std::isnan(e) ? std::numeric_limits<double>::infinity() : e, t.order()};
+        } catch (const std::exception& e) {
+          // Plugins may throw anything (guarded() reasons the same way).
+          if (trial_failure.empty()) trial_failure = e.what();
+          return {};
+        }
+      };
+      auto erase = [](std::vector<ExpansionPoint> pts, const std::vector<bool>& drop) {
+        std::vector<ExpansionPoint> out;
+        for (std::size_t i = 0; i < pts.size(); ++i)
+          if (!drop[i]) out.push_back(pts[i]);
+        return out;
+      };
+
+      // 1. The cost of each point: the band error without it.
+      struct Cost {
+        std::size_t index;
+        double error;  // band error without this point (inf: the trial broke down)
+        Index order;   // order without this point
+        bool passed;
+      };
+      std::vector<Cost> costs;
+      if (points.size() > 1) {
+        for (std::size_t i = 0; i < points.size() && budget_left(); ++i) {
+          std::vector<bool> drop(points.size(), false);
+          drop[i] = true;
+          const Outcome o = trial(erase(points, drop), {{"removed_point_hz", hz_of(points[i])}});
+          costs.push_back({i, o.error, o.order, o.passed});
+        }
+      }
+      // Cheapest first: passing removals before failing ones, then the removal leaving the
+      // smaller model (a point whose columns partly deflated frees fewer), then the smaller error.
+      std::stable_sort(costs.begin(), costs.end(), [](const Cost& a, const Cost& b) {
+        if (a.passed != b.passed) return a.passed;
+        if (a.order != b.order) return a.order < b.order;
+        return a.error < b.error;
+      });
+
+      // 2. Remove the points whose single removal passed, cheapest first.
+      std::vector<bool> removed(points.size(), false);
+      bool any_removed = false;
+      for (const Cost& cost : costs) {
+        if (cut) break;
+        if (!cost.passed) continue;
+        if (!any_removed) {
+          // Its own single-removal trial is exactly this set: already assessed and passing.
+          removed[cost.index] = true;
+          any_removed = true;
+          continue;
+        }
+        if (!budget_left()) break;
+        std::vector<bool> drop = removed;
+        drop[cost.index] = true;
+        if (trial(erase(points, drop), {{"removed_point_hz", hz_of(points[cost.index])}}).passed) {
+          removed = drop;
+        }
+      }
+
+      // 3. Fewer moments, cheapest point first (points never costed keep their order).
+      std::vector<std::size_t> order;
+      for (const Cost& cost : costs) order.push_back(cost.index);
+      for (std::size_t i = 0; i < points.size(); ++i) {
+        if (std::find(order.begin(), order.end(), i) == order.end()) order.push_back(i);
+      }
+      std::vector<ExpansionPoint> kept_all = points;  // indices stay those of `points`
+      for (std::size_t i : order) {
+        if (cut) break;
+        if (removed[i]) continue;
+        while (kept_all[i].moments > 1 && budget_left()) {
+          std::vector<ExpansionPoint> candidate = kept_all;
+          candidate[i].moments -= 1;
+          if (!trial(erase(candidate, removed), {{"reduced_moment_hz", hz_of(points[i])}}).passed) {
+            break;
+          }
+          kept_all = std::move(candidate);
+        }
+      }
+      // Describe the reported (smallest passing) model, which need not be the last set tried.
+      const Candidate& smallest = *run.smallest_pass();
+      std::ostringstream os;
+      os << "; pruning: " << points_before << " -> " << smallest.result.points.size() << " points, "
+         << moments_before << " -> " << total_moments(smallest.result.points) << " moments, order "
+         << order_before << " -> " << smallest.order() << " in " << trials << " trials";
+      if (cut) os << (run.stopped() ? " (cut short by request)" : " (cut short by max_iterations)");
+      if (!trial_failure.empty()) os << " (a trial failed: " << trial_failure << ")";
+      prune_note = os.str();
+    }
+    const Candidate& best = *run.smallest_pass();
+    return run.finish(Termination::Converged,
+                      "band error " + sci(best.error.sup_relative) + " <= tolerance " +
+                          sci(ctx.tolerance) + " at order " + std::to_string(best.order()) +
+                          " with " + std::to_string(best.result.points.size()) + " points" +
+                          run.verified_phrase() + prune_note);
+  });
+}
+
+}  // namespace ecmor
