@@ -2,6 +2,8 @@
 
 #include "ecmor/error.hpp"
 #include "grow_order.hpp"
+#include "minimax_points.hpp"
+#include "optimize_points.hpp"
 
 namespace ecmor {
 
@@ -20,12 +22,18 @@ std::string to_string(Termination t) {
   return "unknown";
 }
 
-std::vector<std::string> strategy_names() { return {"grow_order"}; }
+std::vector<std::string> strategy_names() {
+  return {"grow_order", "optimize_points", "minimax_points"};
+}
 
 std::unique_ptr<Strategy> make_strategy(const std::string& name, const ParameterMap& params) {
   std::unique_ptr<Strategy> s;
   if (name == "grow_order") {
     s = std::make_unique<GrowOrder>(GrowOrderOptions::from(params));
+  } else if (name == "optimize_points") {
+    s = std::make_unique<OptimizePoints>(OptimizePointsOptions::from(params));
+  } else if (name == "minimax_points") {
+    s = std::make_unique<MinimaxPoints>(MinimaxPointsOptions::from(params));
   } else {
     throw ConfigError("unknown strategy '" + name + "'" + suggestion(name, strategy_names()));
   }
