@@ -250,8 +250,44 @@ TEST(MinimaxPoints, FixedPointsImproveOnTheStartAndStopByBudget) {
   improves_then_stops("minimax_points", params({}));
 }
 
+// The iteration budget counts assessed models (start + optima), not optimiser trials; an observer
+// stop ends the run at once, inside an optimisation, as Interrupted.
+TEST(PointStrategies, IterationBudgetAndObserverStopEndTheRun) {
+  for (const std::string strategy : {"optimize_points", "minimax_points"}) {
+    {
+      Fixture fx;
+      test::InterpolationReducer reducer;
+      const StrategyResult r =
+          fx.run(strategy, reducer, 1e-12, params({{"max_iterations", 2LL}}));
+      EXPECT_EQ(r.termination, Termination::IterationLimit) << r.message;
+      Index assessed = 0;
+      for (const IterationRecord& rec : r.history) {
+        assessed += rec.phase == "start" || rec.phase == "optimum";
+      }
+      EXPECT_EQ(assessed, 2) << r.message;
+      EXPECT_NE(r.message.find("max_iterations = 2"), std::string::npos) << r.message;
+    }
+    {
+      Fixture fx;
+      test::InterpolationReducer reducer;
+      StrategyContext ctx = fx.context(reducer, 1e-12);
+      int records = 0;
+      ctx.on_iteration = [&](const IterationRecord&) { return ++records < 3; };
+      const StrategyResult r = make_strategy(strategy, ParameterMap("strategy"))->run(ctx);
+      EXPECT_EQ(r.termination, Termination::Interrupted) << r.message;
+      EXPECT_EQ(r.history.size(), 3u) << r.message;
+      EXPECT_TRUE(r.best.has_value());  // the start model is kept
+    }
+  }
+}
+
 // The finite-difference Jacobian of the levels L_k = log10(eps_k + floor) at the default step
-// agrees with a central difference at a ten times smaller step.
+// agrees with a central difference at a ten times smaller step. Tolerance: the narrowest
+// resonance here (zeta = 1.4e-3) is ~6e-4 decades wide, so the central difference's truncation
+// error at h = 1e-5 is ~ (1e-5 / 6e-4)^2 / 6 ~ 5e-5 of the derivative's scale, and the rounding
+// error at h / 10 (L accurate to ~1e-12) is ~ 1e-12 / 2e-6 = 5e-7 of an O(1)..O(100) derivative;
+// 1e-3 of the largest entry leaves a margin of 20 over both, while a wrong step, sign or
+// coordinate gives O(1) differences.
 TEST(PointObjective, FiniteDifferenceJacobianAgreesWithASmallerStep) {
   Fixture fx;
   test::InterpolationReducer reducer;
