@@ -43,6 +43,14 @@
 /// objective_optimum, samples, plus the optimiser's own), and sparse "optimize" trials: within
 /// one optimisation only evaluations that at least halve the best sample-set error so far, so the
 /// points are seen moving without thousands of lines.
+///
+/// Known limitation. With far too few points (relative error above 1), the error is dominated by
+/// spurious resonances of the reduced model, which move with x and which a fixed sample set does
+/// not see: the optimisers may then lower the sample-set error while the true error rises (seen
+/// with 2 points for 8 resonances). The assessment reports the true error, the best model kept is
+/// the most accurate assessed one, and the outer loop re-optimises with the new peaks or grows.
+/// If the log-spaced start cannot be reduced (reducer error), it is not assessed; the optimiser
+/// starts there all the same and steers away.
 
 #include <functional>
 #include <map>
