@@ -3,6 +3,8 @@
 #include "ecmor/error.hpp"
 #include "greedy_points.hpp"
 #include "grow_order.hpp"
+#include "minimax_points.hpp"
+#include "optimize_points.hpp"
 
 namespace ecmor {
 
@@ -21,7 +23,9 @@ std::string to_string(Termination t) {
   return "unknown";
 }
 
-std::vector<std::string> strategy_names() { return {"grow_order", "greedy_points"}; }
+std::vector<std::string> strategy_names() {
+  return {"grow_order", "greedy_points", "optimize_points", "minimax_points"};
+}
 
 std::unique_ptr<Strategy> make_strategy(const std::string& name, const ParameterMap& params) {
   std::unique_ptr<Strategy> s;
@@ -29,6 +33,10 @@ std::unique_ptr<Strategy> make_strategy(const std::string& name, const Parameter
     s = std::make_unique<GrowOrder>(GrowOrderOptions::from(params));
   } else if (name == "greedy_points") {
     s = std::make_unique<GreedyPoints>(GreedyPointsOptions::from(params));
+  } else if (name == "optimize_points") {
+    s = std::make_unique<OptimizePoints>(OptimizePointsOptions::from(params));
+  } else if (name == "minimax_points") {
+    s = std::make_unique<MinimaxPoints>(MinimaxPointsOptions::from(params));
   } else {
     throw ConfigError("unknown strategy '" + name + "'" + suggestion(name, strategy_names()));
   }

@@ -1,0 +1,413 @@
+#include "point_objective.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "ecmor/error.hpp"
+
+namespace ecmor::point_search {
+
+using strategy_support::Candidate;
+using strategy_support::sci;
+
+namespace {
+
+// Within one optimisation, an evaluation goes to the history only when it at least halves the
+// sample-set error of the last one recorded: log10(2) in F. Enough to see the points move (a
+// few lines per decade of improvement), few enough to keep thousands of evaluations out.
+constexpr double kRecordGain = 0.30102999566398120;
+
+std::string key_rule(const std::string& strategy, const std::string& key, const std::string& value,
+                     const std::string& rule) {
+  return "strategy '" + strategy + "': " + key + " = " + value + ": " + rule;
+}
+
+}  // namespace
+
+PointSearchOptions PointSearchOptions::from(const ParameterMap& p, const std::string& strategy) {
+  PointSearchOptions o;
+  o.initial_points = p.get_int("initial_points", o.initial_points, 1, 1000);
+  o.moments = p.get_int("moments", o.moments, 1, 1000);
+  o.max_points = p.get_int("max_points", o.max_points, 1, 1000);
+  o.max_order = p.get_int("max_order", o.max_order, 1);
+  o.max_iterations = p.get_int("max_iterations", o.max_iterations, 1);
+  o.reoptimize = p.get_int("reoptimize", o.reoptimize, 0);
+  o.stagnation_window = p.get_int("stagnation_window", o.stagnation_window, 0);
+  o.stagnation_ratio = p.get_double("stagnation_ratio", o.stagnation_ratio, 0.0, 1.0);
+  o.error_floor = p.get_double("error_floor", o.error_floor, 0.0, 1.0);
+  o.max_added_samples = p.get_int("max_added_samples", o.max_added_samples, 0);
+  o.validate(strategy);
+  return o;
+}
+
+void PointSearchOptions::validate(const std::string& strategy) const {
+  if (initial_points < 1) {
+    throw ConfigError(key_rule(strategy, "initial_points", std::to_string(initial_points),
+                               "must be >= 1"));
+  }
+  if (moments < 1) {
+    throw ConfigError(key_rule(strategy, "moments", std::to_string(moments), "must be >= 1"));
+  }
+  if (max_points < initial_points) {
+    throw ConfigError(key_rule(strategy, "max_points", std::to_string(max_points),
+                               "must be >= initial_points = " + std::to_string(initial_points)));
+  }
+  if (max_order < 1) {
+    throw ConfigError(key_rule(strategy, "max_order", std::to_string(max_order), "must be >= 1"));
+  }
+  if (max_iterations < 1) {
+    throw ConfigError(key_rule(strategy, "max_iterations", std::to_string(max_iterations),
+                               "must be >= 1"));
+  }
+  if (reoptimize < 0 || stagnation_window < 0 || max_added_samples < 0) {
+    throw ConfigError("strategy '" + strategy +
+                      "': reoptimize, stagnation_window and max_added_samples must be >= 0");
+  }
+  // Ratios of 0 would make every step "stagnated", a floor of 0 brings back log10(0) = -inf.
+  if (!(stagnation_ratio > 0.0 && stagnation_ratio <= 1.0)) {
+    throw ConfigError(key_rule(strategy, "stagnation_ratio", sci(stagnation_ratio),
+                               "must be in (0, 1]"));
+  }
+  if (!(error_floor > 0.0 && error_floor <= 1.0)) {
+    throw ConfigError(key_rule(strategy, "error_floor", sci(error_floor),
+                               "must be in (0, 1] (a fraction of the tolerance)"));
+  }
+}
+
+std::vector<double> log_spaced(double lower, double upper, Index p) {
+  std::vector<double> x(static_cast<std::size_t>(p));
+  for (Index i = 0; i < p; ++i) {
+    x[static_cast<std::size_t>(i)] =
+        lower + (static_cast<double>(i) + 0.5) * (upper - lower) / static_cast<double>(p);
+  }
+  return x;
+}
+
+// ---------------------------------------------------------------------------------------------
+// PointObjective
+
+PointObjective::PointObjective(strategy_support::StrategyRun& run, Index moments,
+                               double error_floor)
+    : m_run(run), m_moments(moments) {
+  StrategyContext& ctx = run.context();
+  if (ctx.estimator == nullptr || ctx.reducer == nullptr) {
+    throw ConfigError("point search: the strategy context has no estimator or no reducer");
+  }
+  m_floor = error_floor * ctx.tolerance;
+  const Band& band = ctx.estimator->band();
+  m_lower = std::log10(band.f_min_hz);
+  m_upper = std::log10(band.f_max_hz);
+  m_samples = ctx.estimator->grid();
+  std::sort(m_samples.begin(), m_samples.end());
+  m_samples.erase(std::unique(m_samples.begin(), m_samples.end()), m_samples.end());
+}
+
+std::vector<ExpansionPoint> PointObjective::points_of(const std::vector<double>& x) const {
+  std::vector<ExpansionPoint> points;
+  points.reserve(x.size());
+  for (double xi : x) {
+    points.push_back(point_at_hz(std::pow(10.0, std::clamp(xi, m_lower, m_upper)), m_moments));
+  }
+  return points;
+}
+
+ReducerResult PointObjective::reduce(const std::vector<double>& x) const {
+  return m_run.context().reducer->reduce(ReductionRequest{0, points_of(x)});
+}
+
+PointObjective::Levels PointObjective::evaluate(const std::vector<double>& x) {
+  Levels out;
+  ++m_evaluations;
+  ++m_round_evaluations;
+  std::optional<ReducerResult> reduced;
+  BandError error;
+  try {
+    reduced = reduce(x);
+    error = m_run.context().estimator->evaluate_on(reduced->model, m_samples);
+  } catch (const Error& e) {
+    // A point on an eigenvalue, a singular shifted matrix, a breakdown of the reducer: this x is
+    // unusable, the search is not.
+    out.failure = e.what();
+  }
+  if (out.failure.empty()) {
+    if (error.reduced_singular) out.failure = "the reduced model has a pole at a sample frequency";
+    // evaluate_on samples exactly m_samples (sorted, unique), so index k is samples()[k].
+    if (error.relative.size() != m_samples.size()) {
+      out.failure = "evaluate_on returned " + std::to_string(error.relative.size()) +
+                    " samples for " + std::to_string(m_samples.size()) + " frequencies";
+    }
+  }
+  if (out.failure.empty()) {
+    out.level.resize(m_samples.size());
+    double worst = -std::numeric_limits<double>::infinity();
+    for (std::size_t k = 0; k < m_samples.size(); ++k) {
+      const double e = error.relative[k];
+      if (std::isinf(e) || (!std::isnan(e) && e < 0.0)) {
+        out.failure = "non-finite relative error at " + sci(m_samples[k]) + " Hz";
+        break;
+      }
+      // NaN: H vanishes there, the relative error is undefined and cannot be the maximum.
+      out.level[k] = std::log10((std::isnan(e) ? 0.0 : e) + m_floor);
+      worst = std::max(worst, out.level[k]);
+    }
+    out.value = worst;
+  }
+  if (!out.failure.empty()) {
+    out.level.clear();
+    ++m_failures;
+    ++m_round_failures;
+    m_last_failure = out.failure;
+    return out;
+  }
+  out.ok = true;
+  m_worst_finite = std::max(m_worst_finite, out.value);
+  const bool first = m_best_x.empty();
+  if (first) m_start_value = out.value;
+  if (first || out.value < m_best_value) {
+    m_best_value = out.value;
+    m_best_x = x;
+    for (double& xi : m_best_x) xi = std::clamp(xi, m_lower, m_upper);
+    if (first || out.value <= m_recorded_value - kRecordGain) {
+      m_recorded_value = out.value;
+      m_run.record_trial("optimize", *reduced, error,
+                         {{"evaluation", static_cast<double>(m_round_evaluations)},
+                          {"objective", out.value}});
+    }
+  }
+  return out;
+}
+
+double PointObjective::value(const std::vector<double>& x) {
+  const Levels l = evaluate(x);
+  return l.ok ? l.value : penalty();
+}
+
+double PointObjective::penalty() const {
+  return std::max(m_worst_finite, std::log10(1.0 + m_floor)) + 1.0;
+}
+
+std::optional<Matrix> PointObjective::jacobian(const std::vector<double>& x, const Levels& at,
+                                               double h, bool central) {
+  const std::size_t p = x.size();
+  const std::size_t S = m_samples.size();
+  Matrix J(static_cast<Index>(S), static_cast<Index>(p));
+  for (std::size_t i = 0; i < p; ++i) {
+    // Which sides fit in the band: a step across a bound would evaluate a clamped (unchanged)
+    // point and report a zero derivative.
+    const bool up_ok = x[i] + h <= m_upper;
+    const bool down_ok = x[i] - h >= m_lower;
+    Levels plus, minus;
+    auto at_offset = [&](double d) {
+      std::vector<double> y = x;
+      y[i] += d;
+      return evaluate(y);
+    };
+    if (central) {
+      if (up_ok) plus = at_offset(h);
+      if (down_ok) minus = at_offset(-h);
+    } else {
+      // Forward difference; backward where the forward step leaves the band or fails.
+      if (up_ok) plus = at_offset(h);
+      if (!plus.ok && down_ok) minus = at_offset(-h);
+    }
+    for (std::size_t k = 0; k < S; ++k) {
+      double d;
+      if (plus.ok && minus.ok) {
+        d = (plus.level[k] - minus.level[k]) / (2.0 * h);
+      } else if (plus.ok && at.ok) {
+        d = (plus.level[k] - at.level[k]) / h;
+      } else if (minus.ok && at.ok) {
+        d = (at.level[k] - minus.level[k]) / h;
+      } else {
+        return std::nullopt;
+      }
+      J(static_cast<Index>(k), static_cast<Index>(i)) = d;
+    }
+  }
+  return J;
+}
+
+Index PointObjective::add_samples(const std::vector<double>& f_hz, Index cap) {
+  const Band& band = m_run.context().estimator->band();
+  Index added = 0;
+  for (double f : f_hz) {
+    if (m_added >= cap) break;
+    if (!std::isfinite(f)) continue;
+    f = std::clamp(f, band.f_min_hz, band.f_max_hz);
+    auto it = std::lower_bound(m_samples.begin(), m_samples.end(), f);
+    if (it != m_samples.end() && *it == f) continue;
+    m_samples.insert(it, f);
+    ++m_added;
+    ++added;
+  }
+  return added;
+}
+
+Index PointObjective::add_peaks(const BandError& error, Index count, Index cap) {
+  // Local maxima of the assessed model's relative error, largest first: where the refined
+  // evaluation found error the grid alone would not see.
+  const std::vector<double>& r = error.relative;
+  std::vector<std::size_t> peaks;
+  auto val = [&](std::size_t i) { return std::isnan(r[i]) ? -1.0 : r[i]; };
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    if (val(i) < 0.0) continue;
+    const bool left = i == 0 || val(i - 1) <= val(i);
+    const bool right = i + 1 == r.size() || val(i + 1) < val(i);
+    if (left && right) peaks.push_back(i);
+  }
+  std::sort(peaks.begin(), peaks.end(), [&](std::size_t a, std::size_t b) { return val(a) > val(b); });
+  std::vector<double> f{error.f_peak_hz};
+  for (std::size_t j = 0; j < peaks.size() && static_cast<Index>(j) < count; ++j) {
+    f.push_back(error.f_hz[peaks[j]]);
+  }
+  return add_samples(f, cap);
+}
+
+void PointObjective::begin_round() {
+  m_round_evaluations = 0;
+  m_round_failures = 0;
+  m_best_x.clear();
+  m_best_value = 0.0;
+  m_start_value = 0.0;
+  m_recorded_value = 0.0;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The outer loop
+
+StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& o,
+                                const std::string& strategy, const Optimiser& optimise) {
+  strategy_support::StrategyRun run(ctx);
+  auto finish = [&](Termination t, std::string message) {
+    return run.finish(t, std::move(message));
+  };
+  return strategy_support::guarded(run, [&]() -> StrategyResult {
+    PointObjective objective(run, o.moments, o.error_floor);
+    // Peaks taken from each assessed model: as many as the estimator refines, at least 5.
+    const Index peak_count = std::max<Index>(5, ctx.estimator->options().refine_peaks);
+    const Index reducer_max = ctx.reducer->max_order();
+    const Index max_order = std::min(o.max_order, reducer_max);
+    std::vector<double> x =
+        log_spaced(objective.lower(), objective.upper(), o.initial_points);
+    Index assessments = 0;
+    std::vector<double> trace;  // best assessed error after each assessment
+    auto tail = [&] {
+      return "band error " + sci(run.best_error()) + " > tolerance " + sci(ctx.tolerance);
+    };
+    auto converged = [&](const std::string& where) {
+      const Candidate& c = *run.smallest_pass();
+      return finish(Termination::Converged,
+                    "band error " + sci(c.error.sup_relative) + " <= tolerance " +
+                        sci(ctx.tolerance) + " at order " + std::to_string(c.order()) + " with " +
+                        std::to_string(c.result.points.size()) + " points" + where +
+                        run.verified_phrase());
+    };
+
+    // The log-spaced start may itself be unusable (a point on an eigenvalue): then the optimiser
+    // starts from it all the same and steers away (its evaluation counts as a failure).
+    Candidate c;
+    std::optional<ReducerResult> start;
+    try {
+      start = objective.reduce(x);
+    } catch (const Error&) {
+    }
+    if (start) {
+      c = run.assess(std::move(*start), "start",
+                     {{"points", static_cast<double>(x.size())},
+                      {"samples", static_cast<double>(objective.samples().size())}});
+      ++assessments;
+      trace.push_back(run.best_error());
+      objective.add_peaks(c.error, peak_count, o.max_added_samples);
+      if (c.passed) return converged(" (log-spaced start)");
+      if (run.stopped()) return finish(Termination::Interrupted, "stopped by request at the start");
+    }
+
+    Index reoptimized = 0;  // re-optimisations at the current p
+    while (true) {
+      if (assessments >= o.max_iterations) {
+        return finish(Termination::IterationLimit,
+                      "iteration budget max_iterations = " + std::to_string(o.max_iterations) +
+                          " (assessed models) used up with " + std::to_string(x.size()) +
+                          " points: " + tail());
+      }
+      objective.begin_round();
+      const Optimisation opt = optimise(objective, x);
+      if (run.stopped()) {
+        return finish(Termination::Interrupted,
+                      "stopped by request while optimising " + std::to_string(x.size()) +
+                          " points");
+      }
+      if (objective.best_x().empty()) {
+        return finish(Termination::Failed,
+                      strategy + ": every one of " +
+                          std::to_string(objective.round_evaluations()) +
+                          " objective evaluations with " + std::to_string(x.size()) +
+                          " points failed; last: " + objective.last_failure());
+      }
+      x = objective.best_x();
+      std::map<std::string, double> diag = opt.diagnostics;
+      diag["points"] = static_cast<double>(x.size());
+      diag["evaluations"] = static_cast<double>(objective.round_evaluations());
+      diag["failed_evaluations"] = static_cast<double>(objective.round_failures());
+      diag["objective_start"] = objective.start_value();
+      diag["objective_optimum"] = objective.best_value();
+      diag["samples"] = static_cast<double>(objective.samples().size());
+      ReducerResult reduced = objective.reduce(x);
+      // The optimiser's own report (algorithm, stop reason) goes into the history note.
+      if (!opt.status.empty()) reduced.note += (reduced.note.empty() ? "" : "; ") + opt.status;
+      c = run.assess(std::move(reduced), "optimum", diag);
+      ++assessments;
+      const double sample_sup = std::pow(10.0, objective.best_value()) - objective.floor();
+      objective.add_peaks(c.error, peak_count, o.max_added_samples);
+      if (c.passed) return converged("");
+      if (run.stopped()) {
+        return finish(Termination::Interrupted,
+                      "stopped by request after optimising " + std::to_string(x.size()) +
+                          " points");
+      }
+      trace.push_back(run.best_error());
+      const Index w = o.stagnation_window;
+      if (w > 0 && static_cast<Index>(trace.size()) > w) {
+        const double then = trace[trace.size() - 1 - static_cast<std::size_t>(w)];
+        if (!(trace.back() < o.stagnation_ratio * then)) {
+          return finish(Termination::Stagnated,
+                        "band error stagnated at " + sci(trace.back()) + " over the last " +
+                            std::to_string(w) + " assessed models (" + std::to_string(x.size()) +
+                            " points); tolerance " + sci(ctx.tolerance));
+        }
+      }
+      // The full, refined evaluation found much more error than the sample set showed: the
+      // optimiser was steered by samples that miss a peak. The peaks are samples now; optimise
+      // the same points again before paying for another point.
+      if (c.error.sup_relative > 2.0 * sample_sup && reoptimized < o.reoptimize) {
+        ++reoptimized;
+        continue;
+      }
+      const Index p = static_cast<Index>(x.size());
+      if (p + 1 > o.max_points) {
+        return finish(Termination::MaxOrderReached,
+                      "point budget max_points = " + std::to_string(o.max_points) +
+                          " reached (order " + std::to_string(c.order()) + "): " + tail());
+      }
+      // Each point adds about the same number of columns (2 m per moment for a complex point).
+      const Index next_order = c.order() + (c.order() + p - 1) / p;
+      if (next_order > max_order) {
+        const bool reducer_limit = reducer_max <= o.max_order;
+        return finish(reducer_limit ? Termination::ReducerExhausted : Termination::MaxOrderReached,
+                      (reducer_limit ? "the reducer delivers at most order "
+                                     : "order budget max_order = ") +
+                          std::to_string(max_order) + " would be exceeded by " +
+                          std::to_string(p + 1) + " points (about order " +
+                          std::to_string(next_order) + "): " + tail());
+      }
+      // Grow: one more point where the optimum's error peaks; the others stay (warm start).
+      const Band& band = ctx.estimator->band();
+      x.push_back(std::log10(std::clamp(c.error.f_peak_hz, band.f_min_hz, band.f_max_hz)));
+      std::sort(x.begin(), x.end());
+      reoptimized = 0;
+    }
+  });
+}
+
+}  // namespace ecmor::point_search

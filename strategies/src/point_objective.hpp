@@ -1,0 +1,190 @@
+#pragma once
+/// \file point_objective.hpp
+/// What the point-optimising strategies (optimize_points: NLopt; minimax_points: Ipopt) share: the
+/// objective "relative band error as a function of the expansion-point frequencies", and the outer
+/// loop that optimises at a fixed number of points, assesses the optimum and grows.
+///
+/// Parametrisation. p expansion points with `moments` moments each sit at s_i = i 2 pi f_i
+/// (point_at_hz; a complex point also interpolates at its conjugate). The optimisation variables
+/// are x_i = log10(f_i), bounded to [log10 f_min, log10 f_max] of the band: resonances of lightly
+/// damped structures are equally "wide" on a log scale, and the bound keeps every point in the
+/// band. The reducer is asked for exactly these points: ReductionRequest{0, points}.
+///
+/// Objective. For one x: reduce, then evaluate the relative error eps(f_k; x) with
+/// BandErrorEstimator::evaluate_on on a FIXED sample set f_1..f_S (the full model's response there
+/// is cached by the estimator, so an evaluation costs one reduction plus S reduced-model solves):
+/// the estimator's log grid plus frequencies added as the run goes (the local maxima found by the
+/// full, refined evaluate() of every assessed model), so that an optimiser cannot hide error
+/// between samples. Per sample the "level" is
+///     L_k(x) = log10(eps(f_k; x) + floor),   floor = error_floor * tolerance,
+/// and the objective is F(x) = max_k L_k(x) = log10(max_k eps_k + floor). The logarithm makes a
+/// halving of the error the same step anywhere between 1 and 1e-8 (the optimisers see a well
+/// scaled function); the floor keeps L_k bounded and smooth near the interpolation points, where
+/// eps vanishes and log10(eps) would run to -inf with unbounded derivatives (such samples are far
+/// from the maximum and irrelevant to it). Samples where ||H|| vanishes (relative error undefined)
+/// count as L_k = log10(floor). A reducer failure at some x (e.g. a point on an undamped
+/// eigenvalue, a singular shifted matrix) or a non-finite error is counted, not fatal: the
+/// evaluation reports "failed" and the optimisers treat it as a large value / a rejected step.
+///
+/// Outer loop (run_point_search). Start with `initial_points` log-spaced points (centres of
+/// equal log cells) and assess them ("start"); then repeat: optimise at fixed p (the optimiser is
+/// the strategy's), assess the best x found ("optimum": full evaluate() with refinement, then the
+/// independent verify() if it meets the tolerance); add that evaluation's local maxima to the
+/// sample set; if it passed: Converged. Otherwise, if the full evaluation found an error more than
+/// twice the optimiser's sample-set value (the sample set missed a peak), re-optimise at the same
+/// p with the new samples (at most `reoptimize` times per p); else grow: add one point at the
+/// optimum's peak frequency, the others stay where the optimiser put them (warm start).
+/// Budgets: max_points (MaxOrderReached), max_order (MaxOrderReached, the order predicted for
+/// p + 1 points from the current order per point), max_iterations (IterationLimit; counts
+/// assessed models, i.e. "start" and "optimum" records, not optimiser trials), stagnation
+/// (Stagnated: the best assessed error has not dropped below stagnation_ratio times its value
+/// stagnation_window assessments earlier). The history gets: every assessed model with the
+/// optimisation's diagnostics (points, evaluations, failed_evaluations, objective_start,
+/// objective_optimum, samples, plus the optimiser's own), and sparse "optimize" trials: within
+/// one optimisation only evaluations that at least halve the best sample-set error so far, so the
+/// points are seen moving without thousands of lines.
+///
+/// Known limitation. With far too few points (relative error above 1), the error is dominated by
+/// spurious resonances of the reduced model, which move with x and which a fixed sample set does
+/// not see: the optimisers may then lower the sample-set error while the true error rises (seen
+/// with 2 points for 8 resonances). The assessment reports the true error, the best model kept is
+/// the most accurate assessed one, and the outer loop re-optimises with the new peaks or grows.
+/// If the log-spaced start cannot be reduced (reducer error), it is not assessed; the optimiser
+/// starts there all the same and steers away.
+
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ecmor/strategies/strategy.hpp"
+#include "support.hpp"
+
+namespace ecmor::point_search {
+
+/// Options common to both point-optimising strategies (YAML keys equal the field names).
+struct PointSearchOptions {
+  Index initial_points = 2;      ///< p at the start, log-spaced in the band, >= 1
+  Index moments = 2;             ///< moments matched per point, >= 1
+  Index max_points = 12;         ///< point budget, >= initial_points
+  Index max_order = 200;         ///< order budget (columns of V), >= 1
+  Index max_iterations = 20;     ///< assessed models ("start" + "optimum" records), >= 1
+  Index reoptimize = 1;          ///< re-optimisations at one p after the samples missed a peak, >= 0
+  Index stagnation_window = 3;   ///< assessments without enough gain before Stagnated, >= 0 (0: off)
+  double stagnation_ratio = 0.99;///< "enough gain": best < ratio * best `window` earlier, in (0, 1]
+  /// floor = error_floor * tolerance is added to eps before the logarithm, in (0, 1].
+  double error_floor = 1e-3;
+  Index max_added_samples = 400; ///< cap on sample frequencies added to the estimator's grid, >= 0
+
+  /// Reads (and so marks as known) the keys above. \throws ConfigError naming key and rule.
+  static PointSearchOptions from(const ParameterMap& params, const std::string& strategy);
+  /// Cross-field rules. \throws ConfigError naming the strategy, the keys and the rule.
+  void validate(const std::string& strategy) const;
+};
+
+/// The objective over log10 point frequencies on a fixed (growing between rounds) sample set.
+/// Not thread-safe; owned by one run.
+class PointObjective {
+ public:
+  /// Levels of one evaluation: L_k for every sample (empty when the evaluation failed).
+  struct Levels {
+    bool ok = false;
+    std::vector<double> level;  ///< L_k = log10(eps_k + floor), one per samples()[k]
+    double value = 0.0;         ///< max_k L_k (meaningful when ok)
+    std::string failure;        ///< why it failed (when !ok)
+  };
+
+  /// `run` supplies the reducer, estimator, tolerance and the history. Samples start as the
+  /// estimator's grid.
+  PointObjective(strategy_support::StrategyRun& run, Index moments, double error_floor);
+
+  double lower() const { return m_lower; }  ///< log10 f_min
+  double upper() const { return m_upper; }  ///< log10 f_max
+  double floor() const { return m_floor; }
+  Index moments() const { return m_moments; }
+
+  /// Points i 2 pi 10^x_i (x clamped to the band) with the configured moments.
+  std::vector<ExpansionPoint> points_of(const std::vector<double>& x) const;
+  /// The reducer's model at x (no counting, no error handling: for assessing an optimum).
+  ReducerResult reduce(const std::vector<double>& x) const;
+
+  /// One counted evaluation at x: reduce + evaluate_on(samples). Never throws ecmor::Error (a
+  /// failure is returned and counted). Updates the best x of the current round and records
+  /// improving trials sparsely (phase "optimize").
+  Levels evaluate(const std::vector<double>& x);
+  /// F(x) for a minimiser: max_k L_k, or `penalty()` when the evaluation failed.
+  double value(const std::vector<double>& x);
+  /// A value worse than anything seen: one decade above the largest finite F so far (at least
+  /// log10(1 + floor) + 1, i.e. an error of 10).
+  double penalty() const;
+
+  /// Finite-difference Jacobian dL_k/dx_i (S x p) at x with step h (decades of f). Central:
+  /// (L(x + h e_i) - L(x - h e_i)) / 2h; forward: (L(x + h e_i) - L(x)) / h using `at` (the levels at
+  /// x). A coordinate whose +-h leaves the band, or whose perturbed evaluation fails, falls back
+  /// to the one-sided difference on the other side. nullopt if both sides of a coordinate fail.
+  /// Costs 2p (central) or p (forward) counted evaluations.
+  std::optional<Matrix> jacobian(const std::vector<double>& x, const Levels& at, double h,
+                                 bool central);
+
+  /// Adds frequencies (Hz, clamped to the band) to the sample set, up to the cap; duplicates are
+  /// ignored. Returns how many were added.
+  Index add_samples(const std::vector<double>& f_hz, Index cap);
+  /// Adds the local maxima of an assessed model's error (largest first, at most `count`) and its
+  /// peak frequency.
+  Index add_peaks(const BandError& error, Index count, Index cap);
+  const std::vector<double>& samples() const { return m_samples; }
+
+  /// Starts a new optimisation round: resets the round's best and its counters (values of
+  /// different rounds are not comparable once samples are added).
+  void begin_round();
+  Index round_evaluations() const { return m_round_evaluations; }
+  Index round_failures() const { return m_round_failures; }
+  Index evaluations() const { return m_evaluations; }  ///< over the whole run
+  Index failures() const { return m_failures; }        ///< over the whole run
+  /// Best x of the round (empty if every evaluation failed) and its F.
+  const std::vector<double>& best_x() const { return m_best_x; }
+  double best_value() const { return m_best_value; }
+  /// F of the round's first successful evaluation (the optimiser's start).
+  double start_value() const { return m_start_value; }
+  /// Last failure message (empty if none).
+  const std::string& last_failure() const { return m_last_failure; }
+  /// True once the observer asked to stop; optimisers must then end their run.
+  bool stopped() const { return m_run.stopped(); }
+
+ private:
+  strategy_support::StrategyRun& m_run;
+  Index m_moments;
+  double m_floor;
+  double m_lower, m_upper;
+  std::vector<double> m_samples;  // ascending, unique
+  Index m_added = 0;
+  Index m_evaluations = 0, m_failures = 0;
+  Index m_round_evaluations = 0, m_round_failures = 0;
+  std::vector<double> m_best_x;
+  double m_best_value = 0.0;
+  double m_start_value = 0.0;
+  double m_recorded_value = 0.0;  // F of the last trial written to the history in this round
+  double m_worst_finite = -1e300;
+  std::string m_last_failure;
+};
+
+/// What one optimisation at fixed p reports to the outer loop.
+struct Optimisation {
+  std::string status;                         ///< e.g. "nlopt bobyqa: xtol reached"
+  std::map<std::string, double> diagnostics;  ///< optimiser-specific numbers for the history
+};
+
+/// An optimiser at fixed p: minimise over x starting from x0 using objective.evaluate/value/
+/// jacobian (the objective tracks the best x itself). May throw ecmor::Error only for bugs or
+/// configuration problems; evaluation failures are handled by the objective.
+using Optimiser = std::function<Optimisation(PointObjective& objective, const std::vector<double>& x0)>;
+
+/// p log-spaced frequencies in the band as log10 values: centres of p equal cells in log f.
+std::vector<double> log_spaced(double lower, double upper, Index p);
+
+/// The outer loop shared by optimize_points and minimax_points (see the file comment).
+StrategyResult run_point_search(StrategyContext& context, const PointSearchOptions& options,
+                                const std::string& strategy, const Optimiser& optimise);
+
+}  // namespace ecmor::point_search
