@@ -335,6 +335,8 @@ StrategyResult GreedyPoints::run(StrategyContext& ctx) {
         if (!budget_left()) break;
         std::vector<bool> drop = removed;
         drop[cost.index] = true;
+        // At least one point stays: an empty point set is no model.
+        if (std::count(drop.begin(), drop.end(), false) == 0) continue;
         if (trial(erase(points, drop), {{"removed_point_hz", hz_of(points[cost.index])}}).passed) {
           removed = drop;
         }

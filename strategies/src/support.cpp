@@ -65,16 +65,18 @@ Candidate StrategyRun::assess(ReducerResult result, const std::string& phase,
   c.error = m_ctx.estimator->evaluate(c.result.model);
   bool meets = c.error.sup_relative <= m_ctx.tolerance;
   record(phase, c.result, c.error, meets, c.stable, extra);
+  bool verified = false;
   if (meets && c.stable && !m_stop) {
     // "Converged" must hold on a denser grid that shares no frequency with the estimator's.
     BandError check = m_ctx.estimator->verify(c.result.model, m_ctx.verify_factor);
-    const bool verified = check.sup_relative <= m_ctx.tolerance;
+    verified = check.sup_relative <= m_ctx.tolerance;
     record("verify", c.result, check, verified, c.stable, extra);
     // Report the larger of the two estimates of the supremum.
     if (check.sup_relative > c.error.sup_relative) c.error = check;
-    meets = verified;
   }
-  c.passed = meets && c.stable;
+  // A model passes only after the independent re-check; one left unverified because the run was
+  // stopped right after its estimate does not count.
+  c.passed = meets && c.stable && verified;
   // An unstable model is kept as "most accurate" only when no stable one has been seen.
   const bool better =
       !m_most_accurate || (c.stable && !m_most_accurate->stable) ||

@@ -12,6 +12,7 @@
 #include "ecmor/frequency_response.hpp"
 #include "ecmor/projection.hpp"
 #include "ecmor/strategies/strategy.hpp"
+#include "support.hpp"
 
 namespace ecmor {
 namespace {
@@ -181,6 +182,35 @@ TEST(GrowOrder, ObserverCanStopTheRun) {
   EXPECT_EQ(r.termination, Termination::Interrupted);
   EXPECT_EQ(r.history.size(), 2u);
   EXPECT_TRUE(r.best.has_value());  // nothing lost: the best model so far is kept
+}
+
+// A stop that arrives on the estimate of a model meeting the tolerance leaves it unverified: the
+// run is interrupted, never "converged" with a model the independent re-check has not seen.
+TEST(GrowOrder, StopBeforeTheRecheckIsNotConvergence) {
+  Fixture fx;
+  Truncation reducer;
+  // Tolerance loose enough that the first order tried (2) meets it on the estimator's sampling.
+  const double tol = 2.0 * exact_sup_error(2, 0.01, 10.0);
+  const StrategyResult r = fx.run(reducer, tol, ParameterMap("strategy"), 1);
+  ASSERT_EQ(r.history.size(), 1u);
+  ASSERT_TRUE(r.history.front().meets_tolerance);
+  EXPECT_EQ(r.termination, Termination::Interrupted) << r.message;
+
+  // The shared bookkeeping every strategy uses: the candidate does not pass and is not kept as
+  // the smallest passing model.
+  Fixture fx2;
+  reducer.setup(ReductionContext{&fx2.model, fx2.solver.get(), fx2.band});
+  StrategyContext ctx;
+  ctx.reducer = &reducer;
+  ctx.estimator = &fx2.estimator;
+  ctx.tolerance = tol;
+  ctx.on_iteration = [](const IterationRecord&) { return false; };
+  strategy_support::StrategyRun run(ctx);
+  const strategy_support::Candidate c = run.assess(reducer.reduce(ReductionRequest{2, {}}), "grow");
+  EXPECT_TRUE(run.stopped());
+  EXPECT_FALSE(c.passed);
+  EXPECT_FALSE(run.smallest_pass().has_value());
+  EXPECT_TRUE(run.most_accurate().has_value());
 }
 
 // A reducer whose extra columns never change the reduced model (uncontrollable states): the error
