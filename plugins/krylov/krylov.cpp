@@ -129,6 +129,7 @@ class KrylovReducer final : public Reducer {
 
   ReducerResult reduce(const ReductionRequest& request) override {
     if (m_model == nullptr) throw InputError("krylov: reduce() called before setup()");
+    m_touched.clear();
     if (request.order < 0) {
       throw InputError(fmt::format("krylov: order = {}: must be >= 0", request.order));
     }
@@ -181,7 +182,11 @@ class KrylovReducer final : public Reducer {
     for (auto it = m_cache.begin(); it != m_cache.end(); ++it) {
       if (it->s == s) {
         m_cache.splice(m_cache.begin(), m_cache, it);
-        ++m_cache_hits;
+        // Count each point once per request: "this request found its factorisation cached".
+        if (std::find(m_touched.begin(), m_touched.end(), s) == m_touched.end()) {
+          ++m_cache_hits;
+          m_touched.push_back(s);
+        }
         return m_cache.front();
       }
     }
@@ -201,6 +206,7 @@ class KrylovReducer final : public Reducer {
           describe(s), e.what()));
     }
     ++m_factorizations;
+    m_touched.push_back(s);
     m_cache.push_front(std::move(st));
     while (static_cast<Index>(m_cache.size()) > m_options.cache_points) {
       m_cache.pop_back();
@@ -504,6 +510,7 @@ class KrylovReducer final : public Reducer {
   Index m_basis_deflations = 0;
   Index m_noise_parts = 0;
   Index m_reused_columns = 0;
+  std::vector<Complex> m_touched;  // points accessed by the current request
   GrowState m_grow;
   PointsBuild m_points;
 };

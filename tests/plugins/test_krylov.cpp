@@ -293,6 +293,34 @@ TEST(Krylov, MimoIssSoBlockAndTangential) {
 }
 
 
+TEST(Krylov, TwoSidedTangentialIsBitangentialInterpolation) {
+  // Gallivan, Vandendorpe & Van Dooren (2004): with right directions v and left directions u,
+  // H_j v and u^H H_j match for j < k, and u^H H_j v for j < 2k.
+  const Model model = load("iss");
+  const Complex s0 = point_at_hz(0.2).s;
+  ParameterMap p = params("two_sided");
+  p.set("tangential_directions", 1);
+  auto f = make(model, band_rad(1e-2, 1e3), p);
+  const Index k = 3;
+  const ReducerResult r = f->reducer->reduce({0, {{s0, k}}});
+  EXPECT_EQ(r.V.cols(), 2 * k);
+  const double tol = kMomentTol * oblique_condition(r);
+  const auto H = moments(dense(model), s0, 2 * k);
+  const auto Hr = moments(dense(r.model), s0, 2 * k);
+  const Eigen::JacobiSVD<ComplexMatrix> svd(H[0], Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const ComplexVector v = svd.matrixV().col(0), u = svd.matrixU().col(0);
+  for (Index j = 0; j < 2 * k; ++j) {
+    const Complex a = u.dot(H[j] * v), b = u.dot(Hr[j] * v);  // u^H H_j v
+    EXPECT_LT(std::abs(a - b) / std::abs(a), tol) << "bitangential moment " << j;
+    if (j < k) {
+      EXPECT_LT((H[j] * v - Hr[j] * v).norm() / (H[j] * v).norm(), tol) << "right, moment " << j;
+      const ComplexMatrix uh = u.adjoint();
+      EXPECT_LT((uh * H[j] - uh * Hr[j]).norm() / (uh * H[j]).norm(), tol) << "left, moment " << j;
+    }
+  }
+  EXPECT_GT((H[1] - Hr[1]).norm() / H[1].norm(), kUnmatched) << "the full block is not matched";
+}
+
 // ---- stability ----------------------------------------------------------------------------------
 
 // One-sided projection of a model with symmetric positive definite M, D, K keeps Mr, Dr, Kr SPD,
@@ -409,6 +437,7 @@ TEST(Krylov, GrowingMomentsAndPointsIsIncrementalAndReusesFactorizations) {
   EXPECT_EQ(c2.factorizations, c1.factorizations);
   EXPECT_LE(c2.solves - c1.solves, 4 + 1);  // 4 new moments (one solve each), SISO
   EXPECT_GT(more.diagnostics.at("reused_columns"), 0.0);
+  EXPECT_EQ(more.diagnostics.at("factorizations_reused"), 1.0);
   // A new point: exactly one new factorisation.
   const ReducerResult added = f->reducer->reduce({0, {{p1.s, 6}, p2}});
   EXPECT_EQ(f->solver->counters().factorizations, c2.factorizations + 1);
