@@ -1,5 +1,5 @@
-// krylov.cpp: the "krylov" reducer: structure-preserving moment matching (rational Krylov) at one or
-// several expansion points, one- or two-sided, block or tangential for MIMO models, with the
+// krylov.cpp: the "krylov" reducer: structure-preserving moment matching (rational Krylov) at one
+// or several expansion points, one- or two-sided, block or tangential for MIMO models, with the
 // subspaces generated per point by a two-level orthogonal Arnoldi process (toar.hpp). See README.md
 // for the algorithm, the parameters, the request semantics and the failure modes.
 #include <fmt/format.h>
@@ -26,9 +26,9 @@ constexpr const char* kName = "krylov";
 
 struct Options {
   bool two_sided = false;
-  std::vector<double> points_hz;     // configured points s0 = i 2 pi f
-  std::vector<double> real_points;   // configured real shifts s0 >= 0 (rad/s)
-  std::vector<double> point_moments; // blocks per round for each configured point
+  std::vector<double> points_hz;      // configured points s0 = i 2 pi f
+  std::vector<double> real_points;    // configured real shifts s0 >= 0 (rad/s)
+  std::vector<double> point_moments;  // blocks per round for each configured point
   Index point_count = 1;
   Index tangential_directions = 0;
   double deflation_tolerance = 1e-10;
@@ -79,8 +79,8 @@ class KrylovReducer final : public Reducer {
     m_n = size_of(*m_model);
     m_second_order = std::holds_alternative<SecondOrderModel>(*m_model);
     if (m_solver->size() != m_n) {
-      throw InputError(fmt::format("krylov: the solver has size {}, the model N = {}",
-                                   m_solver->size(), m_n));
+      throw InputError(
+          fmt::format("krylov: the solver has size {}, the model N = {}", m_solver->size(), m_n));
     }
     std::visit([&](const auto& m) { m_B = m.B; }, *m_model);
     // Output side: C, or Cv when the position output is zero (velocity output): the moments of
@@ -107,7 +107,7 @@ class KrylovReducer final : public Reducer {
     m_configured.clear();
     std::size_t k = 0;
     auto weight = [&]() {
-      const double w = k < m_options.point_moments.size() ? m_options.point_moments[k]
+      const double w = k < m_options.point_moments.size()    ? m_options.point_moments[k]
                        : m_options.point_moments.size() == 1 ? m_options.point_moments[0]
                                                              : 1.0;
       ++k;
@@ -135,9 +135,9 @@ class KrylovReducer final : public Reducer {
     }
     if (!request.points.empty()) return reduce_points(request);
     if (request.order < 1) {
-      throw InputError(fmt::format(
-          "krylov: order = {}: must be >= 1 when the request gives no expansion points",
-          request.order));
+      throw InputError(
+          fmt::format("krylov: order = {}: must be >= 1 when the request gives no expansion points",
+                      request.order));
     }
     return reduce_grow(request.order);
   }
@@ -171,9 +171,8 @@ class KrylovReducer final : public Reducer {
           fmt::format("krylov: {} {}: moments = {}: must be >= 1", what, describe(s), moments));
     }
     if (moments > m_options.max_moments_per_point) {
-      throw InputError(fmt::format(
-          "krylov: {} {}: moments = {} exceeds max_moments_per_point = {}", what, describe(s),
-          moments, m_options.max_moments_per_point));
+      throw InputError(fmt::format("krylov: {} {}: moments = {} exceeds max_moments_per_point = {}",
+                                   what, describe(s), moments, m_options.max_moments_per_point));
     }
   }
 
@@ -200,10 +199,10 @@ class KrylovReducer final : public Reducer {
     try {
       st.factorization = m_solver->factorize_combination(w);
     } catch (const NumericalError& e) {
-      throw NumericalError(fmt::format(
-          "krylov: P(s0) is singular at the expansion point {}: s0 is (numerically) an "
-          "eigenvalue of the model; move the point ({})",
-          describe(s), e.what()));
+      throw NumericalError(
+          fmt::format("krylov: P(s0) is singular at the expansion point {}: s0 is (numerically) an "
+                      "eigenvalue of the model; move the point ({})",
+                      describe(s), e.what()));
     }
     ++m_factorizations;
     m_touched.push_back(s);
@@ -237,8 +236,8 @@ class KrylovReducer final : public Reducer {
         e = std::make_unique<Toar<double>>(*m_solver, st.factorization, s, side, m_second_order,
                                            input, other, l, tol);
       } else {
-        e = std::make_unique<Toar<Complex>>(*m_solver, st.factorization, s, side,
-                                            m_second_order, input, other, l, tol);
+        e = std::make_unique<Toar<Complex>>(*m_solver, st.factorization, s, side, m_second_order,
+                                            input, other, l, tol);
       }
     }
     return *e;
@@ -283,8 +282,8 @@ class KrylovReducer final : public Reducer {
     std::vector<Index> blocks;  // per configured point
     std::vector<bool> done;     // per configured point: exhausted or at its budget
     std::vector<Segment> segments;
-    std::size_t cursor = 0;     // next point in the round
-    Index sub = 0;              // blocks already added at `cursor` in this round
+    std::size_t cursor = 0;  // next point in the round
+    Index sub = 0;           // blocks already added at `cursor` in this round
     bool exhausted = false;
   };
 
@@ -453,9 +452,9 @@ class KrylovReducer final : public Reducer {
     d["moments"] = static_cast<double>(total_moments);
     if (path == "points") d["reused_columns"] = static_cast<double>(m_reused_columns);
 
-    std::string note = fmt::format("{} point{}, {} moment{}, {}", used_points,
-                                   used_points == 1 ? "" : "s", total_moments,
-                                   total_moments == 1 ? "" : "s", two ? "two-sided" : "one-sided");
+    std::string note =
+        fmt::format("{} point{}, {} moment{}, {}", used_points, used_points == 1 ? "" : "s",
+                    total_moments, total_moments == 1 ? "" : "s", two ? "two-sided" : "one-sided");
     const Index l = m_options.tangential_directions;
     if (l > 0) note += fmt::format(", tangential ({} direction{})", l, l == 1 ? "" : "s");
     if (two && m_velocity_start) note += ", output side from Cv (velocity output)";
@@ -463,15 +462,15 @@ class KrylovReducer final : public Reducer {
       note += fmt::format("; last block cut at order {}", n);
     }
     if (two && V_all.cols() != W_all.cols() && !capped) {
-      note += fmt::format("; {} trimmed from {} to {} columns to match {} (deflation)",
-                          V_all.cols() > W_all.cols() ? "V" : "W",
-                          std::max(V_all.cols(), W_all.cols()), n,
-                          V_all.cols() > W_all.cols() ? "W" : "V");
+      note +=
+          fmt::format("; {} trimmed from {} to {} columns to match {} (deflation)",
+                      V_all.cols() > W_all.cols() ? "V" : "W", std::max(V_all.cols(), W_all.cols()),
+                      n, V_all.cols() > W_all.cols() ? "W" : "V");
     }
     if (path == "grow" && n < order) {
-      note += fmt::format("; order {} requested, {} available ({})", order, n,
-                          exhausted ? "Krylov subspaces exhausted or moment budget used"
-                                    : "deflation");
+      note +=
+          fmt::format("; order {} requested, {} available ({})", order, n,
+                      exhausted ? "Krylov subspaces exhausted or moment budget used" : "deflation");
     }
     // Stability: reported, never hidden or repaired.
     try {
@@ -562,21 +561,23 @@ std::unique_ptr<Reducer> create_krylov(const ParameterMap& params) {
   const std::string owner = params.owner();
   auto fail = [&](const std::string& key, const std::string& rule) {
     const std::string where = params.location(key);
-    throw ConfigError(fmt::format("{}{}: {}: {}", where.empty() ? "" : where + ": ", owner, key,
-                                  rule));
+    throw ConfigError(
+        fmt::format("{}{}: {}: {}", where.empty() ? "" : where + ": ", owner, key, rule));
   };
   o.points_hz = params.get_doubles("points", {});
   for (std::size_t i = 0; i < o.points_hz.size(); ++i) {
     const double f = o.points_hz[i];
     if (!(f > 0.0) || !std::isfinite(f)) {
-      fail("points", fmt::format("item {} = {}: a frequency in Hz must be > 0 and finite", i + 1, f));
+      fail("points",
+           fmt::format("item {} = {}: a frequency in Hz must be > 0 and finite", i + 1, f));
     }
   }
   o.real_points = params.get_doubles("real_points", {});
   for (std::size_t i = 0; i < o.real_points.size(); ++i) {
     const double s = o.real_points[i];
     if (!(s >= 0.0) || !std::isfinite(s)) {
-      fail("real_points", fmt::format("item {} = {}: a real point must be >= 0 and finite", i + 1, s));
+      fail("real_points",
+           fmt::format("item {} = {}: a real point must be >= 0 and finite", i + 1, s));
     }
   }
   o.point_moments = params.get_doubles("point_moments", {});
@@ -599,8 +600,8 @@ std::unique_ptr<Reducer> create_krylov(const ParameterMap& params) {
   o.tangential_directions = params.get_int("tangential_directions", 0, 0, 100000);
   o.deflation_tolerance = params.get_double("deflation_tolerance", 1e-10, 1e-15, 1e-2);
   o.cache_points = params.get_int("cache_points", o.cache_points, 1, 1000000);
-  o.max_moments_per_point = params.get_int("max_moments_per_point", o.max_moments_per_point, 1,
-                                           1000000);
+  o.max_moments_per_point =
+      params.get_int("max_moments_per_point", o.max_moments_per_point, 1, 1000000);
   return std::make_unique<KrylovReducer>(std::move(o));
 }
 

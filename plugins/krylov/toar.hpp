@@ -40,8 +40,8 @@ enum class Side { Right, Left };
 
 /// Work and deflation counters of one engine.
 struct EngineStats {
-  Index solves = 0;                ///< right-hand-side columns solved with the point's factorisation
-  Index arnoldi_vectors = 0;       ///< accepted (non-deflated) Arnoldi vectors
+  Index solves = 0;           ///< right-hand-side columns solved with the point's factorisation
+  Index arnoldi_vectors = 0;  ///< accepted (non-deflated) Arnoldi vectors
   Index candidate_deflations = 0;  ///< Arnoldi candidates dropped as dependent (band Arnoldi)
   Index q_deflations = 0;          ///< new upper parts already in span Q (no new column of Q)
 };
@@ -85,18 +85,19 @@ class Toar final : public Engine {
   Toar(ShiftedSolver& solver, std::shared_ptr<const Factorization> factorization, Complex s0,
        Side side, bool second_order, const Matrix& input, const ComplexMatrix& other,
        Index directions, double tolerance)
-      : m_solver(solver), m_factorization(std::move(factorization)), m_side(side),
-        m_second_order(second_order), m_tol(tolerance) {
+      : m_solver(solver),
+        m_factorization(std::move(factorization)),
+        m_side(side),
+        m_second_order(second_order),
+        m_tol(tolerance) {
     const Index terms = solver.terms();
     m_w1.assign(static_cast<std::size_t>(terms), Complex(0.0));
     m_w2.assign(static_cast<std::size_t>(terms), Complex(0.0));
     // P1 = sum_k k s0^(k-1) T_k, P2 = sum_k C(k,2) s0^(k-2) T_k: the Taylor coefficients of P.
     for (Index k = 1; k < terms; ++k) {
-      m_w1[static_cast<std::size_t>(k)] =
-          static_cast<double>(k) * ipow(s0, k - 1);
+      m_w1[static_cast<std::size_t>(k)] = static_cast<double>(k) * ipow(s0, k - 1);
       if (k >= 2) {
-        m_w2[static_cast<std::size_t>(k)] =
-            static_cast<double>(k * (k - 1) / 2) * ipow(s0, k - 2);
+        m_w2[static_cast<std::size_t>(k)] = static_cast<double>(k * (k - 1) / 2) * ipow(s0, k - 2);
       }
     }
     m_Q.resize(input.rows(), 0);
@@ -125,8 +126,8 @@ class Toar final : public Engine {
   }
 
   Index columns_through(Index blocks) const override {
-    return static_cast<Index>(
-        std::lower_bound(m_col_block.begin(), m_col_block.end(), blocks) - m_col_block.begin());
+    return static_cast<Index>(std::lower_bound(m_col_block.begin(), m_col_block.end(), blocks) -
+                              m_col_block.begin());
   }
 
   Matrix real_columns(Index from, Index to) const override {
@@ -187,8 +188,7 @@ class Toar final : public Engine {
 
   Mat solve(const Mat& x) {
     m_stats.solves += x.cols();
-    return m_side == Side::Right ? m_factorization->solve(x)
-                                 : m_factorization->solve_transposed(x);
+    return m_side == Side::Right ? m_factorization->solve(x) : m_factorization->solve_transposed(x);
   }
 
   Mat apply(const std::vector<Complex>& w, const Vec& x) const {

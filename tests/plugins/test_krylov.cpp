@@ -10,10 +10,10 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <iostream>
 #include <limits>
-#include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -204,8 +204,8 @@ constexpr double kUnmatched = 100 * kMomentTol;
 TEST(Krylov, OneSidedSecondOrderMatchesMomentsAtComplexAndRealPoints) {
   const Model model = load("triplechain_saak09_n451");
   auto f = make(model, band_rad(1e-4, 1e2), params());
-  const std::vector<ExpansionPoint> pts = {point_at_hz(0.05, 4), point_at_hz(1.0, 3),
-                                           {Complex(0.0, 0.0), 2}};
+  const std::vector<ExpansionPoint> pts = {
+      point_at_hz(0.05, 4), point_at_hz(1.0, 3), {Complex(0.0, 0.0), 2}};
   const ReducerResult r = f->reducer->reduce({0, pts});
   // Complex points give two real columns per moment (SISO), the real one one column.
   EXPECT_EQ(r.V.cols(), 2 * 4 + 2 * 3 + 2);
@@ -291,7 +291,6 @@ TEST(Krylov, MimoIssSoBlockAndTangential) {
   }
   EXPECT_GT((H[1] - Hr[1]).norm() / H[1].norm(), kUnmatched) << "the full block is not matched";
 }
-
 
 TEST(Krylov, TwoSidedTangentialIsBitangentialInterpolation) {
   // Gallivan, Vandendorpe & Van Dooren (2004): with right directions v and left directions u,
@@ -380,8 +379,9 @@ TEST(Krylov, TwoSidedLossOfStabilityIsDetectedAndNamed) {
   for (Index i = 0; i < poles_ref.size(); ++i) unstable += poles_ref[i].real() >= 0.0 ? 1 : 0;
   ASSERT_GT(unstable, 0) << "this case is expected to lose stability";
   EXPECT_EQ(r.diagnostics.at("unstable_poles"), static_cast<double>(unstable));
-  const std::string phrase = fmt::format("two-sided projection lost stability: {} pole{} with Re >= 0",
-                                         unstable, unstable == 1 ? "" : "s");
+  const std::string phrase =
+      fmt::format("two-sided projection lost stability: {} pole{} with Re >= 0", unstable,
+                  unstable == 1 ? "" : "s");
   EXPECT_NE(r.note.find(phrase), std::string::npos) << r.note;
 
   ParameterMap q = params();
@@ -474,7 +474,8 @@ TEST(Krylov, GrowOrderPathIsNestedExactAndReusesFactorizations) {
   // Round-robin: both points carry about the same number of moments; each is matched.
   ASSERT_EQ(r40.points.size(), 2u);
   EXPECT_LE(std::abs(r40.points[0].moments - r40.points[1].moments), 1);
-  for (const auto& pt : r40.points) expect_moments(model, r40, pt.s, pt.moments, kMomentTol, "grow");
+  for (const auto& pt : r40.points)
+    expect_moments(model, r40, pt.s, pt.moments, kMomentTol, "grow");
 }
 
 TEST(Krylov, LeastRecentlyUsedCacheBoundsThePointStates) {
@@ -508,7 +509,8 @@ TEST(Krylov, OrthogonalityAtOrder100OnTriplechain1501) {
   auto f = make(load("triplechain_mess_n1501"), band_rad(1e-4, 1.0), params());
   const auto t0 = std::chrono::steady_clock::now();
   const ReducerResult r = f->reducer->reduce({100, {}});
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   ASSERT_EQ(r.V.cols(), 100);
   const double loss = (r.V.transpose() * r.V - Matrix::Identity(100, 100)).cwiseAbs().maxCoeff();
   EXPECT_LT(loss, 1e-12);
@@ -605,10 +607,14 @@ SecondOrderModel chain(Index n, bool grounded, double damping) {
 
 TEST(Krylov, BadPointsAreNamed) {
   auto f = make(load("triplechain_saak09_n451"), band_rad(1e-4, 1e2), params());
-  std::string msg = message_of<InputError>([&] { f->reducer->reduce({0, {{Complex(-1.0, 2.0), 1}}}); });
+  std::string msg = message_of<InputError>([&] {
+    f->reducer->reduce({0, {{Complex(-1.0, 2.0), 1}}});
+  });
   EXPECT_NE(msg.find("point 1"), std::string::npos) << msg;
   EXPECT_NE(msg.find("Re(s0) < 0"), std::string::npos) << msg;
-  msg = message_of<InputError>([&] { f->reducer->reduce({0, {point_at_hz(1.0), point_at_hz(2.0, 0)}}); });
+  msg = message_of<InputError>([&] {
+    f->reducer->reduce({0, {point_at_hz(1.0), point_at_hz(2.0, 0)}});
+  });
   EXPECT_NE(msg.find("point 2"), std::string::npos) << msg;
   EXPECT_NE(msg.find("moments = 0"), std::string::npos) << msg;
   msg = message_of<InputError>([&] { f->reducer->reduce({0, {point_at_hz(-1.0)}}); });
@@ -626,7 +632,9 @@ TEST(Krylov, BadPointsAreNamed) {
 TEST(Krylov, SingularPointIsANumericalErrorWithAdvice) {
   // s0 = 0 on a free-floating chain: P(0) = K is singular (rigid-body mode).
   auto f = make(Model(chain(30, false, 0.01)), Band{1e-3, 1.0}, params());
-  std::string msg = message_of<NumericalError>([&] { f->reducer->reduce({0, {{Complex(0.0, 0.0), 2}}}); });
+  std::string msg = message_of<NumericalError>([&] {
+    f->reducer->reduce({0, {{Complex(0.0, 0.0), 2}}});
+  });
   EXPECT_NE(msg.find("s0 = 0"), std::string::npos) << msg;
   EXPECT_NE(msg.find("move the point"), std::string::npos) << msg;
   // An undamped chain at an eigenfrequency: P(i omega) = K - omega^2 M is singular; named in Hz.
@@ -642,7 +650,9 @@ TEST(Krylov, SingularPointIsANumericalErrorWithAdvice) {
 TEST(Krylov, TwoSidedWithPositionAndVelocityOutputIsAConfigError) {
   SecondOrderModel m = chain(20, true, 0.01);
   m.Cv = m.C;
-  const std::string msg = message_of<ConfigError>([&] { make(Model(m), Band{1e-3, 1.0}, params("two_sided")); });
+  const std::string msg = message_of<ConfigError>([&] {
+    make(Model(m), Band{1e-3, 1.0}, params("two_sided"));
+  });
   EXPECT_NE(msg.find("two_sided"), std::string::npos) << msg;
   EXPECT_NE(msg.find("Cv"), std::string::npos) << msg;
   // One-sided handles it (moments of the state).
@@ -661,8 +671,10 @@ TEST(Krylov, InvalidParametersAreNamed) {
   expect_config([](ParameterMap& p) { p.set("projection", "two_side"); }, "projection");
   expect_config([](ParameterMap& p) { p.set("deflation_tolerance", 0.5); }, "deflation_tolerance");
   expect_config([](ParameterMap& p) { p.set("cache_points", 0); }, "cache_points");
-  expect_config([](ParameterMap& p) { p.set("max_moments_per_point", 0); }, "max_moments_per_point");
-  expect_config([](ParameterMap& p) { p.set("tangential_directions", -1); }, "tangential_directions");
+  expect_config([](ParameterMap& p) { p.set("max_moments_per_point", 0); },
+                "max_moments_per_point");
+  expect_config([](ParameterMap& p) { p.set("tangential_directions", -1); },
+                "tangential_directions");
   expect_config([](ParameterMap& p) { p.set("point_count", 0); }, "point_count");
   expect_config([](ParameterMap& p) { p.set("points", -2.0); }, "points");
   expect_config([](ParameterMap& p) { p.set("real_points", -1.0); }, "real_points");
@@ -684,7 +696,8 @@ TEST(Krylov, InvalidParametersAreNamed) {
         p.set("point_count", 3);
       },
       "point_count");
-  expect_config([](ParameterMap& p) { p.set("point_cout", 3); }, "point_count");  // typo: suggestion
+  expect_config([](ParameterMap& p) { p.set("point_cout", 3); },
+                "point_count");  // typo: suggestion
   // Non-finite frequency.
   expect_config([](ParameterMap& p) { p.set("points", std::numeric_limits<double>::infinity()); },
                 "points");
@@ -704,7 +717,8 @@ TEST(Krylov, ConfiguredPointsAndWeightsAreUsed) {
   EXPECT_EQ(r.points[2].s, Complex(0.0, 0.0));
   // Per round: 2 blocks (4 columns) at 0.01 Hz, 1 (2 columns) at 0.2 Hz, 1 (1 column) at 0.
   EXPECT_GE(r.points[0].moments, 2 * r.points[1].moments - 2);
-  for (const auto& pt : r.points) expect_moments(model, r, pt.s, pt.moments, kMomentTol, "configured");
+  for (const auto& pt : r.points)
+    expect_moments(model, r, pt.s, pt.moments, kMomentTol, "configured");
 }
 
 TEST(Krylov, InfoDocumentsEveryParameter) {
@@ -714,9 +728,9 @@ TEST(Krylov, InfoDocumentsEveryParameter) {
   ASSERT_NE(it, entries.end());
   std::vector<std::string> names;
   for (const auto& p : it->info.parameters) names.push_back(p.name);
-  for (const char* key : {"projection", "points", "real_points", "point_moments", "point_count",
-                          "tangential_directions", "deflation_tolerance", "cache_points",
-                          "max_moments_per_point"}) {
+  for (const char* key :
+       {"projection", "points", "real_points", "point_moments", "point_count",
+        "tangential_directions", "deflation_tolerance", "cache_points", "max_moments_per_point"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), key), names.end()) << key;
   }
   EXPECT_TRUE(it->info.second_order);
