@@ -27,9 +27,15 @@ namespace fs = std::filesystem;
 namespace ecmor {
 namespace {
 
+// configs/ (label integration, run in CI) or configs/slow/ (label slow: runs of a minute or more,
+// `ctest -L slow`), chosen at compile time.
+#ifndef ECMOR_CONFIG_DIR
+#define ECMOR_CONFIG_DIR "configs"
+#endif
+
 std::vector<std::string> config_files() {
   std::vector<std::string> out;
-  for (const auto& e : fs::directory_iterator(fs::path(ECMOR_TEST_SOURCE_DIR) / "configs")) {
+  for (const auto& e : fs::directory_iterator(fs::path(ECMOR_TEST_SOURCE_DIR) / ECMOR_CONFIG_DIR)) {
     if (e.path().extension() == ".yaml") out.push_back(e.path().filename().string());
   }
   std::sort(out.begin(), out.end());
@@ -70,7 +76,7 @@ Reference read_reference(const fs::path& path, Index p, Index m) {
 class ConfigTarget : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(ConfigTarget, MeetsItsToleranceAndTheIndependentRecheckAgrees) {
-  const fs::path config_path = fs::path("configs") / GetParam();
+  const fs::path config_path = fs::path(ECMOR_CONFIG_DIR) / GetParam();
   const RunConfig config = load_run_config(config_path);
   const fs::path out = fs::temp_directory_path() /
                        ("ecmor_config_test_" + std::to_string(::getpid()) + "_" + GetParam());
