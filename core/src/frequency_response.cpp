@@ -291,6 +291,22 @@ ComplexMatrix ResponseCache::evaluate(double f_hz) {
   return evaluate(std::vector<double>{f_hz})[0];
 }
 
+std::optional<double> ResponseCache::nearest_cached(double f_hz, double rel_tol) const {
+  std::lock_guard<std::mutex> lock(m_mutex);
+  if (m_cache.empty() || !(rel_tol >= 0.0)) return std::nullopt;
+  auto hi = m_cache.lower_bound(f_hz);
+  std::optional<double> best;
+  auto consider = [&](double f) {
+    if (std::abs(f - f_hz) <= rel_tol * f_hz &&
+        (!best || std::abs(f - f_hz) < std::abs(*best - f_hz))) {
+      best = f;
+    }
+  };
+  if (hi != m_cache.end()) consider(hi->first);
+  if (hi != m_cache.begin()) consider(std::prev(hi)->first);
+  return best;
+}
+
 double ResponseCache::seconds() const {
   std::lock_guard<std::mutex> lock(m_mutex);
   return m_seconds;

@@ -68,6 +68,38 @@ TEST(BandError, UndampedModelsAreHandled) {
   EXPECT_NEAR(e.f_peak_hz, std::sqrt(4.04) / kTwoPi, 1e-3);
 }
 
+// A pole sample near a frequency the cache already holds (within zeta / 32) reuses it: a
+// slightly moved reduced model costs no new full-model factorisation at its resonance.
+TEST(BandError, PoleSamplesReuseNearbyCachedFrequencies) {
+  const double m = 1.0, d = 0.02, k = 4.0;  // zeta = d / (2 sqrt(k m)) = 5e-3
+  const Model full = oscillator(m, d, k);
+  auto solver = make_shifted_solver(full);
+  ResponseCache cache(full, *solver);
+  BandErrorOptions no_refine;
+  no_refine.refine_peaks = 0;  // count pole samples alone
+  BandErrorEstimator est(cache, Band{0.01, 10.0}, no_refine);
+  auto reduced = dense(std::get<SecondOrderModel>(full));
+  reduced.K(0, 0) = k * (1.0 + 1e-3);
+  const BandError first = est.evaluate(reduced);
+  ASSERT_EQ(first.pole_samples, 1);
+  const Index after_first = cache.size();
+  // The pole moves by 1e-5 relative (zeta / 500): the cached sample is reused.
+  reduced.K(0, 0) = k * (1.0 + 1e-3) * (1.0 + 2e-5);
+  const BandError near = est.evaluate(reduced);
+  EXPECT_EQ(near.pole_samples, 1);
+  EXPECT_EQ(cache.size(), after_first);
+  // Moved by 1e-3 relative (zeta / 5): too far, sampled anew.
+  reduced.K(0, 0) = k * (1.0 + 1e-3) * (1.0 + 2e-3);
+  est.evaluate(reduced);
+  EXPECT_EQ(cache.size(), after_first + 1);
+
+  // nearest_cached itself: the nearest stored frequency within the relative distance, or none.
+  const double f0 = first.f_hz.front();
+  ASSERT_TRUE(cache.nearest_cached(f0 * (1.0 + 1e-9), 1e-8).has_value());
+  EXPECT_EQ(*cache.nearest_cached(f0 * (1.0 + 1e-9), 1e-8), f0);
+  EXPECT_FALSE(cache.nearest_cached(f0 * (1.0 + 1e-6), 1e-8).has_value());
+}
+
 // With light damping the relative error |dk| / |k_r - m w^2 + i d w| peaks in a resonance far
 // narrower than the grid spacing; the pole samples and the refinement must find the true supremum.
 TEST(BandError, LocalisesANarrowResonancePeak) {

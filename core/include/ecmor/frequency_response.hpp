@@ -6,6 +6,7 @@
 
 #include <map>
 #include <mutex>
+#include <optional>
 #include <vector>
 
 #include "ecmor/export.hpp"
@@ -57,6 +58,10 @@ class ECMOR_API ResponseCache {
   /// H at one frequency.
   ComplexMatrix evaluate(double f_hz);
 
+  /// The stored frequency nearest to f_hz if it lies within relative distance rel_tol of it
+  /// (|f - f_hz| <= rel_tol f_hz), else nothing. Lets callers that only need "a sample near f"
+  /// reuse a factorisation already paid for.
+  std::optional<double> nearest_cached(double f_hz, double rel_tol) const;
   /// Number of stored frequencies (= full-model factorisations done through this cache).
   Index size() const;
   /// Wall time spent computing full-model responses (the cost a reducer's run adds to the full
