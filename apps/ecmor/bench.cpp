@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <csignal>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -50,7 +51,8 @@ class Progress final : public RunObserver {
   bool on_iteration(const IterationRecord&) override { return !g_bench_interrupted.load(); }
 };
 
-std::string tol_tag(double t) { return fmt::format("{:.0e}", t); }
+// Exact enough to keep distinct tolerances apart (2e-3 and 2.5e-3), short enough to read.
+std::string tol_tag(double t) { return fmt::format("{:.6g}", t); }
 
 nlohmann::json to_json(const BenchRow& r) {
   return {{"config", r.config},
@@ -143,6 +145,7 @@ int bench(const BenchOptions& options, const CommonOptions& common) {
     std::size_t total = 0;
     total = configs.size() * std::max<std::size_t>(options.tolerances.size(), 1);
     std::size_t done = 0;
+    std::set<std::string> used_names;
     bool all_met = true;
     const auto start = std::chrono::steady_clock::now();
     for (const RunConfig& base : configs) {
@@ -152,8 +155,14 @@ int bench(const BenchOptions& options, const CommonOptions& common) {
         if (g_bench_interrupted.load()) break;
         RunConfig config = base;
         config.tolerance = tol;
-        config.output_dir =
-            out / "runs" / (base.source.stem().string() + "_tol" + tol_tag(tol));
+        // One directory per run: configs with the same file name in different folders, or a
+        // tolerance given twice, get a numbered suffix instead of overwriting a run's outputs.
+        std::string run_name = base.source.stem().string() + "_tol" + tol_tag(tol);
+        for (int k = 2; used_names.count(run_name) > 0; ++k) {
+          run_name = base.source.stem().string() + "_tol" + tol_tag(tol) + "_" + std::to_string(k);
+        }
+        used_names.insert(run_name);
+        config.output_dir = out / "runs" / run_name;
         BenchRow row;
         row.config = base.source.string();
         row.model = base.model_dir.filename().string();

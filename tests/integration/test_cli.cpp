@@ -660,7 +660,7 @@ TEST_F(Cli, BenchRunsTheToleranceLadderAndTabulatesEveryRun) {
   // A tighter tolerance never needs a smaller model (same nested modal bases).
   EXPECT_LE(rows[0]["order"].get<Index>(), rows[1]["order"].get<Index>());
   // Each run keeps its own outputs; the table has one line per run.
-  EXPECT_TRUE(fs::is_regular_file(out / "runs" / "run_tol1e-02" / "summary.json"));
+  EXPECT_TRUE(fs::is_regular_file(out / "runs" / "run_tol0.01" / "summary.json"));
   EXPECT_TRUE(fs::is_regular_file(out / "runs" / "run_tol1e-05" / "summary.json"));
   const std::string csv = read_text(out / "bench.csv");
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 3);
@@ -681,6 +681,19 @@ TEST_F(Cli, BenchRecordsAFailedRunAsARow) {
   EXPECT_TRUE(rows[0]["target_met"].get<bool>());
   EXPECT_EQ(rows[1]["termination"].get<std::string>(), "error");
   EXPECT_NE(rows[1]["message"].get<std::string>().find("no_such_reducer"), std::string::npos);
+}
+
+TEST_F(Cli, BenchNeverLetsOneRunOverwriteAnother) {
+  // Tolerances that print alike at one digit, and the same config twice: four directories.
+  write_text(config(), lf10_yaml(output(), 1e-2, "{name: grow_order}"));
+  const fs::path out = m_dir / "bench";
+  const Result r = run({"bench", config().string(), config().string(), "-t", "2e-3,2.5e-3", "-o",
+                        out.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  Index dirs = 0;
+  for (const auto& e : fs::directory_iterator(out / "runs")) dirs += e.is_directory() ? 1 : 0;
+  EXPECT_EQ(dirs, 4);
+  EXPECT_EQ(read_json(out / "bench.json").size(), 4u);
 }
 
 TEST_F(Cli, BenchRejectsAToleranceOutsideZeroOne) {
