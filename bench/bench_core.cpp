@@ -323,9 +323,9 @@ std::string diagnostics(const ecmor::ReducerResult& result) {
   return text;
 }
 
-/// Modal reduction through the registry (the plugin as the driver loads it).
-void bench_modal(const ecmor::Model& model, Index N, const Options& opt, Reporter& out) {
-  ecmor::Registry registry;
+/// Loads the plugin providing `name` (the default directories, then the build tree's) into
+/// `registry`; false, with a printed note, when it is not found.
+bool load_reducer(ecmor::Registry& registry, const std::string& name, const Options& opt) {
   std::vector<std::filesystem::path> dirs;
   if (!opt.plugin_dir.empty()) {
     dirs.emplace_back(opt.plugin_dir);
@@ -339,16 +339,21 @@ void bench_modal(const ecmor::Model& model, Index N, const Options& opt, Reporte
   }
   std::vector<std::string> load_errors;
   for (const auto& dir : dirs) {
-    if (registry.contains("modal")) break;
+    if (registry.contains(name)) break;
     for (auto& e : registry.load_directory(dir)) load_errors.push_back(std::move(e));
   }
-  if (!registry.contains("modal")) {
-    std::string where;
-    for (const auto& d : dirs) where += (where.empty() ? "" : ", ") + d.string();
-    fmt::print("  modal reducer not found in [{}]{}{}: modal rows skipped\n", where,
-               load_errors.empty() ? "" : "; ", load_errors.empty() ? "" : load_errors.front());
-    return;
-  }
+  if (registry.contains(name)) return true;
+  std::string where;
+  for (const auto& d : dirs) where += (where.empty() ? "" : ", ") + d.string();
+  fmt::print("  {} reducer not found in [{}]{}{}: {} rows skipped\n", name, where,
+             load_errors.empty() ? "" : "; ", load_errors.empty() ? "" : load_errors.front(), name);
+  return false;
+}
+
+/// Modal reduction through the registry (the plugin as the driver loads it).
+void bench_modal(const ecmor::Model& model, Index N, const Options& opt, Reporter& out) {
+  ecmor::Registry registry;
+  if (!load_reducer(registry, "modal", opt)) return;
 
   const ecmor::Band band{kOmegaMin / ecmor::kTwoPi, kOmegaMax / ecmor::kTwoPi};
   for (Index order : opt.modal_orders) {
@@ -376,6 +381,43 @@ void bench_modal(const ecmor::Model& model, Index N, const Options& opt, Reporte
   }
 }
 
+/// One Krylov reduction at fixed points through the registry: the reduction proper (no error
+/// estimation), p points log-spaced in the band with k moments each, one-sided. Order r = 2 p k for
+/// a SISO model (complex points give real and imaginary parts). Comparable with one IRKA
+/// iteration of order r (r/2 complex factorisations), not with a converged IRKA run.
+void bench_krylov(const ecmor::Model& model, Index N, const Options& opt, Reporter& out) {
+  ecmor::Registry registry;
+  if (!load_reducer(registry, "krylov", opt)) return;
+  const ecmor::Band band{kOmegaMin / ecmor::kTwoPi, kOmegaMax / ecmor::kTwoPi};
+  struct Case {
+    Index points, moments;
+  };
+  for (const Case c : {Case{5, 2}, Case{10, 5}}) {
+    const std::vector<double> f = ecmor::log_grid(band.f_min_hz, band.f_max_hz, c.points);
+    std::vector<ecmor::ExpansionPoint> points;
+    for (double fi : f) points.push_back(ecmor::point_at_hz(fi, c.moments));
+    auto solver = ecmor::make_shifted_solver(model);
+    const Stopwatch watch;
+    auto reducer = registry.create("krylov", ecmor::ParameterMap("reducer 'krylov'"));
+    reducer->setup(ecmor::ReductionContext{&model, solver.get(), band});
+    const ecmor::ReducerResult result = reducer->reduce(ecmor::ReductionRequest{0, points});
+    const double wall = watch.wall();
+    const double cpu = watch.cpu();
+    const ecmor::SolverCounters sc = solver->counters();
+    out.add({.n = N,
+             .stage = fmt::format("krylov r={} ({} pts x {} mom)", result.V.cols(), c.points,
+                                  c.moments),
+             .detail = fmt::format("fact+solve {:.0f}%, {}",
+                                   100.0 * (sc.factorization_seconds + sc.solve_seconds) /
+                                       std::max(cpu, wall),
+                                   diagnostics(result)),
+             .seconds = wall,
+             .cpu_seconds = cpu,
+             .factorizations = sc.factorizations,
+             .solves = sc.solves});
+  }
+}
+
 void run_size(Index N, const Options& opt) {
   Reporter out(opt.csv);
   const Index n1 = (N - 1) / 3;
@@ -391,6 +433,7 @@ void run_size(Index N, const Options& opt) {
   bench_factorizations(model, N, out);
   bench_band_response(model, N, opt, out);
   bench_symbolic_reuse(model, N, opt, out);
+  bench_krylov(model, N, opt, out);
   if (N <= opt.modal_max_n) {
     bench_modal(model, N, opt, out);
   } else {
