@@ -271,6 +271,28 @@ class KrylovReducer final : public Reducer {
     return true;
   }
 
+  /// Appends block `block` of point s to V and, two-sided, to W. Returns false when the point's
+  /// Krylov spaces are exhausted before that block. If either side throws (a failed solve, a
+  /// breakdown), V, W and the append counters are restored before the exception leaves: otherwise
+  /// V could keep the input side's columns with no segment recording them (the grow path keeps V
+  /// and W across requests, and strategies catch the error and call again). The engines need no
+  /// undo: Toar::step() commits nothing before its checks pass.
+  bool append_pair(Complex s, Index block, Matrix& V, Matrix& W) {
+    const Index v0 = V.cols(), w0 = W.cols();
+    const Index deflations0 = m_basis_deflations, noise0 = m_noise_parts;
+    try {
+      bool any = append_block(s, Side::Right, block, V);
+      if (m_options.two_sided) any = append_block(s, Side::Left, block, W) || any;
+      return any;
+    } catch (...) {
+      V.conservativeResize(Eigen::NoChange, v0);
+      W.conservativeResize(Eigen::NoChange, w0);
+      m_basis_deflations = deflations0;
+      m_noise_parts = noise0;
+      throw;
+    }
+  }
+
   Index usable(const Matrix& V, const Matrix& W) const {
     return m_options.two_sided ? std::min(V.cols(), W.cols()) : V.cols();
   }
@@ -301,8 +323,7 @@ class KrylovReducer final : public Reducer {
       const ConfiguredPoint& p = m_configured[i];
       if (!g.done[i]) {
         const Index j = g.blocks[i];
-        bool any = append_block(p.s, Side::Right, j, g.V);
-        if (m_options.two_sided) any = append_block(p.s, Side::Left, j, g.W) || any;
+        const bool any = append_pair(p.s, j, g.V, g.W);
         if (any) {
           g.segments.push_back({i, j, g.V.cols(), g.W.cols()});
           ++g.blocks[i];
@@ -367,9 +388,7 @@ class KrylovReducer final : public Reducer {
     // segments than moments; continuing them appends nothing, which is right.
     for (std::size_t i = 0; i < pts.size(); ++i) {
       for (Index j = have[i]; j < pts[i].moments; ++j) {
-        bool any = append_block(pts[i].s, Side::Right, j, V);
-        if (m_options.two_sided) any = append_block(pts[i].s, Side::Left, j, W) || any;
-        if (!any) break;
+        if (!append_pair(pts[i].s, j, V, W)) break;
         segments.push_back({i, j, V.cols(), W.cols()});
       }
     }

@@ -9,11 +9,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <iostream>
 #include <limits>
+#include <memory>
+#include <span>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -43,17 +46,105 @@ Registry& registry() {
   return r;
 }
 
+// Test-only fault injection: a ShiftedSolver forwarding to the embedded one whose factorisations
+// make the fail_at-th solve call (1-based, counted over all factorisations) fail, by throwing a
+// NumericalError or by returning non-finite values: a solver breaking down in the middle of an
+// Arnoldi process. Every call is logged (transposed or not) so that a test can aim at one.
+enum class FaultKind { Throw, NonFinite };
+
+struct FaultPlan {
+  FaultKind kind = FaultKind::Throw;
+  Index fail_at = 0;             // 0: never fail
+  std::vector<bool> transposed;  // one entry per solve call
+};
+
+class FaultyFactorization final : public Factorization {
+ public:
+  FaultyFactorization(std::shared_ptr<const Factorization> inner, std::shared_ptr<FaultPlan> plan)
+      : m_inner(std::move(inner)), m_plan(std::move(plan)) {}
+
+ private:
+  // Defined before its uses: they deduce its return type.
+  template <class F>
+  auto call(bool transposed, F&& inner_solve) const {
+    m_plan->transposed.push_back(transposed);
+    const bool fail = static_cast<Index>(m_plan->transposed.size()) == m_plan->fail_at;
+    if (fail && m_plan->kind == FaultKind::Throw) {
+      throw NumericalError("injected solver failure");
+    }
+    auto x = inner_solve();
+    if (fail) x(0, 0) = std::numeric_limits<double>::quiet_NaN();
+    return x;
+  }
+
+ public:
+  Index size() const override { return m_inner->size(); }
+  bool is_complex() const override { return m_inner->is_complex(); }
+  std::string method() const override { return m_inner->method(); }
+  const std::vector<Complex>& weights() const override { return m_inner->weights(); }
+  double rcond() const override { return m_inner->rcond(); }
+  Matrix solve(const Matrix& B) const override {
+    return call(false, [&] { return m_inner->solve(B); });
+  }
+  ComplexMatrix solve(const ComplexMatrix& B) const override {
+    return call(false, [&] { return m_inner->solve(B); });
+  }
+  Matrix solve_transposed(const Matrix& B) const override {
+    return call(true, [&] { return m_inner->solve_transposed(B); });
+  }
+  ComplexMatrix solve_transposed(const ComplexMatrix& B) const override {
+    return call(true, [&] { return m_inner->solve_transposed(B); });
+  }
+
+ private:
+  std::shared_ptr<const Factorization> m_inner;
+  std::shared_ptr<FaultPlan> m_plan;
+};
+
+class FaultySolver final : public ShiftedSolver {
+ public:
+  explicit FaultySolver(std::unique_ptr<ShiftedSolver> inner) : m_inner(std::move(inner)) {}
+  Index size() const override { return m_inner->size(); }
+  Index terms() const override { return m_inner->terms(); }
+  std::string backend() const override { return "faulty " + m_inner->backend(); }
+  std::shared_ptr<const Factorization> factorize_combination(
+      std::span<const Complex> weights) override {
+    return std::make_shared<FaultyFactorization>(m_inner->factorize_combination(weights), plan);
+  }
+  ComplexMatrix apply_combination(std::span<const Complex> weights,
+                                  const ComplexMatrix& x) const override {
+    return m_inner->apply_combination(weights, x);
+  }
+  ComplexMatrix apply_combination_transposed(std::span<const Complex> weights,
+                                             const ComplexMatrix& x) const override {
+    return m_inner->apply_combination_transposed(weights, x);
+  }
+  SolverCounters counters() const override { return m_inner->counters(); }
+
+  std::shared_ptr<FaultPlan> plan = std::make_shared<FaultPlan>();
+
+ private:
+  std::unique_ptr<ShiftedSolver> m_inner;
+};
+
 struct Fixture {
   Model model;
   std::unique_ptr<ShiftedSolver> solver;
+  FaultySolver* faulty = nullptr;  // = solver when made with faults enabled
   std::shared_ptr<Reducer> reducer;
 };
 
 // The model is stored before the solver is made (the solver references it).
-std::unique_ptr<Fixture> make(Model model, Band band, const ParameterMap& params) {
+std::unique_ptr<Fixture> make(Model model, Band band, const ParameterMap& params,
+                              bool with_faults = false) {
   auto f = std::make_unique<Fixture>();
   f->model = std::move(model);
   f->solver = make_shifted_solver(f->model);
+  if (with_faults) {
+    auto faulty = std::make_unique<FaultySolver>(std::move(f->solver));
+    f->faulty = faulty.get();
+    f->solver = std::move(faulty);
+  }
   f->reducer = registry().create("krylov", params);
   ReductionContext ctx;
   ctx.model = &f->model;
@@ -501,6 +592,71 @@ TEST(Krylov, OrderBeyondTheSubspaceReturnsAllAndSaysSo) {
   EXPECT_EQ(r.V.cols(), 18);
   EXPECT_EQ(f->reducer->max_order(), 18);
   EXPECT_NE(r.note.find("order 30 requested, 18 available"), std::string::npos) << r.note;
+}
+
+// ---- exception safety --------------------------------------------------------------------------
+
+// Strategies catch a failed reduce() and carry on with the same reducer, so a solver failure in
+// the middle of the Arnoldi process (an exception, or non-finite values) must leave the cached
+// point states usable: once the solver works again, the same request gives the subspace of a
+// fresh reducer. Each solve call of the request fails once, in turn: the start blocks, the first
+// step (which fixes the scaling of the linearisation) and the later steps.
+TEST(Krylov, FailedSolveInsideArnoldiLeavesTheCacheUsable) {
+  const Model model = load("triplechain_saak09_n451");
+  const Band band = band_rad(1e-4, 1e2);
+  const std::vector<ExpansionPoint> pts = {point_at_hz(0.05, 4), point_at_hz(0.3, 3)};
+  auto ref = make(model, band, params(), true);
+  const ReducerResult expected = ref->reducer->reduce({0, pts});
+  const Index calls = static_cast<Index>(ref->faulty->plan->transposed.size());
+  EXPECT_EQ(calls, 4 + 3);  // SISO: per point one start solve and one per further moment
+  for (const FaultKind kind : {FaultKind::Throw, FaultKind::NonFinite}) {
+    for (Index k = 1; k <= calls; ++k) {
+      auto f = make(model, band, params(), true);
+      f->faulty->plan->kind = kind;
+      f->faulty->plan->fail_at = k;
+      const std::string msg = message_of<NumericalError>([&] { f->reducer->reduce({0, pts}); });
+      EXPECT_NE(msg.find(kind == FaultKind::Throw ? "injected" : "non-finite"), std::string::npos)
+          << msg;
+      f->faulty->plan->fail_at = 0;
+      const ReducerResult r = f->reducer->reduce({0, pts});
+      ASSERT_EQ(r.V.cols(), expected.V.cols()) << "after a failure at solve " << k;
+      EXPECT_LT(largest_angle_sin(r.V, expected.V), 1e-10) << "after a failure at solve " << k;
+      EXPECT_EQ(r.points, expected.points) << "after a failure at solve " << k;
+    }
+  }
+}
+
+// Two-sided grow path: each round appends a block of the input side to V, then the same block of
+// the output side to W. A failure on the output side must not leave V with columns that no moment
+// block accounts for (a retry would append them again and count them as deflated).
+TEST(Krylov, FailedOutputSideAppendLeavesTheGrowBasesConsistent) {
+  const Model model = load("cdplayer");
+  const Band band = band_rad(1e-1, 1e3);
+  ParameterMap p = params("two_sided");
+  p.set("point_count", 2);
+  auto probe = make(model, band, p, true);
+  probe->reducer->reduce({8, {}});
+  const std::size_t first = probe->faulty->plan->transposed.size();
+  const ReducerResult expected = probe->reducer->reduce({20, {}});
+  const std::vector<bool>& log = probe->faulty->plan->transposed;
+  // The first output-side solve of the second request comes after its first input-side block.
+  const auto it = std::find(log.begin() + static_cast<std::ptrdiff_t>(first), log.end(), true);
+  ASSERT_NE(it, log.end());
+  ASSERT_NE(std::find(log.begin() + static_cast<std::ptrdiff_t>(first), it, false), it);
+  auto f = make(model, band, p, true);
+  f->reducer->reduce({8, {}});
+  f->faulty->plan->fail_at = (it - log.begin()) + 1;
+  const std::string msg = message_of<NumericalError>([&] { f->reducer->reduce({20, {}}); });
+  EXPECT_NE(msg.find("injected"), std::string::npos) << msg;
+  f->faulty->plan->fail_at = 0;
+  const ReducerResult r = f->reducer->reduce({20, {}});
+  ASSERT_EQ(r.V.cols(), expected.V.cols());
+  ASSERT_EQ(r.W.cols(), expected.W.cols());
+  EXPECT_LT(largest_angle_sin(r.V, expected.V), 1e-10);
+  EXPECT_LT(largest_angle_sin(r.W, expected.W), 1e-10);
+  EXPECT_EQ(r.points, expected.points);
+  EXPECT_EQ(r.diagnostics.at("basis_deflations"), expected.diagnostics.at("basis_deflations"));
+  EXPECT_EQ(r.note, expected.note);
 }
 
 // ---- orthogonality and accuracy ----------------------------------------------------------------
