@@ -496,7 +496,8 @@ class KrylovReducer final : public Reducer {
       const ComplexVector p = poles(result.model);
       Index unstable = 0;
       for (Index i = 0; i < p.size(); ++i) {
-        if (p[i].real() >= 0.0) ++unstable;
+        // NaN counts as unstable: a pole we cannot place is not known to be stable.
+        if (!(p[i].real() < 0.0)) ++unstable;
       }
       d["unstable_poles"] = static_cast<double>(unstable);
       if (unstable > 0) {
