@@ -575,14 +575,84 @@ TEST(Krylov, LeastRecentlyUsedCacheBoundsThePointStates) {
   p.set("cache_points", 1);
   auto f = make(model, band_rad(1e-4, 1e2), p);
   const std::vector<ExpansionPoint> pts = {point_at_hz(0.05, 2), point_at_hz(0.3, 2)};
+  // The request holds two points: the cache grows to two for it (see the next test).
   const ReducerResult a = f->reducer->reduce({0, pts});
-  EXPECT_EQ(a.diagnostics.at("cached_points"), 1.0);
-  EXPECT_GE(a.diagnostics.at("cache_evictions"), 1.0);
-  // A different list forces a rebuild: the evicted point is factorised again.
+  EXPECT_EQ(a.diagnostics.at("cached_points"), 2.0);
+  EXPECT_EQ(a.diagnostics.at("cache_evictions"), 0.0);
+  // A one-point request returns to cache_points = 1: both earlier states are dropped.
+  const ReducerResult b = f->reducer->reduce({0, {point_at_hz(1.0, 2)}});
+  EXPECT_EQ(b.diagnostics.at("cached_points"), 1.0);
+  EXPECT_GE(b.diagnostics.at("cache_evictions"), 2.0);
+  // Evicted points are factorised again when needed, and give the same subspace.
   const Index before = f->solver->counters().factorizations;
-  const ReducerResult b = f->reducer->reduce({0, {pts[1], pts[0]}});
-  EXPECT_GT(f->solver->counters().factorizations, before);
-  EXPECT_LT(largest_angle_sin(a.V, b.V), 1e-10);
+  const ReducerResult c = f->reducer->reduce({0, {pts[1], pts[0]}});
+  EXPECT_EQ(f->solver->counters().factorizations, before + 2);
+  ASSERT_EQ(a.V.cols(), c.V.cols());
+  EXPECT_LT(largest_angle_sin(a.V, c.V), 1e-10);
+}
+
+TEST(Krylov, ARequestNeverEvictsItsOwnPoints) {
+  // A request with more points than cache_points (greedy placement holds up to 40 points, a
+  // shipped config 80) grows the cache to its point count, so that rebuilding the same points
+  // factorises nothing. Here one more moment at the first point rebuilds the four later points
+  // from their cached engines: no factorisation, and one solve (the new step, SISO).
+  const Model model = load("triplechain_saak09_n451");
+  ParameterMap p = params();
+  p.set("cache_points", 2);
+  auto f = make(model, band_rad(1e-4, 1e2), p);
+  std::vector<ExpansionPoint> pts;
+  for (int i = 0; i < 5; ++i) pts.push_back(point_at_hz(0.02 * (i + 1), 2));
+  const ReducerResult a = f->reducer->reduce({0, pts});
+  EXPECT_EQ(a.diagnostics.at("cached_points"), 5.0);
+  EXPECT_EQ(a.diagnostics.at("cache_evictions"), 0.0);
+  const SolverCounters c1 = f->solver->counters();
+  pts[0].moments = 3;
+  const ReducerResult b = f->reducer->reduce({0, pts});
+  const SolverCounters c2 = f->solver->counters();
+  EXPECT_EQ(c2.factorizations, c1.factorizations) << "the request evicted its own points";
+  EXPECT_EQ(c2.solves - c1.solves, 1);
+  EXPECT_EQ(b.diagnostics.at("factorizations_reused"), 5.0);
+  auto fresh = make(model, band_rad(1e-4, 1e2), p);
+  const ReducerResult e = fresh->reducer->reduce({0, pts});
+  ASSERT_EQ(b.V.cols(), e.V.cols());
+  EXPECT_LT(largest_angle_sin(b.V, e.V), 1e-10);
+}
+
+TEST(Krylov, FactorizationsReusedCountsThisRequestOnly) {
+  auto f = make(load("triplechain_saak09_n451"), band_rad(1e-4, 1e2), params());
+  const ExpansionPoint p1 = point_at_hz(0.05, 2), p2 = point_at_hz(0.3, 2);
+  auto reused = [&](const std::vector<ExpansionPoint>& pts) {
+    return f->reducer->reduce({0, pts}).diagnostics.at("factorizations_reused");
+  };
+  EXPECT_EQ(reused({p1}), 0.0);
+  EXPECT_EQ(reused({{p1.s, 3}}), 1.0);
+  EXPECT_EQ(reused({{p1.s, 4}}), 1.0);  // a running total would say 2
+  EXPECT_EQ(reused({p2, {p1.s, 4}}), 1.0);
+  EXPECT_EQ(f->solver->counters().factorizations, 2);
+}
+
+TEST(Krylov, RepeatedPointsAreMergedInTheResult) {
+  // Optimisers put several points at one frequency (DIRECT-L's first sample is the box centre,
+  // BOBYQA pushes points onto a bound): the copies add no columns, and the result reports each
+  // point once with the largest moment count, as a fresh request of the distinct points does.
+  const Model model = load("triplechain_saak09_n451");
+  const ExpansionPoint p1 = point_at_hz(0.05, 2), p2 = point_at_hz(0.3, 1);
+  auto f = make(model, band_rad(1e-4, 1e2), params());
+  const ReducerResult r = f->reducer->reduce({0, {p1, p2, {p1.s, 3}, p2}});
+  auto g = make(model, band_rad(1e-4, 1e2), params());
+  const ReducerResult e = g->reducer->reduce({0, {{p1.s, 3}, p2}});
+  ASSERT_EQ(r.V.cols(), e.V.cols());
+  EXPECT_LT(largest_angle_sin(r.V, e.V), 1e-10);
+  ASSERT_EQ(r.points.size(), 2u);
+  EXPECT_EQ(r.points[0], (ExpansionPoint{p1.s, 3}));
+  EXPECT_EQ(r.points[1], p2);
+  EXPECT_EQ(r.diagnostics.at("points"), 2.0);
+  EXPECT_EQ(r.diagnostics.at("moments"), 4.0);
+  EXPECT_NE(r.note.find("2 points, 4 moments"), std::string::npos) << r.note;
+  EXPECT_NE(r.note.find("2 repeated points merged"), std::string::npos) << r.note;
+  EXPECT_EQ(e.note.find("merged"), std::string::npos) << e.note;
+  EXPECT_EQ(f->solver->counters().factorizations, 2);
+  expect_moments(model, r, p1.s, 3, kMomentTol, "merged point");
 }
 
 TEST(Krylov, OrderBeyondTheSubspaceReturnsAllAndSaysSo) {
@@ -877,6 +947,41 @@ TEST(Krylov, ConfiguredPointsAndWeightsAreUsed) {
     expect_moments(model, r, pt.s, pt.moments, kMomentTol, "configured");
 }
 
+TEST(Krylov, PointMomentsApplyToLogSpacedPoints) {
+  // point_count points take point_moments like configured ones: one value for all, or one per
+  // point (low to high frequency). Complex SISO points: two columns per block.
+  const Model model = load("triplechain_saak09_n451");
+  ParameterMap p = params();
+  p.set("point_count", 2);
+  p.set("point_moments", 3);
+  auto f = make(model, band_rad(1e-4, 1e2), p);
+  // Order 6 is the first round's three blocks at the lower point (weight 1 would give 2 and 1).
+  const ReducerResult r = f->reducer->reduce({6, {}});
+  ASSERT_EQ(r.points.size(), 1u);
+  EXPECT_EQ(r.points[0].moments, 3);
+  expect_moments(model, r, r.points[0].s, 3, kMomentTol, "point_count, one weight");
+
+  ParameterMap q = params();
+  q.set("point_count", 2);
+  q.set("point_moments", ParameterValue{std::vector<double>{2.0, 1.0}, {}});
+  auto g = make(model, band_rad(1e-4, 1e2), q);
+  // Order 8: 2 blocks at the lower point, 1 at the upper one, then a third at the lower one.
+  const ReducerResult r2 = g->reducer->reduce({8, {}});
+  ASSERT_EQ(r2.points.size(), 2u);
+  EXPECT_EQ(r2.points[0].moments, 3);
+  EXPECT_EQ(r2.points[1].moments, 1);
+  for (const auto& pt : r2.points) {
+    expect_moments(model, r2, pt.s, pt.moments, kMomentTol, "point_count, one weight per point");
+  }
+
+  ParameterMap bad("reducer 'krylov'");
+  bad.set("point_count", 2);
+  bad.set("point_moments", ParameterValue{std::vector<double>{1.0, 2.0, 3.0}, {}});
+  const std::string msg = message_of<ConfigError>([&] { registry().create("krylov", bad); });
+  EXPECT_NE(msg.find("point_moments"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("point_count = 2"), std::string::npos) << msg;
+}
+
 TEST(Krylov, InfoDocumentsEveryParameter) {
   const auto entries = registry().entries();
   const auto it = std::find_if(entries.begin(), entries.end(),
@@ -889,6 +994,11 @@ TEST(Krylov, InfoDocumentsEveryParameter) {
         "tangential_directions", "deflation_tolerance", "cache_points", "max_moments_per_point"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), key), names.end()) << key;
   }
+  // The cache holds a greedy run's points (greedy_points: max_points 40 by default).
+  const auto cache = std::find_if(it->info.parameters.begin(), it->info.parameters.end(),
+                                  [](const ParameterDoc& d) { return d.name == "cache_points"; });
+  ASSERT_NE(cache, it->info.parameters.end());
+  EXPECT_EQ(cache->default_value, "64");
   EXPECT_TRUE(it->info.second_order);
   EXPECT_TRUE(it->info.descriptor);
   EXPECT_TRUE(it->info.uses_expansion_points);
