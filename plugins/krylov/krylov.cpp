@@ -32,7 +32,7 @@ struct Options {
   Index point_count = 1;
   Index tangential_directions = 0;
   double deflation_tolerance = 1e-10;
-  Index cache_points = 32;
+  Index cache_points = 64;
   Index max_moments_per_point = 100;
 };
 
@@ -67,7 +67,8 @@ struct PointState {
 
 class KrylovReducer final : public Reducer {
  public:
-  explicit KrylovReducer(Options options) : m_options(std::move(options)) {}
+  explicit KrylovReducer(Options options)
+      : m_options(std::move(options)), m_cache_limit(m_options.cache_points) {}
 
   void setup(const ReductionContext& context) override {
     if (context.model == nullptr || context.solver == nullptr) {
@@ -121,7 +122,7 @@ class KrylovReducer final : public Reducer {
       for (Index i = 0; i < p; ++i) {
         // Midpoints of p equal sections of [log f_min, log f_max]: p = 1 is the geometric centre.
         const double t = (static_cast<double>(i) + 0.5) / static_cast<double>(p);
-        m_configured.push_back({s_from_hz(std::exp(lo + t * (hi - lo))), 1});
+        m_configured.push_back({s_from_hz(std::exp(lo + t * (hi - lo))), weight()});
       }
     }
     for (const auto& c : m_configured) validate_point(c.s, 1, "configured point");
@@ -129,7 +130,9 @@ class KrylovReducer final : public Reducer {
 
   ReducerResult reduce(const ReductionRequest& request) override {
     if (m_model == nullptr) throw InputError("krylov: reduce() called before setup()");
+    // Per-request bookkeeping: factorizations_reused counts the points of this request only.
     m_touched.clear();
+    m_cache_hits = 0;
     if (request.order < 0) {
       throw InputError(fmt::format("krylov: order = {}: must be >= 0", request.order));
     }
@@ -176,7 +179,29 @@ class KrylovReducer final : public Reducer {
     }
   }
 
-  /// The cached state of point s (LRU over at most cache_points states).
+  /// Makes room for the points of one request: the cached ones move to the front (most recently
+  /// used), and the cache holds up to max(cache_points, number of distinct points) states during
+  /// this request, so that a request never evicts its own points (which would refactorise them at
+  /// every rebuild, e.g. greedy placement with more points than cache_points). States beyond that
+  /// bound, least recently used first, are dropped now.
+  void reserve_cache(const std::vector<Complex>& request_points) {
+    std::vector<Complex> distinct;
+    for (const Complex& s : request_points) {
+      if (std::find(distinct.begin(), distinct.end(), s) == distinct.end()) distinct.push_back(s);
+    }
+    for (auto s = distinct.rbegin(); s != distinct.rend(); ++s) {
+      const auto it = std::find_if(m_cache.begin(), m_cache.end(),
+                                   [&](const PointState& st) { return st.s == *s; });
+      if (it != m_cache.end()) m_cache.splice(m_cache.begin(), m_cache, it);
+    }
+    m_cache_limit = std::max(m_options.cache_points, static_cast<Index>(distinct.size()));
+    while (static_cast<Index>(m_cache.size()) > m_cache_limit) {
+      m_cache.pop_back();
+      ++m_evictions;
+    }
+  }
+
+  /// The cached state of point s (LRU over at most m_cache_limit states, see reserve_cache).
   PointState& state(Complex s) {
     for (auto it = m_cache.begin(); it != m_cache.end(); ++it) {
       if (it->s == s) {
@@ -207,7 +232,7 @@ class KrylovReducer final : public Reducer {
     ++m_factorizations;
     m_touched.push_back(s);
     m_cache.push_front(std::move(st));
-    while (static_cast<Index>(m_cache.size()) > m_options.cache_points) {
+    while (static_cast<Index>(m_cache.size()) > m_cache_limit) {
       m_cache.pop_back();
       ++m_evictions;
     }
@@ -271,6 +296,28 @@ class KrylovReducer final : public Reducer {
     return true;
   }
 
+  /// Appends block `block` of point s to V and, two-sided, to W. Returns false when the point's
+  /// Krylov spaces are exhausted before that block. If either side throws (a failed solve, a
+  /// breakdown), V, W and the append counters are restored before the exception leaves: otherwise
+  /// V could keep the input side's columns with no segment recording them (the grow path keeps V
+  /// and W across requests, and strategies catch the error and call again). The engines need no
+  /// undo: Toar::step() commits nothing before its checks pass.
+  bool append_pair(Complex s, Index block, Matrix& V, Matrix& W) {
+    const Index v0 = V.cols(), w0 = W.cols();
+    const Index deflations0 = m_basis_deflations, noise0 = m_noise_parts;
+    try {
+      bool any = append_block(s, Side::Right, block, V);
+      if (m_options.two_sided) any = append_block(s, Side::Left, block, W) || any;
+      return any;
+    } catch (...) {
+      V.conservativeResize(Eigen::NoChange, v0);
+      W.conservativeResize(Eigen::NoChange, w0);
+      m_basis_deflations = deflations0;
+      m_noise_parts = noise0;
+      throw;
+    }
+  }
+
   Index usable(const Matrix& V, const Matrix& W) const {
     return m_options.two_sided ? std::min(V.cols(), W.cols()) : V.cols();
   }
@@ -295,14 +342,16 @@ class KrylovReducer final : public Reducer {
       g.blocks.assign(m_configured.size(), 0);
       g.done.assign(m_configured.size(), false);
     }
+    std::vector<Complex> configured;
+    for (const auto& c : m_configured) configured.push_back(c.s);
+    reserve_cache(configured);
     // Round-robin: each point gets `weight` blocks per round, until the order is reached.
     while (usable(g.V, g.W) < order && !g.exhausted) {
       const std::size_t i = g.cursor;
       const ConfiguredPoint& p = m_configured[i];
       if (!g.done[i]) {
         const Index j = g.blocks[i];
-        bool any = append_block(p.s, Side::Right, j, g.V);
-        if (m_options.two_sided) any = append_block(p.s, Side::Left, j, g.W) || any;
+        const bool any = append_pair(p.s, j, g.V, g.W);
         if (any) {
           g.segments.push_back({i, j, g.V.cols(), g.W.cols()});
           ++g.blocks[i];
@@ -334,6 +383,9 @@ class KrylovReducer final : public Reducer {
     for (std::size_t i = 0; i < pts.size(); ++i) {
       validate_point(pts[i].s, pts[i].moments, fmt::format("point {}", i + 1));
     }
+    std::vector<Complex> request_points;
+    for (const auto& p : pts) request_points.push_back(p.s);
+    reserve_cache(request_points);
     PointsBuild& b = m_points;
     // Reuse the previous V (and W) up to the last point the new list extends: all earlier
     // points equal, that one at the same s with at least as many moments.
@@ -367,9 +419,7 @@ class KrylovReducer final : public Reducer {
     // segments than moments; continuing them appends nothing, which is right.
     for (std::size_t i = 0; i < pts.size(); ++i) {
       for (Index j = have[i]; j < pts[i].moments; ++j) {
-        bool any = append_block(pts[i].s, Side::Right, j, V);
-        if (m_options.two_sided) any = append_block(pts[i].s, Side::Left, j, W) || any;
-        if (!any) break;
+        if (!append_pair(pts[i].s, j, V, W)) break;
         segments.push_back({i, j, V.cols(), W.cols()});
       }
     }
@@ -401,16 +451,34 @@ class KrylovReducer final : public Reducer {
         partial[s.point] = true;
       }
     }
+    // Repeated points (optimisers place several at one frequency: DIRECT-L's first sample is the
+    // box centre, BOBYQA pushes points onto a bound) share one engine, so a later copy's blocks
+    // add no columns (they deflate): report each s once, with the largest moment count of its
+    // copies, so that the points, the moments and the note do not overstate the model.
+    std::vector<ExpansionPoint> distinct;
+    Index repeats = 0;
+    for (const auto& p : points) {
+      const auto it = std::find_if(distinct.begin(), distinct.end(),
+                                   [&](const ExpansionPoint& q) { return q.s == p.s; });
+      if (it == distinct.end()) {
+        distinct.push_back(p);
+      } else {
+        it->moments = std::max(it->moments, p.moments);
+        ++repeats;
+      }
+    }
     ReducerResult result;
     result.V = V_all.leftCols(n);
     result.W = two ? Matrix(W_all.leftCols(n)) : result.V;
     result.model = project(*m_model, result.V, result.W);
+    // ExpansionPoint::moments counts moment blocks per side: k blocks match k moments at s0 (and
+    // conj(s0)) one-sided, 2k two-sided (k blocks in V and k in W).
     Index total_moments = 0, used_points = 0;
-    for (const auto& p : points) {
+    for (const auto& p : distinct) {
       total_moments += p.moments;
       if (p.moments > 0) ++used_points;
     }
-    for (const auto& p : points) {
+    for (const auto& p : distinct) {
       if (p.moments > 0) result.points.push_back(p);
     }
 
@@ -458,6 +526,9 @@ class KrylovReducer final : public Reducer {
     const Index l = m_options.tangential_directions;
     if (l > 0) note += fmt::format(", tangential ({} direction{})", l, l == 1 ? "" : "s");
     if (two && m_velocity_start) note += ", output side from Cv (velocity output)";
+    if (repeats > 0) {
+      note += fmt::format("; {} repeated point{} merged", repeats, repeats == 1 ? "" : "s");
+    }
     if (std::any_of(partial.begin(), partial.end(), [](bool x) { return x; }) && capped) {
       note += fmt::format("; last block cut at order {}", n);
     }
@@ -477,7 +548,8 @@ class KrylovReducer final : public Reducer {
       const ComplexVector p = poles(result.model);
       Index unstable = 0;
       for (Index i = 0; i < p.size(); ++i) {
-        if (p[i].real() >= 0.0) ++unstable;
+        // NaN counts as unstable: a pole we cannot place is not known to be stable.
+        if (!(p[i].real() < 0.0)) ++unstable;
       }
       d["unstable_poles"] = static_cast<double>(unstable);
       if (unstable > 0) {
@@ -504,7 +576,8 @@ class KrylovReducer final : public Reducer {
   std::vector<ConfiguredPoint> m_configured;
   std::list<PointState> m_cache;  // most recently used first
   Index m_factorizations = 0;
-  Index m_cache_hits = 0;
+  Index m_cache_hits = 0;    // points of the current request found cached (reset per request)
+  Index m_cache_limit = 64;  // cache bound of the current request (reserve_cache)
   Index m_evictions = 0;
   Index m_basis_deflations = 0;
   Index m_noise_parts = 0;
@@ -527,15 +600,16 @@ ReducerInfo krylov_info() {
   info.parameters = {
       {"projection", "string", "one_sided",
        "one_sided (W = V, k moments per block; keeps SPD M, D, K SPD, hence stable) or two_sided "
-       "(W from the transposed pencil, 2k moments; may lose stability)"},
+       "(W from the transposed pencil, 2k moments; may lose stability); a point's `moments` "
+       "counts blocks per side either way"},
       {"points", "list of double", "[]",
        "expansion points as frequencies in Hz (s0 = i 2 pi f), > 0 and finite, inside or outside "
        "the band; used when a request gives no points"},
       {"real_points", "list of double", "[]",
        "real expansion points s0 >= 0 in rad/s (e.g. 0 for the static response); after `points`"},
       {"point_moments", "list of int", "[1]",
-       "moment blocks per round for each configured point (points, then real_points); one value "
-       "applies to all; >= 1"},
+       "moment blocks per round for each configured point (points, then real_points; or the "
+       "point_count log-spaced points, low to high); one value applies to all; >= 1"},
       {"point_count", "int", "1",
        "without points/real_points: p points log-spaced in the band (midpoints of p equal "
        "sections of [log f_min, log f_max]; 1 = geometric centre), >= 1"},
@@ -545,9 +619,9 @@ ReducerInfo krylov_info() {
       {"deflation_tolerance", "double", "1e-10",
        "a vector whose part orthogonal to the basis is below this times its norm is dropped; in "
        "[1e-15, 1e-2]"},
-      {"cache_points", "int", "32",
+      {"cache_points", "int", "64",
        "point states (factorisation, Q, Arnoldi coefficients) kept, least recently used dropped; "
-       ">= 1"},
+       "a request with more distinct points keeps all of its own for that request; >= 1"},
       {"max_moments_per_point", "int", "100", "budget of moment blocks at one point, >= 1"},
   };
   return info;
@@ -582,10 +656,22 @@ std::unique_ptr<Reducer> create_krylov(const ParameterMap& params) {
   }
   o.point_moments = params.get_doubles("point_moments", {});
   const std::size_t configured = o.points_hz.size() + o.real_points.size();
-  if (o.point_moments.size() > 1 && o.point_moments.size() != configured) {
+  if (params.has("point_count") && configured > 0) {
+    fail("point_count", "conflicts with points/real_points (give either the points or a count)");
+  }
+  o.point_count = params.get_int("point_count", o.point_count, 1, 10000);
+  // point_moments weights the configured points, or without them the point_count log-spaced ones.
+  if (o.point_moments.size() > 1 && configured > 0 && o.point_moments.size() != configured) {
     fail("point_moments",
          fmt::format("{} values for {} configured points: give one per point or one for all",
                      o.point_moments.size(), configured));
+  }
+  if (o.point_moments.size() > 1 && configured == 0 &&
+      static_cast<Index>(o.point_moments.size()) != o.point_count) {
+    fail("point_moments",
+         fmt::format("{} values for point_count = {} log-spaced points: give one per point or one "
+                     "for all",
+                     o.point_moments.size(), o.point_count));
   }
   for (std::size_t i = 0; i < o.point_moments.size(); ++i) {
     const double m = o.point_moments[i];
@@ -593,10 +679,6 @@ std::unique_ptr<Reducer> create_krylov(const ParameterMap& params) {
       fail("point_moments", fmt::format("item {} = {}: must be an integer >= 1", i + 1, m));
     }
   }
-  if (params.has("point_count") && configured > 0) {
-    fail("point_count", "conflicts with points/real_points (give either the points or a count)");
-  }
-  o.point_count = params.get_int("point_count", o.point_count, 1, 10000);
   o.tangential_directions = params.get_int("tangential_directions", 0, 0, 100000);
   o.deflation_tolerance = params.get_double("deflation_tolerance", 1e-10, 1e-15, 1e-2);
   o.cache_points = params.get_int("cache_points", o.cache_points, 1, 1000000);

@@ -187,8 +187,10 @@ class Toar final : public Engine {
   }
 
   Mat solve(const Mat& x) {
+    Mat out =
+        m_side == Side::Right ? m_factorization->solve(x) : m_factorization->solve_transposed(x);
     m_stats.solves += x.cols();
-    return m_side == Side::Right ? m_factorization->solve(x) : m_factorization->solve_transposed(x);
+    return out;
   }
 
   Mat apply(const std::vector<Complex>& w, const Vec& x) const {
@@ -244,9 +246,16 @@ class Toar final : public Engine {
   // One band-Arnoldi step: orthonormalise the oldest candidate against the accepted Arnoldi
   // vectors (in coefficient space: Q is orthonormal, so ||[Q a; Q b]|| = ||[a; b]||); drop it if
   // it is dependent, else accept it and queue L times it as the next candidate.
+  //
+  // Exception safety (strong): everything that can fail (the solve, the finiteness check) runs on
+  // local copies before the first change of the engine's state. The reducer keeps engines cached
+  // across requests and strategies catch a failed reduce() and carry on, so a step that threw
+  // halfway (candidate popped, Arnoldi vector accepted, its successor never queued) would make
+  // every later request at this point silently lose Krylov directions. The only state touched
+  // before the checks is the zero padding of the coefficient rows, which changes no vector.
   void step() {
-    Candidate c = std::move(m_queue.front());
-    m_queue.pop_front();
+    const Candidate& c = m_queue.front();
+    const Index block = c.block;
     const Index eta = m_Q.cols();
     Vec a = padded(c.a, eta), b = padded(c.b, eta);
     const double norm0 = std::sqrt(a.squaredNorm() + b.squaredNorm());
@@ -264,42 +273,50 @@ class Toar final : public Engine {
     }
     const double norm = std::sqrt(a.squaredNorm() + b.squaredNorm());
     if (!(norm0 > 0.0) || !(norm > m_tol * norm0)) {
+      m_queue.pop_front();
       ++m_stats.candidate_deflations;
       return;
     }
     a /= norm;
     b /= norm;
-    m_Ua.conservativeResize(eta, m_Ua.cols() + 1);
-    m_Ub.conservativeResize(eta, m_Ub.cols() + 1);
-    m_Ua.col(m_Ua.cols() - 1) = a;
-    m_Ub.col(m_Ub.cols() - 1) = b;
-    ++m_stats.arnoldi_vectors;
 
     // Upper part of L [Q a; Q b] = -P0^-1 (gamma P1 Q a + gamma^2 P2 Q b): one solve.
     Vec rhs = apply(m_w1, m_Q * a);
     const bool lower = m_second_order && b.squaredNorm() > 0.0;
     if (lower) rhs += apply(m_w2, m_Q * b);
     Vec y = -solve(rhs).col(0);
-    if (!m_scaled && m_second_order) {
-      // Scaling sigma = gamma tau of the linearisation, fixed at the first step (where b = 0 and
-      // the weights still have gamma = 1): gamma = 1 / ||P0^-1 P1 q||, so that both levels have
-      // comparable norms and the coefficient-space deflation test is not blind to the lower
-      // level. The span of the moments is unchanged (r_j scales by gamma^j).
+    // Scaling sigma = gamma tau of the linearisation, fixed at the first step (where b = 0 and
+    // the weights still have gamma = 1): gamma = 1 / ||P0^-1 P1 q||, so that both levels have
+    // comparable norms and the coefficient-space deflation test is not blind to the lower level.
+    // The span of the moments is unchanged (r_j scales by gamma^j).
+    const bool scale_now = !m_scaled && m_second_order;
+    double gamma = 1.0;
+    if (scale_now) {
       const double ny = y.norm();
-      const double gamma = (ny > 0.0 && std::isfinite(ny)) ? 1.0 / ny : 1.0;
-      for (auto& w : m_w1) w *= gamma;
-      for (auto& w : m_w2) w *= gamma * gamma;
+      gamma = (ny > 0.0 && std::isfinite(ny)) ? 1.0 / ny : 1.0;
       y *= gamma;
-      m_scaled = true;
     }
     if (!y.allFinite()) {
       throw NumericalError(fmt::format(
           "krylov: Arnoldi step {} produced non-finite values (breakdown of the recurrence)",
-          m_stats.arnoldi_vectors));
+          m_stats.arnoldi_vectors + 1));
     }
-    const Vec h = orthogonalize_into_q(y, c.block + 1);
+
+    // Commit: nothing below can fail except by running out of memory.
+    m_queue.pop_front();
+    m_Ua.conservativeResize(eta, m_Ua.cols() + 1);
+    m_Ub.conservativeResize(eta, m_Ub.cols() + 1);
+    m_Ua.col(m_Ua.cols() - 1) = a;
+    m_Ub.col(m_Ub.cols() - 1) = b;
+    ++m_stats.arnoldi_vectors;
+    if (scale_now) {
+      for (auto& w : m_w1) w *= gamma;
+      for (auto& w : m_w2) w *= gamma * gamma;
+      m_scaled = true;
+    }
+    const Vec h = orthogonalize_into_q(y, block + 1);
     // Descriptor models: the lower level is never used, plain Arnoldi on the upper one.
-    m_queue.push_back(Candidate{h, m_second_order ? a : Vec::Zero(0), c.block + 1});
+    m_queue.push_back(Candidate{h, m_second_order ? a : Vec::Zero(0), block + 1});
   }
 
   ShiftedSolver& m_solver;

@@ -9,11 +9,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <iostream>
 #include <limits>
+#include <memory>
+#include <span>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -43,17 +46,105 @@ Registry& registry() {
   return r;
 }
 
+// Test-only fault injection: a ShiftedSolver forwarding to the embedded one whose factorisations
+// make the fail_at-th solve call (1-based, counted over all factorisations) fail, by throwing a
+// NumericalError or by returning non-finite values: a solver breaking down in the middle of an
+// Arnoldi process. Every call is logged (transposed or not) so that a test can aim at one.
+enum class FaultKind { Throw, NonFinite };
+
+struct FaultPlan {
+  FaultKind kind = FaultKind::Throw;
+  Index fail_at = 0;             // 0: never fail
+  std::vector<bool> transposed;  // one entry per solve call
+};
+
+class FaultyFactorization final : public Factorization {
+ public:
+  FaultyFactorization(std::shared_ptr<const Factorization> inner, std::shared_ptr<FaultPlan> plan)
+      : m_inner(std::move(inner)), m_plan(std::move(plan)) {}
+
+ private:
+  // Defined before its uses: they deduce its return type.
+  template <class F>
+  auto call(bool transposed, F&& inner_solve) const {
+    m_plan->transposed.push_back(transposed);
+    const bool fail = static_cast<Index>(m_plan->transposed.size()) == m_plan->fail_at;
+    if (fail && m_plan->kind == FaultKind::Throw) {
+      throw NumericalError("injected solver failure");
+    }
+    auto x = inner_solve();
+    if (fail) x(0, 0) = std::numeric_limits<double>::quiet_NaN();
+    return x;
+  }
+
+ public:
+  Index size() const override { return m_inner->size(); }
+  bool is_complex() const override { return m_inner->is_complex(); }
+  std::string method() const override { return m_inner->method(); }
+  const std::vector<Complex>& weights() const override { return m_inner->weights(); }
+  double rcond() const override { return m_inner->rcond(); }
+  Matrix solve(const Matrix& B) const override {
+    return call(false, [&] { return m_inner->solve(B); });
+  }
+  ComplexMatrix solve(const ComplexMatrix& B) const override {
+    return call(false, [&] { return m_inner->solve(B); });
+  }
+  Matrix solve_transposed(const Matrix& B) const override {
+    return call(true, [&] { return m_inner->solve_transposed(B); });
+  }
+  ComplexMatrix solve_transposed(const ComplexMatrix& B) const override {
+    return call(true, [&] { return m_inner->solve_transposed(B); });
+  }
+
+ private:
+  std::shared_ptr<const Factorization> m_inner;
+  std::shared_ptr<FaultPlan> m_plan;
+};
+
+class FaultySolver final : public ShiftedSolver {
+ public:
+  explicit FaultySolver(std::unique_ptr<ShiftedSolver> inner) : m_inner(std::move(inner)) {}
+  Index size() const override { return m_inner->size(); }
+  Index terms() const override { return m_inner->terms(); }
+  std::string backend() const override { return "faulty " + m_inner->backend(); }
+  std::shared_ptr<const Factorization> factorize_combination(
+      std::span<const Complex> weights) override {
+    return std::make_shared<FaultyFactorization>(m_inner->factorize_combination(weights), plan);
+  }
+  ComplexMatrix apply_combination(std::span<const Complex> weights,
+                                  const ComplexMatrix& x) const override {
+    return m_inner->apply_combination(weights, x);
+  }
+  ComplexMatrix apply_combination_transposed(std::span<const Complex> weights,
+                                             const ComplexMatrix& x) const override {
+    return m_inner->apply_combination_transposed(weights, x);
+  }
+  SolverCounters counters() const override { return m_inner->counters(); }
+
+  std::shared_ptr<FaultPlan> plan = std::make_shared<FaultPlan>();
+
+ private:
+  std::unique_ptr<ShiftedSolver> m_inner;
+};
+
 struct Fixture {
   Model model;
   std::unique_ptr<ShiftedSolver> solver;
+  FaultySolver* faulty = nullptr;  // = solver when made with faults enabled
   std::shared_ptr<Reducer> reducer;
 };
 
 // The model is stored before the solver is made (the solver references it).
-std::unique_ptr<Fixture> make(Model model, Band band, const ParameterMap& params) {
+std::unique_ptr<Fixture> make(Model model, Band band, const ParameterMap& params,
+                              bool with_faults = false) {
   auto f = std::make_unique<Fixture>();
   f->model = std::move(model);
   f->solver = make_shifted_solver(f->model);
+  if (with_faults) {
+    auto faulty = std::make_unique<FaultySolver>(std::move(f->solver));
+    f->faulty = faulty.get();
+    f->solver = std::move(faulty);
+  }
   f->reducer = registry().create("krylov", params);
   ReductionContext ctx;
   ctx.model = &f->model;
@@ -484,14 +575,84 @@ TEST(Krylov, LeastRecentlyUsedCacheBoundsThePointStates) {
   p.set("cache_points", 1);
   auto f = make(model, band_rad(1e-4, 1e2), p);
   const std::vector<ExpansionPoint> pts = {point_at_hz(0.05, 2), point_at_hz(0.3, 2)};
+  // The request holds two points: the cache grows to two for it (see the next test).
   const ReducerResult a = f->reducer->reduce({0, pts});
-  EXPECT_EQ(a.diagnostics.at("cached_points"), 1.0);
-  EXPECT_GE(a.diagnostics.at("cache_evictions"), 1.0);
-  // A different list forces a rebuild: the evicted point is factorised again.
+  EXPECT_EQ(a.diagnostics.at("cached_points"), 2.0);
+  EXPECT_EQ(a.diagnostics.at("cache_evictions"), 0.0);
+  // A one-point request returns to cache_points = 1: both earlier states are dropped.
+  const ReducerResult b = f->reducer->reduce({0, {point_at_hz(1.0, 2)}});
+  EXPECT_EQ(b.diagnostics.at("cached_points"), 1.0);
+  EXPECT_GE(b.diagnostics.at("cache_evictions"), 2.0);
+  // Evicted points are factorised again when needed, and give the same subspace.
   const Index before = f->solver->counters().factorizations;
-  const ReducerResult b = f->reducer->reduce({0, {pts[1], pts[0]}});
-  EXPECT_GT(f->solver->counters().factorizations, before);
-  EXPECT_LT(largest_angle_sin(a.V, b.V), 1e-10);
+  const ReducerResult c = f->reducer->reduce({0, {pts[1], pts[0]}});
+  EXPECT_EQ(f->solver->counters().factorizations, before + 2);
+  ASSERT_EQ(a.V.cols(), c.V.cols());
+  EXPECT_LT(largest_angle_sin(a.V, c.V), 1e-10);
+}
+
+TEST(Krylov, ARequestNeverEvictsItsOwnPoints) {
+  // A request with more points than cache_points (greedy placement holds up to 40 points, a
+  // shipped config 80) grows the cache to its point count, so that rebuilding the same points
+  // factorises nothing. Here one more moment at the first point rebuilds the four later points
+  // from their cached engines: no factorisation, and one solve (the new step, SISO).
+  const Model model = load("triplechain_saak09_n451");
+  ParameterMap p = params();
+  p.set("cache_points", 2);
+  auto f = make(model, band_rad(1e-4, 1e2), p);
+  std::vector<ExpansionPoint> pts;
+  for (int i = 0; i < 5; ++i) pts.push_back(point_at_hz(0.02 * (i + 1), 2));
+  const ReducerResult a = f->reducer->reduce({0, pts});
+  EXPECT_EQ(a.diagnostics.at("cached_points"), 5.0);
+  EXPECT_EQ(a.diagnostics.at("cache_evictions"), 0.0);
+  const SolverCounters c1 = f->solver->counters();
+  pts[0].moments = 3;
+  const ReducerResult b = f->reducer->reduce({0, pts});
+  const SolverCounters c2 = f->solver->counters();
+  EXPECT_EQ(c2.factorizations, c1.factorizations) << "the request evicted its own points";
+  EXPECT_EQ(c2.solves - c1.solves, 1);
+  EXPECT_EQ(b.diagnostics.at("factorizations_reused"), 5.0);
+  auto fresh = make(model, band_rad(1e-4, 1e2), p);
+  const ReducerResult e = fresh->reducer->reduce({0, pts});
+  ASSERT_EQ(b.V.cols(), e.V.cols());
+  EXPECT_LT(largest_angle_sin(b.V, e.V), 1e-10);
+}
+
+TEST(Krylov, FactorizationsReusedCountsThisRequestOnly) {
+  auto f = make(load("triplechain_saak09_n451"), band_rad(1e-4, 1e2), params());
+  const ExpansionPoint p1 = point_at_hz(0.05, 2), p2 = point_at_hz(0.3, 2);
+  auto reused = [&](const std::vector<ExpansionPoint>& pts) {
+    return f->reducer->reduce({0, pts}).diagnostics.at("factorizations_reused");
+  };
+  EXPECT_EQ(reused({p1}), 0.0);
+  EXPECT_EQ(reused({{p1.s, 3}}), 1.0);
+  EXPECT_EQ(reused({{p1.s, 4}}), 1.0);  // a running total would say 2
+  EXPECT_EQ(reused({p2, {p1.s, 4}}), 1.0);
+  EXPECT_EQ(f->solver->counters().factorizations, 2);
+}
+
+TEST(Krylov, RepeatedPointsAreMergedInTheResult) {
+  // Optimisers put several points at one frequency (DIRECT-L's first sample is the box centre,
+  // BOBYQA pushes points onto a bound): the copies add no columns, and the result reports each
+  // point once with the largest moment count, as a fresh request of the distinct points does.
+  const Model model = load("triplechain_saak09_n451");
+  const ExpansionPoint p1 = point_at_hz(0.05, 2), p2 = point_at_hz(0.3, 1);
+  auto f = make(model, band_rad(1e-4, 1e2), params());
+  const ReducerResult r = f->reducer->reduce({0, {p1, p2, {p1.s, 3}, p2}});
+  auto g = make(model, band_rad(1e-4, 1e2), params());
+  const ReducerResult e = g->reducer->reduce({0, {{p1.s, 3}, p2}});
+  ASSERT_EQ(r.V.cols(), e.V.cols());
+  EXPECT_LT(largest_angle_sin(r.V, e.V), 1e-10);
+  ASSERT_EQ(r.points.size(), 2u);
+  EXPECT_EQ(r.points[0], (ExpansionPoint{p1.s, 3}));
+  EXPECT_EQ(r.points[1], p2);
+  EXPECT_EQ(r.diagnostics.at("points"), 2.0);
+  EXPECT_EQ(r.diagnostics.at("moments"), 4.0);
+  EXPECT_NE(r.note.find("2 points, 4 moments"), std::string::npos) << r.note;
+  EXPECT_NE(r.note.find("2 repeated points merged"), std::string::npos) << r.note;
+  EXPECT_EQ(e.note.find("merged"), std::string::npos) << e.note;
+  EXPECT_EQ(f->solver->counters().factorizations, 2);
+  expect_moments(model, r, p1.s, 3, kMomentTol, "merged point");
 }
 
 TEST(Krylov, OrderBeyondTheSubspaceReturnsAllAndSaysSo) {
@@ -501,6 +662,71 @@ TEST(Krylov, OrderBeyondTheSubspaceReturnsAllAndSaysSo) {
   EXPECT_EQ(r.V.cols(), 18);
   EXPECT_EQ(f->reducer->max_order(), 18);
   EXPECT_NE(r.note.find("order 30 requested, 18 available"), std::string::npos) << r.note;
+}
+
+// ---- exception safety --------------------------------------------------------------------------
+
+// Strategies catch a failed reduce() and carry on with the same reducer, so a solver failure in
+// the middle of the Arnoldi process (an exception, or non-finite values) must leave the cached
+// point states usable: once the solver works again, the same request gives the subspace of a
+// fresh reducer. Each solve call of the request fails once, in turn: the start blocks, the first
+// step (which fixes the scaling of the linearisation) and the later steps.
+TEST(Krylov, FailedSolveInsideArnoldiLeavesTheCacheUsable) {
+  const Model model = load("triplechain_saak09_n451");
+  const Band band = band_rad(1e-4, 1e2);
+  const std::vector<ExpansionPoint> pts = {point_at_hz(0.05, 4), point_at_hz(0.3, 3)};
+  auto ref = make(model, band, params(), true);
+  const ReducerResult expected = ref->reducer->reduce({0, pts});
+  const Index calls = static_cast<Index>(ref->faulty->plan->transposed.size());
+  EXPECT_EQ(calls, 4 + 3);  // SISO: per point one start solve and one per further moment
+  for (const FaultKind kind : {FaultKind::Throw, FaultKind::NonFinite}) {
+    for (Index k = 1; k <= calls; ++k) {
+      auto f = make(model, band, params(), true);
+      f->faulty->plan->kind = kind;
+      f->faulty->plan->fail_at = k;
+      const std::string msg = message_of<NumericalError>([&] { f->reducer->reduce({0, pts}); });
+      EXPECT_NE(msg.find(kind == FaultKind::Throw ? "injected" : "non-finite"), std::string::npos)
+          << msg;
+      f->faulty->plan->fail_at = 0;
+      const ReducerResult r = f->reducer->reduce({0, pts});
+      ASSERT_EQ(r.V.cols(), expected.V.cols()) << "after a failure at solve " << k;
+      EXPECT_LT(largest_angle_sin(r.V, expected.V), 1e-10) << "after a failure at solve " << k;
+      EXPECT_EQ(r.points, expected.points) << "after a failure at solve " << k;
+    }
+  }
+}
+
+// Two-sided grow path: each round appends a block of the input side to V, then the same block of
+// the output side to W. A failure on the output side must not leave V with columns that no moment
+// block accounts for (a retry would append them again and count them as deflated).
+TEST(Krylov, FailedOutputSideAppendLeavesTheGrowBasesConsistent) {
+  const Model model = load("cdplayer");
+  const Band band = band_rad(1e-1, 1e3);
+  ParameterMap p = params("two_sided");
+  p.set("point_count", 2);
+  auto probe = make(model, band, p, true);
+  probe->reducer->reduce({8, {}});
+  const std::size_t first = probe->faulty->plan->transposed.size();
+  const ReducerResult expected = probe->reducer->reduce({20, {}});
+  const std::vector<bool>& log = probe->faulty->plan->transposed;
+  // The first output-side solve of the second request comes after its first input-side block.
+  const auto it = std::find(log.begin() + static_cast<std::ptrdiff_t>(first), log.end(), true);
+  ASSERT_NE(it, log.end());
+  ASSERT_NE(std::find(log.begin() + static_cast<std::ptrdiff_t>(first), it, false), it);
+  auto f = make(model, band, p, true);
+  f->reducer->reduce({8, {}});
+  f->faulty->plan->fail_at = (it - log.begin()) + 1;
+  const std::string msg = message_of<NumericalError>([&] { f->reducer->reduce({20, {}}); });
+  EXPECT_NE(msg.find("injected"), std::string::npos) << msg;
+  f->faulty->plan->fail_at = 0;
+  const ReducerResult r = f->reducer->reduce({20, {}});
+  ASSERT_EQ(r.V.cols(), expected.V.cols());
+  ASSERT_EQ(r.W.cols(), expected.W.cols());
+  EXPECT_LT(largest_angle_sin(r.V, expected.V), 1e-10);
+  EXPECT_LT(largest_angle_sin(r.W, expected.W), 1e-10);
+  EXPECT_EQ(r.points, expected.points);
+  EXPECT_EQ(r.diagnostics.at("basis_deflations"), expected.diagnostics.at("basis_deflations"));
+  EXPECT_EQ(r.note, expected.note);
 }
 
 // ---- orthogonality and accuracy ----------------------------------------------------------------
@@ -721,6 +947,41 @@ TEST(Krylov, ConfiguredPointsAndWeightsAreUsed) {
     expect_moments(model, r, pt.s, pt.moments, kMomentTol, "configured");
 }
 
+TEST(Krylov, PointMomentsApplyToLogSpacedPoints) {
+  // point_count points take point_moments like configured ones: one value for all, or one per
+  // point (low to high frequency). Complex SISO points: two columns per block.
+  const Model model = load("triplechain_saak09_n451");
+  ParameterMap p = params();
+  p.set("point_count", 2);
+  p.set("point_moments", 3);
+  auto f = make(model, band_rad(1e-4, 1e2), p);
+  // Order 6 is the first round's three blocks at the lower point (weight 1 would give 2 and 1).
+  const ReducerResult r = f->reducer->reduce({6, {}});
+  ASSERT_EQ(r.points.size(), 1u);
+  EXPECT_EQ(r.points[0].moments, 3);
+  expect_moments(model, r, r.points[0].s, 3, kMomentTol, "point_count, one weight");
+
+  ParameterMap q = params();
+  q.set("point_count", 2);
+  q.set("point_moments", ParameterValue{std::vector<double>{2.0, 1.0}, {}});
+  auto g = make(model, band_rad(1e-4, 1e2), q);
+  // Order 8: 2 blocks at the lower point, 1 at the upper one, then a third at the lower one.
+  const ReducerResult r2 = g->reducer->reduce({8, {}});
+  ASSERT_EQ(r2.points.size(), 2u);
+  EXPECT_EQ(r2.points[0].moments, 3);
+  EXPECT_EQ(r2.points[1].moments, 1);
+  for (const auto& pt : r2.points) {
+    expect_moments(model, r2, pt.s, pt.moments, kMomentTol, "point_count, one weight per point");
+  }
+
+  ParameterMap bad("reducer 'krylov'");
+  bad.set("point_count", 2);
+  bad.set("point_moments", ParameterValue{std::vector<double>{1.0, 2.0, 3.0}, {}});
+  const std::string msg = message_of<ConfigError>([&] { registry().create("krylov", bad); });
+  EXPECT_NE(msg.find("point_moments"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("point_count = 2"), std::string::npos) << msg;
+}
+
 TEST(Krylov, InfoDocumentsEveryParameter) {
   const auto entries = registry().entries();
   const auto it = std::find_if(entries.begin(), entries.end(),
@@ -733,6 +994,11 @@ TEST(Krylov, InfoDocumentsEveryParameter) {
         "tangential_directions", "deflation_tolerance", "cache_points", "max_moments_per_point"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), key), names.end()) << key;
   }
+  // The cache holds a greedy run's points (greedy_points: max_points 40 by default).
+  const auto cache = std::find_if(it->info.parameters.begin(), it->info.parameters.end(),
+                                  [](const ParameterDoc& d) { return d.name == "cache_points"; });
+  ASSERT_NE(cache, it->info.parameters.end());
+  EXPECT_EQ(cache->default_value, "64");
   EXPECT_TRUE(it->info.second_order);
   EXPECT_TRUE(it->info.descriptor);
   EXPECT_TRUE(it->info.uses_expansion_points);
