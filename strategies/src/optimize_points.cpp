@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <stdexcept>
+#include <string>
 
 #include "ecmor/error.hpp"
 #include "support.hpp"
@@ -28,21 +30,32 @@ std::string algorithm_name(PointAlgorithm a) {
 
 namespace {
 
-// What the NLopt callback needs: the objective, and the optimiser to stop when the observer asks.
+// What the NLopt callback needs: the objective, the optimiser to stop when the observer asks, and
+// the message of an exception the objective let through (NLopt's C++ wrapper swallows it).
 struct CallbackData {
   point_search::PointObjective* objective = nullptr;
   nlopt::opt* opt = nullptr;
+  std::string escaped;
 };
 
 double nlopt_objective(const std::vector<double>& x, std::vector<double>& /*grad*/, void* data) {
   auto* d = static_cast<CallbackData*>(data);
-  const double v = d->objective->value(x);
+  double v = 0.0;
+  try {
+    v = d->objective->value(x);
+  } catch (const std::exception& e) {
+    // The objective absorbs ecmor::Error; anything else (a plugin's own exception type) reaches
+    // NLopt, which turns it into NLOPT_FAILURE and loses the message: keep it for the status.
+    d->escaped = e.what();
+    throw;
+  }
   if (d->objective->stopped()) d->opt->force_stop();
   return v;
 }
 
 // One NLopt run from x (in place); returns NLopt's status as text. Termination by force_stop,
-// round-off or an evaluation limit is normal: the objective keeps the best point itself.
+// round-off, an evaluation limit or NLopt's generic failure is not the end of the search: the
+// objective keeps the best point itself, and the status says what happened.
 std::string run_nlopt(nlopt::algorithm algorithm, point_search::PointObjective& objective,
                       std::vector<double>& x, Index max_evaluations, double xtol_abs,
                       double initial_step) {
@@ -50,7 +63,7 @@ std::string run_nlopt(nlopt::algorithm algorithm, point_search::PointObjective& 
   nlopt::opt opt(algorithm, n);
   opt.set_lower_bounds(std::vector<double>(n, objective.lower()));
   opt.set_upper_bounds(std::vector<double>(n, objective.upper()));
-  CallbackData data{&objective, &opt};
+  CallbackData data{&objective, &opt, {}};
   opt.set_min_objective(nlopt_objective, &data);
   opt.set_maxeval(static_cast<int>(std::max<Index>(1, max_evaluations)));
   if (xtol_abs > 0.0) opt.set_xtol_abs(xtol_abs);
@@ -67,6 +80,12 @@ std::string run_nlopt(nlopt::algorithm algorithm, point_search::PointObjective& 
   } catch (const std::invalid_argument& e) {
     throw NumericalError(std::string("strategy 'optimize_points': NLopt rejected its arguments: ") +
                          e.what());
+  } catch (const std::runtime_error& e) {
+    // NLOPT_FAILURE (std::runtime_error, the two above derive from it too): an internal failure
+    // of the algorithm or an exception from the objective. The best x so far is still usable.
+    std::string status = std::string("FAILURE (") + e.what();
+    if (!data.escaped.empty()) status += ": the objective threw: " + data.escaped;
+    return status + ")";
   }
 }
 

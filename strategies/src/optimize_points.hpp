@@ -21,7 +21,10 @@
 ///    first). The global phase finds the basin, the local one the minimum.
 /// A reducer failure at some x is counted and answered with a penalty (one decade above the
 /// worst value seen), so the optimiser steers away instead of aborting. An observer stop ends the
-/// NLopt run at once (force_stop).
+/// NLopt run at once (force_stop). NLopt's generic failure (NLOPT_FAILURE, thrown as
+/// std::runtime_error: an internal failure, or a non-ecmor exception from the reducer inside the
+/// objective) ends only that NLopt run: the best x so far is kept and the status (in the
+/// "optimum" row's note) says "FAILURE (...)" with NLopt's message and the objective's.
 ///
 /// Parameters (YAML key = field; shared ones in PointSearchOptions):
 ///   algorithm         string  direct_l_then_bobyqa   bobyqa | direct_l | direct_l_then_bobyqa

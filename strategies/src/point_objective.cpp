@@ -295,6 +295,18 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
     auto tail = [&] {
       return "band error " + sci(run.best_error()) + " > tolerance " + sci(ctx.tolerance);
     };
+    // The order budget holds for every assessed model, not only for the predicted growth: the
+    // reducer may deliver more columns than p points imply at the start or at an optimum (fewer
+    // deflated directions). Such a model is not assessed; the cost is its one reduction.
+    const bool reducer_limit = reducer_max <= o.max_order;
+    auto over_order = [&](Index delivered, const std::string& what) {
+      return finish(reducer_limit ? Termination::ReducerExhausted : Termination::MaxOrderReached,
+                    (reducer_limit ? "the reducer delivers at most order "
+                                   : "order budget max_order = ") +
+                        std::to_string(max_order) + " exceeded: " + what + " gave order " +
+                        std::to_string(delivered) + " (not assessed): " +
+                        (run.most_accurate() ? tail() : std::string("no model assessed")));
+    };
     auto converged = [&](const std::string& where) {
       const Candidate& c = *run.smallest_pass();
       return finish(Termination::Converged,
@@ -311,6 +323,10 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
     try {
       start = objective.reduce(x);
     } catch (const Error&) {
+    }
+    if (start && start->V.cols() > max_order) {
+      return over_order(start->V.cols(),
+                        "the log-spaced start with " + std::to_string(x.size()) + " points");
     }
     if (start) {
       c = run.assess(std::move(*start), "start",
@@ -354,6 +370,10 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
       diag["objective_optimum"] = objective.best_value();
       diag["samples"] = static_cast<double>(objective.samples().size());
       ReducerResult reduced = objective.reduce(x);
+      if (reduced.V.cols() > max_order) {
+        return over_order(reduced.V.cols(),
+                          "the optimum with " + std::to_string(x.size()) + " points");
+      }
       // The optimiser's own report (algorithm, stop reason) goes into the history note.
       if (!opt.status.empty()) reduced.note += (reduced.note.empty() ? "" : "; ") + opt.status;
       c = run.assess(std::move(reduced), "optimum", diag);
@@ -393,7 +413,6 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
       // Each point adds about the same number of columns (2 m per moment for a complex point).
       const Index next_order = c.order() + (c.order() + p - 1) / p;
       if (next_order > max_order) {
-        const bool reducer_limit = reducer_max <= o.max_order;
         return finish(reducer_limit ? Termination::ReducerExhausted : Termination::MaxOrderReached,
                       (reducer_limit ? "the reducer delivers at most order "
                                      : "order budget max_order = ") +

@@ -34,8 +34,11 @@
 /// twice the optimiser's sample-set value (the sample set missed a peak), re-optimise at the same
 /// p with the new samples (at most `reoptimize` times per p); else grow: add one point at the
 /// optimum's peak frequency, the others stay where the optimiser put them (warm start).
-/// Budgets: max_points (MaxOrderReached), max_order (MaxOrderReached, the order predicted for
-/// p + 1 points from the current order per point), max_iterations (IterationLimit; counts
+/// Budgets: max_points (MaxOrderReached), max_order (MaxOrderReached; ReducerExhausted when the
+/// reducer's own max_order() is the lower cap): checked on the order the reducer delivers for the
+/// start and for each optimum before it is assessed (an over-budget model is not assessed), and
+/// on the order predicted for p + 1 points from the current order per point before growing),
+/// max_iterations (IterationLimit; counts
 /// assessed models, i.e. "start" and "optimum" records, not optimiser trials), stagnation
 /// (Stagnated: the best assessed error has not dropped below stagnation_ratio times its value
 /// stagnation_window assessments earlier). The history gets: every assessed model with the

@@ -190,7 +190,10 @@ TEST(GreedyPoints, MeetsToleranceOnALightlyDampedChainCheckedIndependently) {
   }
   EXPECT_TRUE(phases.count("add_point")) << r.message;
   EXPECT_TRUE(phases.count("verify")) << r.message;
-  EXPECT_TRUE(phases.count("prune")) << r.message;
+  // Pruning ran; its trials appear as "prune" rows only when they screen below the tolerance
+  // (here every removal and moment reduction may be ruled out by the screen alone).
+  EXPECT_NE(r.message.find("pruning: "), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find(" trials screened on "), std::string::npos) << r.message;
   expect_points_in_band(r, kWideBand);
   // Each added point sits where the previous model's error peaked: the record of an addition
   // names a frequency that is the previous record's peak (a "verify" record's when one failed).
@@ -246,6 +249,78 @@ TEST(GreedyPoints, PruningDropsASuperfluousPoint) {
   EXPECT_LE(sup, tol) << "at " << f_sup << " Hz; " << r.message;
   EXPECT_NE(r.message.find("pruning"), std::string::npos) << r.message;
   expect_points_in_band(r);
+}
+
+// Pruning screens each candidate set on frequencies whose full response is cached and assesses only
+// those that screen below the tolerance. Checked against an independent reference: a point whose
+// removal leaves a dense-LU error (5000 frequencies) above 10x the tolerance is never assessed
+// (its error at the passing model's resonance samples is far above the tolerance), while a
+// superfluous point added to the greedy set makes some removal pass. Every assessed trial carries
+// its screened error.
+TEST(GreedyPoints, ScreeningAssessesOnlyRemovalsThatCanPass) {
+  const double tol = 1e-4;
+  Fixture plain;
+  InterpolationReducer r0;
+  const StrategyResult unpruned =
+      plain.run(r0, tol, params({{"prune", ParameterValue{false, {}}}}));
+  ASSERT_EQ(unpruned.termination, Termination::Converged) << unpruned.message;
+  std::vector<double> start;
+  for (const auto& p : unpruned.best->points) start.push_back(hz_of(p));
+  const double extra = kBand.f_min_hz * 1.01;
+  start.push_back(extra);
+
+  Fixture fx;
+  InterpolationReducer reducer;
+  const StrategyResult r = fx.run(reducer, tol, params({{"initial_points", list(start)}}));
+  ASSERT_EQ(r.termination, Termination::Converged) << r.message;
+  const std::vector<ExpansionPoint> set = r.history.front().points;
+  ASSERT_EQ(set.size(), start.size());
+
+  // Independent errors of the single removals.
+  const auto& full = std::get<SecondOrderModel>(fx.model);
+  InterpolationReducer independent;
+  independent.setup(ReductionContext{&fx.model, fx.solver.get(), kBand});
+  std::set<double> needed;  // removals that clearly fail
+  for (std::size_t i = 0; i < set.size(); ++i) {
+    std::vector<ExpansionPoint> without = set;
+    without.erase(without.begin() + static_cast<std::ptrdiff_t>(i));
+    const ReducerResult m = independent.reduce(ReductionRequest{0, without});
+    const double sup = dense_sup_error(full, m.model, 5000).first;
+    if (sup > 10.0 * tol) needed.insert(hz_of(set[i]));
+  }
+  ASSERT_FALSE(needed.empty()) << "the greedy points should matter";
+  EXPECT_FALSE(needed.count(hz_of(set.back()))) << "the extra point should be superfluous";
+
+  Index prune_rows = 0;
+  for (const IterationRecord& rec : r.history) {
+    if (rec.phase != "prune") continue;
+    ++prune_rows;
+    ASSERT_TRUE(rec.diagnostics.count("screened_error")) << rec.iteration;
+    EXPECT_LE(rec.diagnostics.at("screened_error"), tol) << rec.iteration;
+    // The screening set holds at least the estimator's grid.
+    EXPECT_GE(rec.diagnostics.at("screen_samples"), 200.0) << rec.iteration;
+    if (rec.diagnostics.count("removed_point_hz")) {
+      const double f = rec.diagnostics.at("removed_point_hz");
+      EXPECT_FALSE(needed.count(f)) << "assessed a removal that cannot pass: " << f << " Hz";
+    }
+  }
+  // Pruning did remove something (which point depends on the order of trials: the removal
+  // leaving the smaller model goes first), and the result holds independently.
+  EXPECT_GE(prune_rows, 1) << r.message;
+  EXPECT_LT(r.best->points.size(), set.size()) << r.message;
+  const auto [sup, f_sup] = dense_sup_error(full, r.best->model, 5000);
+  EXPECT_LE(sup, tol) << "at " << f_sup << " Hz; " << r.message;
+  // The message accounts for the trials: every single removal was screened, and the assessed
+  // ones are exactly the prune rows.
+  const std::string key = " trials screened on ";
+  const auto at = r.message.find(key);
+  ASSERT_NE(at, std::string::npos) << r.message;
+  const auto in = r.message.rfind(" in ", at);
+  const long long trials = std::stoll(r.message.substr(in + 4, at - in - 4));
+  EXPECT_GE(trials, static_cast<long long>(set.size())) << r.message;
+  EXPECT_NE(r.message.find(", " + std::to_string(prune_rows) + " of them assessed"),
+            std::string::npos)
+      << r.message;
 }
 
 TEST(GreedyPoints, PruningWithoutExtraPointIsNoLargerAndStillPasses) {
@@ -514,10 +589,21 @@ TEST(GreedyPoints, PruneTrialBreakdownKeepsTheConvergedModel) {
 }
 
 // The iteration budget or the observer cut pruning short; the passing model stays the result.
+// The start has more points than needed (eight, log-spaced over the band), so that pruning
+// assesses several trials (removals that screen below the tolerance).
 TEST(GreedyPoints, PruningCutShortStillConverges) {
+  std::vector<double> spread;
+  for (int i = 0; i < 8; ++i) {
+    spread.push_back(kBand.f_min_hz * std::pow(kBand.f_max_hz / kBand.f_min_hz, (i + 0.5) / 8.0));
+  }
+  auto with = [&](std::initializer_list<std::pair<const char*, ParameterValue>> kv) {
+    ParameterMap p = params(kv);
+    p.set("initial_points", list(spread));
+    return p;
+  };
   Fixture plain;
   InterpolationReducer r0;
-  const StrategyResult full = plain.run(r0, 1e-4, params());
+  const StrategyResult full = plain.run(r0, 1e-4, with({}));
   ASSERT_EQ(full.termination, Termination::Converged) << full.message;
   std::size_t first_prune = 0;
   while (first_prune < full.history.size() && full.history[first_prune].phase != "prune")
@@ -528,7 +614,7 @@ TEST(GreedyPoints, PruningCutShortStillConverges) {
     Fixture fx;
     InterpolationReducer reducer;
     const auto budget = static_cast<long long>(first_prune + 1);
-    const StrategyResult r = fx.run(reducer, 1e-4, params({{"max_iterations", integer(budget)}}));
+    const StrategyResult r = fx.run(reducer, 1e-4, with({{"max_iterations", integer(budget)}}));
     ASSERT_EQ(r.termination, Termination::Converged) << r.message;
     EXPECT_NE(r.message.find("cut short by max_iterations"), std::string::npos) << r.message;
     EXPECT_LE(r.history.size(), static_cast<std::size_t>(budget) + 1);
@@ -536,7 +622,7 @@ TEST(GreedyPoints, PruningCutShortStillConverges) {
   {
     Fixture fx;
     InterpolationReducer reducer;
-    const StrategyResult r = fx.run(reducer, 1e-4, params(), static_cast<int>(first_prune + 1));
+    const StrategyResult r = fx.run(reducer, 1e-4, with({}), static_cast<int>(first_prune + 1));
     ASSERT_EQ(r.termination, Termination::Converged) << r.message;
     EXPECT_NE(r.message.find("cut short by request"), std::string::npos) << r.message;
     EXPECT_EQ(r.history.size(), first_prune + 1);

@@ -17,6 +17,7 @@
 #include <chrono>
 #include <cmath>
 #include <set>
+#include <stdexcept>
 
 #include "common/interpolation_reducer.hpp"
 #include "common/test_support.hpp"
@@ -358,6 +359,126 @@ TEST(MinimaxPoints, ReducerFailureAtSomePointsDoesNotAbort) {
   }
   EXPECT_LT(r.best_error.sup_relative, start);
   std::cout << r.message << "; " << reducer.failures << " refused reductions\n";
+}
+
+// Delivers one moment more at the first point for every request after the first (the start), as
+// a reducer whose deflation differs between point sets would: the optimum is then larger than the
+// start. `cap` is the reducer's own max_order().
+class LargerAfterStart final : public Reducer {
+ public:
+  explicit LargerAfterStart(Index cap = kUnlimitedOrder) : m_cap(cap) {}
+  void setup(const ReductionContext& ctx) override { m_inner.setup(ctx); }
+  ReducerResult reduce(const ReductionRequest& request) override {
+    ReductionRequest r = request;
+    if (++calls > 1 && !r.points.empty()) r.points.front().moments += 1;
+    return m_inner.reduce(r);
+  }
+  Index max_order() const override { return m_cap; }
+  int calls = 0;
+
+ private:
+  Index m_cap;
+  test::InterpolationReducer m_inner;
+};
+
+Index assessed_rows(const StrategyResult& r) {
+  Index n = 0;
+  for (const IterationRecord& rec : r.history) n += rec.phase == "start" || rec.phase == "optimum";
+  return n;
+}
+
+// max_order holds for every assessed model: a start or an optimum with more columns than the
+// budget is not assessed, and the run ends naming the budget, the model and its order. Two points
+// with two moments give 8 columns (real and imaginary part of each moment; this SISO chain does
+// not deflate them), one more moment 10.
+TEST(PointStrategies, OrderBudgetHoldsForTheStartAndTheOptimum) {
+  for (const std::string strategy : {"optimize_points", "minimax_points"}) {
+    {
+      Fixture fx;
+      test::InterpolationReducer reducer;
+      const StrategyResult r = fx.run(strategy, reducer, 1e-12, params({{"max_order", 6LL}}));
+      EXPECT_EQ(r.termination, Termination::MaxOrderReached) << r.message;
+      EXPECT_EQ(assessed_rows(r), 0) << r.message;
+      EXPECT_NE(r.message.find("max_order = 6"), std::string::npos) << r.message;
+      EXPECT_NE(r.message.find("start with 2 points gave order 8"), std::string::npos)
+          << r.message;
+    }
+    {
+      Fixture fx;
+      LargerAfterStart reducer;
+      const StrategyResult r = fx.run(strategy, reducer, 1e-12, params({{"max_order", 8LL}}));
+      EXPECT_EQ(r.termination, Termination::MaxOrderReached) << r.message;
+      ASSERT_EQ(assessed_rows(r), 1) << r.message;  // the start (order 8) only
+      for (const IterationRecord& rec : r.history) {
+        if (rec.phase == "start" || rec.phase == "verify") {
+          EXPECT_LE(rec.order, 8);
+        }
+      }
+      EXPECT_NE(r.message.find("optimum with 2 points gave order 10"), std::string::npos)
+          << r.message;
+      ASSERT_TRUE(r.best.has_value());
+      EXPECT_EQ(r.best->V.cols(), 8);
+    }
+    {
+      // The reducer's own maximum is the lower cap: ReducerExhausted, same rule.
+      Fixture fx;
+      LargerAfterStart reducer(8);
+      const StrategyResult r = fx.run(strategy, reducer, 1e-12, params({}));
+      EXPECT_EQ(r.termination, Termination::ReducerExhausted) << r.message;
+      EXPECT_EQ(assessed_rows(r), 1) << r.message;
+      EXPECT_NE(r.message.find("the reducer delivers at most order 8"), std::string::npos)
+          << r.message;
+      EXPECT_NE(r.message.find("gave order 10"), std::string::npos) << r.message;
+    }
+  }
+}
+
+// Throws a plain std::runtime_error (not an ecmor::Error: a third-party plugin's own exception) on
+// exactly one call. Inside an NLopt run the objective lets it through, NLopt turns it into its
+// generic failure (NLOPT_FAILURE, rethrown as std::runtime_error by nlopt::opt::optimize).
+class ThrowsOnceForeign final : public Reducer {
+ public:
+  explicit ThrowsOnceForeign(int on_call) : m_on(on_call) {}
+  void setup(const ReductionContext& ctx) override { m_inner.setup(ctx); }
+  ReducerResult reduce(const ReductionRequest& request) override {
+    if (++calls == m_on) throw std::runtime_error("foreign reducer hiccup");
+    return m_inner.reduce(request);
+  }
+  int calls = 0;
+
+ private:
+  int m_on;
+  test::InterpolationReducer m_inner;
+};
+
+// NLopt's generic failure ends only that NLopt run: the best x so far is kept, assessed as the
+// optimum, and the status (NLopt's message and the objective's) is in its note.
+TEST(OptimizePoints, NloptFailureKeepsTheBestPointAndSaysSo) {
+  for (const std::string algorithm : {"bobyqa", "direct_l_then_bobyqa"}) {
+    Fixture fx;
+    // Call 1: the start's reduction; 2: the warm start's evaluation; 3 and 4: NLopt's first two.
+    ThrowsOnceForeign reducer(4);
+    const StrategyResult r = fx.run("optimize_points", reducer, 1e-4,
+                                    params({{"algorithm", algorithm}, {"max_points", 8LL},
+                                            {"max_iterations", 20LL}}));
+    EXPECT_NE(r.termination, Termination::Failed) << algorithm << ": " << r.message;
+    const IterationRecord* first_optimum = nullptr;
+    for (const IterationRecord& rec : r.history) {
+      if (rec.phase == "optimum") {
+        first_optimum = &rec;
+        break;
+      }
+    }
+    ASSERT_NE(first_optimum, nullptr) << r.message;
+    EXPECT_NE(first_optimum->note.find("FAILURE (nlopt failure: the objective threw: foreign "
+                                       "reducer hiccup)"),
+              std::string::npos)
+        << algorithm << ": " << first_optimum->note;
+    // The evaluations before the failure (warm start and NLopt's first) count, the best is kept.
+    EXPECT_GE(first_optimum->diagnostics.at("evaluations"), 2.0);
+    EXPECT_LE(first_optimum->diagnostics.at("objective_optimum"),
+              first_optimum->diagnostics.at("objective_start"));
+  }
 }
 
 // Bad options are refused with a message naming the key and the rule.
