@@ -160,10 +160,13 @@ BandErrorEstimator::BandErrorEstimator(ResponseCache& full, Band band, BandError
 BandError BandErrorEstimator::evaluate(const ReducedModel& reduced) {
   std::vector<double> f = m_grid;
   Index pole_count = 0;
+  Index unstable = -1;
   if (m_options.pole_samples && m_options.max_pole_samples > 0) {
     // Resonances of lightly damped structures are narrower than any affordable grid spacing; the
     // reduced poles locate them (and the full model's nearby ones) at no full-model cost.
     const ComplexVector p = poles(reduced);
+    unstable = 0;
+    for (Index i = 0; i < p.size(); ++i) unstable += p(i).real() < 0.0 ? 0 : 1;
     std::vector<std::pair<double, double>> candidates;  // (damping ratio, f)
     for (Index i = 0; i < p.size(); ++i) {
       const double im = p(i).imag();
@@ -194,8 +197,10 @@ BandError BandErrorEstimator::evaluate(const ReducedModel& reduced) {
       ++pole_count;
     }
   }
-  return assemble(reduced, std::move(f), static_cast<Index>(m_grid.size()), pole_count, true,
-                  false);
+  BandError out = assemble(reduced, std::move(f), static_cast<Index>(m_grid.size()), pole_count,
+                           true, false);
+  out.unstable_poles = unstable;
+  return out;
 }
 
 BandError BandErrorEstimator::evaluate_on(const ReducedModel& reduced,

@@ -61,8 +61,9 @@ Candidate StrategyRun::assess(ReducerResult result, const std::string& phase,
                               const std::map<std::string, double>& extra) {
   Candidate c;
   c.result = std::move(result);
-  c.stable = is_stable(c.result.model);
   c.error = m_ctx.estimator->evaluate(c.result.model);
+  // The estimator computes the poles for its pole samples; reuse them when it did.
+  c.stable = c.error.unstable_poles >= 0 ? c.error.unstable_poles == 0 : is_stable(c.result.model);
   bool meets = c.error.sup_relative <= m_ctx.tolerance;
   record(phase, c.result, c.error, meets, c.stable, extra);
   bool verified = false;

@@ -76,6 +76,9 @@ struct ECMOR_API BandError {
 
   Index grid_samples = 0, pole_samples = 0, refinement_samples = 0;
   bool reduced_singular = false;  ///< Hr hit a pole exactly at a sample (error reported as inf)
+  /// Reduced poles with Re >= 0 (or NaN), when evaluate() computed the poles for its pole samples;
+  /// -1 when they were not computed. Spares callers a second eigen-decomposition.
+  Index unstable_poles = -1;
   /// How the band was sampled, e.g. "200 log grid + 12 poles + 50 refinement".
   std::string sampling() const;
 };
