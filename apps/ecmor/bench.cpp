@@ -49,6 +49,7 @@ extern "C" void on_bench_signal(int) { g_bench_interrupted.store(true); }
 class Progress final : public RunObserver {
  public:
   bool on_iteration(const IterationRecord&) override { return !g_bench_interrupted.load(); }
+  bool stop_requested() override { return g_bench_interrupted.load(); }
 };
 
 // Exact enough to keep distinct tolerances apart (2e-3 and 2.5e-3), short enough to read.

@@ -56,6 +56,8 @@ class TablePrinter final : public RunObserver {
     return !g_interrupted.load();
   }
 
+  bool stop_requested() override { return g_interrupted.load(); }
+
   void on_finished(const RunSummary& s) override {
     if (!m_quiet) fmt::print("\n");
     fmt::print("{}: {}\n", to_string(s.termination), s.message);

@@ -141,6 +141,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   ctx.start = start;
   ctx.counters = [&] { return solver->counters(); };
   ctx.full_evaluations = [&] { return cache.size(); };
+  ctx.stop_requested = [&] { return observer != nullptr && observer->stop_requested(); };
   ctx.on_iteration = [&](const IterationRecord& rec) {
     IterationRecord with_memory = rec;
     with_memory.diagnostics["peak_memory_mb"] = peak_memory_mb();

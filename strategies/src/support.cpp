@@ -67,7 +67,7 @@ Candidate StrategyRun::assess(ReducerResult result, const std::string& phase,
   bool meets = c.error.sup_relative <= m_ctx.tolerance;
   record(phase, c.result, c.error, meets, c.stable, extra);
   bool verified = false;
-  if (meets && c.stable && !m_stop) {
+  if (meets && c.stable && !stopped()) {
     // "Converged" must hold on a denser grid that shares no frequency with the estimator's.
     BandError check = m_ctx.estimator->verify(c.result.model, m_ctx.verify_factor);
     verified = check.sup_relative <= m_ctx.tolerance;

@@ -41,7 +41,7 @@ class StrategyRun {
   StrategyContext& context() { return m_ctx; }
   Index iterations() const { return m_iteration; }
   /// True once the observer asked to stop (the strategy must then finish as Interrupted).
-  bool stopped() const { return m_stop; }
+  bool stopped() const { return m_stop || (m_ctx.stop_requested && m_ctx.stop_requested()); }
 
   /// Appends one history record (and calls the observer). `extra` adds diagnostics.
   void record(const std::string& phase, const ReducerResult& result, const BandError& error,

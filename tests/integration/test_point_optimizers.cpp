@@ -282,6 +282,29 @@ TEST(PointStrategies, IterationBudgetAndObserverStopEndTheRun) {
   }
 }
 
+// A stop request polled between records (Ctrl-C) takes effect within a few reductions, even inside
+// an optimisation that records nothing new: the run ends as Interrupted and keeps the best model.
+TEST(PointStrategies, PolledStopRequestEndsAnOptimisationPromptly) {
+  for (const std::string strategy : {"optimize_points", "minimax_points"}) {
+    Fixture fx;
+    test::InterpolationReducer reducer;
+    StrategyContext ctx = fx.context(reducer, 1e-12);
+    int calls_at_request = -1;
+    ctx.on_iteration = [](const IterationRecord&) { return true; };  // never stops by records
+    ctx.stop_requested = [&] {
+      // Request the stop once the optimiser is well under way (after the start model).
+      if (calls_at_request < 0 && reducer.calls >= 10) calls_at_request = reducer.calls;
+      return calls_at_request >= 0;
+    };
+    const StrategyResult r = make_strategy(strategy, ParameterMap("strategy"))->run(ctx);
+    EXPECT_EQ(r.termination, Termination::Interrupted) << strategy << ": " << r.message;
+    ASSERT_GE(calls_at_request, 0) << strategy;
+    // At most one objective evaluation (minimax: one Jacobian, 2p + 1 reductions) after the request.
+    EXPECT_LE(reducer.calls - calls_at_request, 2 * 2 + 1) << strategy;
+    EXPECT_TRUE(r.best.has_value()) << strategy;
+  }
+}
+
 // The finite-difference Jacobian of the levels L_k = log10(eps_k + floor) at the default step
 // agrees with a central difference at a ten times smaller step. Tolerance: the narrowest
 // resonance here (zeta = 1.4e-3) is ~6e-4 decades wide, so the central difference's truncation

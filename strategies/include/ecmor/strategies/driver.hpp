@@ -57,6 +57,8 @@ class RunObserver {
   virtual void on_model_loaded(const RunConfig&, const Model&, double /*seconds*/) {}
   /// Return false to stop the run (it then ends as Interrupted and still writes its outputs).
   virtual bool on_iteration(const IterationRecord&) { return true; }
+  /// Polled often during a run (between records too); return true to stop it as Interrupted.
+  virtual bool stop_requested() { return false; }
   virtual void on_finished(const RunSummary&) {}
 };
 

@@ -40,6 +40,9 @@ struct StrategyContext {
   Index verify_factor = 4;
   /// Called after every iteration with its record; return false to stop (Interrupted).
   std::function<bool(const IterationRecord&)> on_iteration;
+  /// Polled between records (e.g. inside an optimiser's objective), so that a stop request (Ctrl-C)
+  /// takes effect within one reduction, not at the next history record. May be empty.
+  std::function<bool()> stop_requested;
   /// Cumulative counters for the records (solver and full-model evaluations).
   std::function<SolverCounters()> counters;
   std::function<Index()> full_evaluations;
