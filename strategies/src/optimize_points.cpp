@@ -101,6 +101,7 @@ OptimizePointsOptions OptimizePointsOptions::from(const ParameterMap& p) {
                                   : PointAlgorithm::DirectLThenBobyqa;
   o.max_evaluations = p.get_int("max_evaluations", o.max_evaluations, 0, 100000000);
   o.global_fraction = p.get_double("global_fraction", o.global_fraction, 0.0, 1.0);
+  o.global_max_points = p.get_int("global_max_points", o.global_max_points, 1);
   o.xtol_rel = p.get_double("xtol_rel", o.xtol_rel, 0.0, 1.0);
   o.initial_step = p.get_double("initial_step", o.initial_step, 0.0);
   o.validate();
@@ -145,7 +146,10 @@ point_search::Optimisation nlopt_optimise(const OptimizePointsOptions& o,
   const Index before = objective.round_evaluations();
   objective.value(x);
   auto used = [&] { return objective.round_evaluations() - before; };
-  if (o.algorithm == PointAlgorithm::Bobyqa) {
+  const bool local_only = o.algorithm == PointAlgorithm::Bobyqa ||
+                          (o.algorithm == PointAlgorithm::DirectLThenBobyqa &&
+                           p > o.global_max_points);
+  if (local_only) {
     out.status = "bobyqa: " + run_nlopt(nlopt::LN_BOBYQA, objective, x, budget - 1, xtol_abs, step);
   } else if (o.algorithm == PointAlgorithm::DirectL) {
     out.status = "direct_l: " + run_nlopt(nlopt::GN_DIRECT_L, objective, x, budget - 1, 0.0, 0.0);

@@ -30,6 +30,15 @@
 ///   algorithm         string  direct_l_then_bobyqa   bobyqa | direct_l | direct_l_then_bobyqa
 ///   max_evaluations   int     0 (= 60 p)             objective evaluations per optimisation, >= 0
 ///   global_fraction   double  0.4                    share of max_evaluations for DIRECT-L, (0, 1)
+///   global_max_points int     3                      direct_l_then_bobyqa: DIRECT-L only while
+///                                                    p <= this; above, BOBYQA alone from the warm
+///                                                    start. DIRECT divides the p-dimensional box
+///                                                    one coordinate at a time: with 60 p
+///                                                    evaluations it cannot resolve more than a few
+///                                                    dimensions and only spends the budget far
+///                                                    from the warm start (measured on
+///                                                    triplechain_mess_n1501: the error rose when a
+///                                                    point was added at p >= 7), >= 1
 ///   xtol_rel          double  1e-4                   BOBYQA stops when a step moves every x_i by
 ///                                                    less than xtol_rel times the band width in
 ///                                                    decades (given to NLopt as xtol_abs: x_i =
@@ -61,6 +70,9 @@ struct OptimizePointsOptions {
   PointAlgorithm algorithm = PointAlgorithm::DirectLThenBobyqa;  ///< see the file comment
   Index max_evaluations = 0;    ///< per optimisation; 0: 60 p; >= 0
   double global_fraction = 0.4; ///< DIRECT-L's share in direct_l_then_bobyqa, in (0, 1)
+  /// direct_l_then_bobyqa runs its global phase only up to this many points, >= 1; beyond, BOBYQA
+  /// alone from the warm start (see the file comment).
+  Index global_max_points = 3;
   double xtol_rel = 1e-4;       ///< step tolerance relative to the band width in decades, (0, 1)
   double initial_step = 0.0;    ///< BOBYQA's initial radius in decades; 0: width / (4 p); >= 0
 

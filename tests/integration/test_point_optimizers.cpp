@@ -518,6 +518,7 @@ TEST(PointStrategies, BadOptionsAreNamed) {
       {"optimize_points", params({{"algorithm", std::string("cobyla")}}), "algorithm"},
       {"optimize_points", params({{"global_fraction", 1.0}}), "global_fraction"},
       {"optimize_points", params({{"xtol_rel", 0.0}}), "xtol_rel"},
+      {"optimize_points", params({{"global_max_points", 0LL}}), "global_max_points"},
       {"optimize_points", params({{"max_evaluations", -1LL}}), "max_evaluations"},
       {"optimize_points", params({{"initial_step", -0.1}}), "initial_step"},
       {"optimize_points", params({{"error_floor", 0.0}}), "error_floor"},
