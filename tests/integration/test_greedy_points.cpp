@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <set>
 
+#include "common/dense_reference.hpp"
 #include "common/interpolation_reducer.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/error.hpp"
@@ -43,70 +44,13 @@ double chain_stiffness() {
 }
 
 SecondOrderModel chain_model() {
-  const double k = chain_stiffness();
-  SecondOrderModel m;
-  m.M = SparseMatrix(kN, kN);
-  m.K = SparseMatrix(kN, kN);
-  m.D = SparseMatrix(kN, kN);
-  std::vector<Eigen::Triplet<double, int>> tk, td, tm;
-  for (int i = 0; i < kN; ++i) {
-    tm.emplace_back(i, i, 1.0);
-    tk.emplace_back(i, i, 2.0 * k);
-    td.emplace_back(i, i, kAlpha + 2.0 * kBeta * k);
-    if (i + 1 < kN) {
-      for (auto [r, c] : {std::pair{i, i + 1}, std::pair{i + 1, i}}) {
-        tk.emplace_back(r, c, -k);
-        td.emplace_back(r, c, -kBeta * k);
-      }
-    }
-  }
-  m.M.setFromTriplets(tm.begin(), tm.end());
-  m.K.setFromTriplets(tk.begin(), tk.end());
-  m.D.setFromTriplets(td.begin(), td.end());
-  m.B = Matrix::Zero(kN, 1);
-  m.B(0, 0) = 1.0;
-  m.C = Matrix::Zero(1, kN);
-  m.C(0, kN - 1) = 1.0;
-  return m;
+  return test::spring_chain(kN, chain_stiffness(), kAlpha, kBeta);
 }
 
-// sup over `samples` log-spaced frequencies of |H - Hr| / |H| (SISO), with H from a dense LU of
-// s^2 M + s D + K and Hr from a dense LU of the reduced matrices: independent of the sparse
-// solver, the response cache and the estimator's sampling. Returns {sup, f at sup}.
-// Hr(s) of a SISO reduced model of either kind by a dense LU (Eigen, not the library's path).
-Complex dense_reduced_h(const ReducedModel& reduced, Complex s) {
-  if (const auto* r = std::get_if<ReducedSecondOrderModel>(&reduced)) {
-    const ComplexMatrix Pr =
-        (s * s) * r->M.cast<Complex>() + s * r->D.cast<Complex>() + r->K.cast<Complex>();
-    ComplexMatrix C = r->C.cast<Complex>();
-    if (r->has_velocity_output()) C += s * r->Cv.cast<Complex>();
-    return (C * Pr.partialPivLu().solve(r->B.cast<Complex>()))(0, 0);
-  }
-  const auto& r = std::get<ReducedDescriptorModel>(reduced);
-  const ComplexMatrix P = s * r.E.cast<Complex>() - r.A.cast<Complex>();
-  return (r.C.cast<Complex>() * P.partialPivLu().solve(r.B.cast<Complex>()))(0, 0);
-}
-
+// sup over `samples` log-spaced frequencies of the band of |H - Hr| / |H|, by dense LU.
 std::pair<double, double> dense_sup_error(const SecondOrderModel& full, const ReducedModel& reduced,
                                           Index samples, const Band& band = kBand) {
-  const Matrix M = Matrix(full.M), D = Matrix(full.D), K = Matrix(full.K);
-  double sup = 0.0, f_sup = 0.0;
-  for (Index i = 0; i < samples; ++i) {
-    const double f = band.f_min_hz * std::pow(band.f_max_hz / band.f_min_hz,
-                                              static_cast<double>(i) / (samples - 1));
-    const Complex s(0.0, kTwoPi * f);
-    const ComplexMatrix P = (s * s) * M.cast<Complex>() + s * D.cast<Complex>() + K.cast<Complex>();
-    const Complex h =
-        (full.C.cast<Complex>() * P.partialPivLu().solve(full.B.cast<Complex>()))(0, 0);
-    const Complex hr = dense_reduced_h(reduced, s);
-    const double e = std::abs(h - hr) / std::abs(h);
-    if (std::isnan(e)) return {e, f};  // fails the caller's <= check
-    if (e > sup) {
-      sup = e;
-      f_sup = f;
-    }
-  }
-  return {sup, f_sup};
+  return test::dense_sup_error(full, reduced, band, samples);
 }
 
 struct Fixture {
@@ -728,7 +672,7 @@ TEST(GreedyPoints, WorksOnADescriptorModel) {
     const Complex s(0.0, kTwoPi * f);
     Complex h = 0.0;
     for (Index i = 0; i < n; ++i) h += 1.0 / (s + kTwoPi * static_cast<double>(i + 1) * 0.2);
-    const Complex hr = dense_reduced_h(r.best->model, s);
+    const Complex hr = test::dense_reduced_h(r.best->model, s);
     sup = std::max(sup, std::abs(h - hr) / std::abs(h));
   }
   EXPECT_LE(sup, tol) << r.message;
