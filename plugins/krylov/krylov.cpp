@@ -30,6 +30,7 @@ struct Options {
   std::vector<double> real_points;    // configured real shifts s0 >= 0 (rad/s)
   std::vector<double> point_moments;  // blocks per round for each configured point
   Index point_count = 1;
+  bool linear_spacing = false;  // point_count points equally spaced in f instead of log f
   Index tangential_directions = 0;
   double deflation_tolerance = 1e-10;
   Index cache_points = 64;
@@ -120,9 +121,14 @@ class KrylovReducer final : public Reducer {
       const Index p = m_options.point_count;
       const double lo = std::log(m_band.f_min_hz), hi = std::log(m_band.f_max_hz);
       for (Index i = 0; i < p; ++i) {
-        // Midpoints of p equal sections of [log f_min, log f_max]: p = 1 is the geometric centre.
+        // Midpoints of p equal sections of [log f_min, log f_max] (p = 1: the geometric centre),
+        // or of [f_min, f_max]: the resonances of a chain or a beam crowd the top of a band that
+        // spans decades, where log spacing leaves few points.
         const double t = (static_cast<double>(i) + 0.5) / static_cast<double>(p);
-        m_configured.push_back({s_from_hz(std::exp(lo + t * (hi - lo))), weight()});
+        const double f = m_options.linear_spacing
+                             ? m_band.f_min_hz + t * (m_band.f_max_hz - m_band.f_min_hz)
+                             : std::exp(lo + t * (hi - lo));
+        m_configured.push_back({s_from_hz(f), weight()});
       }
     }
     for (const auto& c : m_configured) validate_point(c.s, 1, "configured point");
@@ -613,6 +619,9 @@ ReducerInfo krylov_info() {
       {"point_count", "int", "1",
        "without points/real_points: p points log-spaced in the band (midpoints of p equal "
        "sections of [log f_min, log f_max]; 1 = geometric centre), >= 1"},
+      {"point_spacing", "string", "log",
+       "spacing of the point_count points: log (in log f) or linear (in f; midpoints of p equal "
+       "sections of [f_min, f_max], for bands whose resonances crowd the top)"},
       {"tangential_directions", "int", "0",
        "0 = full block; l > 0: the l dominant right (input side) / left (output side) singular "
        "vectors of H(s0) as directions; l >= m (p) means the full block"},
@@ -660,6 +669,10 @@ std::unique_ptr<Reducer> create_krylov(const ParameterMap& params) {
     fail("point_count", "conflicts with points/real_points (give either the points or a count)");
   }
   o.point_count = params.get_int("point_count", o.point_count, 1, 10000);
+  if (params.has("point_spacing") && configured > 0) {
+    fail("point_spacing", "applies to point_count points only, not to points/real_points");
+  }
+  o.linear_spacing = params.get_string("point_spacing", "log", {"log", "linear"}) == "linear";
   // point_moments weights the configured points, or without them the point_count log-spaced ones.
   if (o.point_moments.size() > 1 && configured > 0 && o.point_moments.size() != configured) {
     fail("point_moments",

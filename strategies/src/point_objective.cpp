@@ -28,6 +28,8 @@ std::string key_rule(const std::string& strategy, const std::string& key, const 
 PointSearchOptions PointSearchOptions::from(const ParameterMap& p, const std::string& strategy) {
   PointSearchOptions o;
   o.initial_points = p.get_int("initial_points", o.initial_points, 1, 1000);
+  o.linear_spacing =
+      p.get_string("initial_spacing", "log", {"log", "linear"}) == "linear";
   o.moments = p.get_int("moments", o.moments, 1, 1000);
   o.max_points = p.get_int("max_points", o.max_points, 1, 1000);
   o.max_order = p.get_int("max_order", o.max_order, 1);
@@ -80,6 +82,16 @@ std::vector<double> log_spaced(double lower, double upper, Index p) {
   for (Index i = 0; i < p; ++i) {
     x[static_cast<std::size_t>(i)] =
         lower + (static_cast<double>(i) + 0.5) * (upper - lower) / static_cast<double>(p);
+  }
+  return x;
+}
+
+std::vector<double> linear_spaced(double lower, double upper, Index p) {
+  const double f0 = std::pow(10.0, lower), f1 = std::pow(10.0, upper);
+  std::vector<double> x(static_cast<std::size_t>(p));
+  for (Index i = 0; i < p; ++i) {
+    const double t = (static_cast<double>(i) + 0.5) / static_cast<double>(p);
+    x[static_cast<std::size_t>(i)] = std::clamp(std::log10(f0 + t * (f1 - f0)), lower, upper);
   }
   return x;
 }
@@ -289,7 +301,8 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
     const Index reducer_max = ctx.reducer->max_order();
     const Index max_order = std::min(o.max_order, reducer_max);
     std::vector<double> x =
-        log_spaced(objective.lower(), objective.upper(), o.initial_points);
+        o.linear_spacing ? linear_spaced(objective.lower(), objective.upper(), o.initial_points)
+                         : log_spaced(objective.lower(), objective.upper(), o.initial_points);
     Index assessments = 0;
     std::vector<double> trace;  // best assessed error after each assessment
     auto tail = [&] {
@@ -316,7 +329,7 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
                         run.verified_phrase());
     };
 
-    // The log-spaced start may itself be unusable (a point on an eigenvalue): then the optimiser
+    // The start may itself be unusable (a point on an eigenvalue): then the optimiser
     // starts from it all the same and steers away (its evaluation counts as a failure).
     Candidate c;
     std::optional<ReducerResult> start;
@@ -326,7 +339,7 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
     }
     if (start && start->V.cols() > max_order) {
       return over_order(start->V.cols(),
-                        "the log-spaced start with " + std::to_string(x.size()) + " points");
+                        "the start with " + std::to_string(x.size()) + " points");
     }
     if (start) {
       c = run.assess(std::move(*start), "start",
@@ -335,7 +348,7 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
       ++assessments;
       trace.push_back(run.best_error());
       objective.add_peaks(c.error, peak_count, o.max_added_samples);
-      if (c.passed) return converged(" (log-spaced start)");
+      if (c.passed) return converged(" (start points)");
       if (run.stopped()) return finish(Termination::Interrupted, "stopped by request at the start");
     }
 

@@ -69,6 +69,7 @@ namespace ecmor::point_search {
 /// Options common to both point-optimising strategies (YAML keys equal the field names).
 struct PointSearchOptions {
   Index initial_points = 2;      ///< p at the start, log-spaced in the band, >= 1
+  bool linear_spacing = false;   ///< start points equally spaced in f instead of log f
   Index moments = 2;             ///< moments matched per point, >= 1
   Index max_points = 12;         ///< point budget, >= initial_points
   Index max_order = 200;         ///< order budget (columns of V), >= 1
@@ -185,6 +186,8 @@ using Optimiser = std::function<Optimisation(PointObjective& objective, const st
 
 /// p log-spaced frequencies in the band as log10 values: centres of p equal cells in log f.
 std::vector<double> log_spaced(double lower, double upper, Index p);
+/// x = log10 f of p points at the midpoints of p equal sections of [10^lower, 10^upper] in f.
+std::vector<double> linear_spaced(double lower, double upper, Index p);
 
 /// The outer loop shared by optimize_points and minimax_points (see the file comment).
 StrategyResult run_point_search(StrategyContext& context, const PointSearchOptions& options,

@@ -475,6 +475,29 @@ TEST(OptimizePoints, NloptFailureKeepsTheBestPointAndSaysSo) {
 }
 
 // Bad options are refused with a message naming the key and the rule.
+// initial_spacing: linear starts from the midpoints of equal sections of [f_min, f_max] (log:
+// of [log f_min, log f_max]); the start is what the history's "start" row shows.
+TEST(PointStrategies, InitialSpacingPlacesTheStartPoints) {
+  for (const bool linear : {false, true}) {
+    Fixture fx;
+    test::InterpolationReducer reducer;
+    ParameterMap p = params({{"initial_points", 3LL}, {"max_iterations", 1LL}});
+    if (linear) p.set("initial_spacing", std::string("linear"));
+    fx.run("optimize_points", reducer, 1e-12, p);
+    const auto start = std::find_if(fx.seen.begin(), fx.seen.end(),
+                                    [](const IterationRecord& r) { return r.phase == "start"; });
+    ASSERT_NE(start, fx.seen.end());
+    ASSERT_EQ(start->points.size(), 3u);
+    for (std::size_t i = 0; i < 3; ++i) {
+      const double t = (static_cast<double>(i) + 0.5) / 3.0;
+      const double expected = linear ? kFMin + t * (kFMax - kFMin)
+                                     : std::exp(std::log(kFMin) + t * std::log(kFMax / kFMin));
+      EXPECT_NEAR(start->points[i].s.imag() / kTwoPi, expected, 1e-12 * expected)
+          << (linear ? "linear " : "log ") << i;
+    }
+  }
+}
+
 TEST(PointStrategies, BadOptionsAreNamed) {
   struct Case {
     std::string strategy;
@@ -484,6 +507,7 @@ TEST(PointStrategies, BadOptionsAreNamed) {
   const std::vector<Case> cases = {
       {"optimize_points", params({{"initial_points", 0LL}}), "initial_points"},
       {"optimize_points", params({{"moments", 0LL}}), "moments"},
+      {"optimize_points", params({{"initial_spacing", std::string("lin")}}), "initial_spacing"},
       {"optimize_points", params({{"initial_points", 4LL}, {"max_points", 3LL}}), "max_points"},
       {"optimize_points", params({{"algorithm", std::string("cobyla")}}), "algorithm"},
       {"optimize_points", params({{"global_fraction", 1.0}}), "global_fraction"},

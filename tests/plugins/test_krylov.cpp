@@ -982,6 +982,36 @@ TEST(Krylov, PointMomentsApplyToLogSpacedPoints) {
   EXPECT_NE(msg.find("point_count = 2"), std::string::npos) << msg;
 }
 
+TEST(Krylov, LinearPointSpacingPlacesMidpointsOfEqualSections) {
+  // point_spacing: linear puts the p points at f_min + (i + 1/2) (f_max - f_min) / p (i = 0..p-1),
+  // low to high; with one moment each a complex SISO point brings two columns.
+  const Model model = load("triplechain_saak09_n451");
+  ParameterMap p = params();
+  p.set("point_count", 4);
+  p.set("point_spacing", "linear");
+  const double f_min = 1e-4 / kTwoPi, f_max = 1e2 / kTwoPi;
+  auto f = make(model, band_rad(1e-4, 1e2), p);
+  const ReducerResult r = f->reducer->reduce({8, {}});
+  ASSERT_EQ(r.points.size(), 4u);
+  for (std::size_t i = 0; i < 4; ++i) {
+    const double expected = f_min + (static_cast<double>(i) + 0.5) * (f_max - f_min) / 4.0;
+    EXPECT_NEAR(r.points[i].s.imag() / kTwoPi, expected, 1e-12 * expected) << i;
+    EXPECT_EQ(r.points[i].s.real(), 0.0);
+    expect_moments(model, r, r.points[i].s, 1, kMomentTol, "linear spacing");
+  }
+
+  ParameterMap bad = params();
+  bad.set("point_spacing", "linar");
+  std::string msg = message_of<ConfigError>([&] { registry().create("krylov", bad); });
+  EXPECT_NE(msg.find("point_spacing"), std::string::npos) << msg;
+  ParameterMap both = params();
+  both.set("points", 1.0);
+  both.set("point_spacing", "linear");
+  msg = message_of<ConfigError>([&] { registry().create("krylov", both); });
+  EXPECT_NE(msg.find("point_spacing"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("point_count points only"), std::string::npos) << msg;
+}
+
 TEST(Krylov, InfoDocumentsEveryParameter) {
   const auto entries = registry().entries();
   const auto it = std::find_if(entries.begin(), entries.end(),
