@@ -39,6 +39,8 @@ PointSearchOptions PointSearchOptions::from(const ParameterMap& p, const std::st
   o.stagnation_ratio = p.get_double("stagnation_ratio", o.stagnation_ratio, 0.0, 1.0);
   o.error_floor = p.get_double("error_floor", o.error_floor, 0.0, 1.0);
   o.max_added_samples = p.get_int("max_added_samples", o.max_added_samples, 0);
+  o.stable_only = p.get_bool("stable_only", o.stable_only);
+  o.peaks_per_assessment = p.get_int("peaks_per_assessment", o.peaks_per_assessment, 0, 100000);
   o.validate(strategy);
   return o;
 }
@@ -100,8 +102,8 @@ std::vector<double> linear_spaced(double lower, double upper, Index p) {
 // PointObjective
 
 PointObjective::PointObjective(strategy_support::StrategyRun& run, Index moments,
-                               double error_floor)
-    : m_run(run), m_moments(moments) {
+                               double error_floor, bool stable_only)
+    : m_run(run), m_moments(moments), m_stable_only(stable_only) {
   StrategyContext& ctx = run.context();
   if (ctx.estimator == nullptr || ctx.reducer == nullptr) {
     throw ConfigError("point search: the strategy context has no estimator or no reducer");
@@ -141,6 +143,16 @@ PointObjective::Levels PointObjective::evaluate(const std::vector<double>& x) {
     // A point on an eigenvalue, a singular shifted matrix, a breakdown of the reducer: this x is
     // unusable, the search is not.
     out.failure = e.what();
+  }
+  if (out.failure.empty() && m_stable_only) {
+    // The reducer's own count when it reports one (krylov does, for every model), else the poles.
+    const auto it = reduced->diagnostics.find("unstable_poles");
+    const bool reported = it != reduced->diagnostics.end() && std::isfinite(it->second);
+    if (reported ? it->second > 0.0 : !strategy_support::is_stable(reduced->model)) {
+      out.failure = reported ? "unstable reduced model (" + std::to_string(std::lround(it->second)) +
+                                   " poles with Re >= 0)"
+                             : std::string("unstable reduced model");
+    }
   }
   if (out.failure.empty()) {
     if (error.reduced_singular) out.failure = "the reduced model has a pole at a sample frequency";
@@ -295,9 +307,11 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
     return run.finish(t, std::move(message));
   };
   return strategy_support::guarded(run, [&]() -> StrategyResult {
-    PointObjective objective(run, o.moments, o.error_floor);
+    PointObjective objective(run, o.moments, o.error_floor, o.stable_only);
     // Peaks taken from each assessed model: as many as the estimator refines, at least 5.
-    const Index peak_count = std::max<Index>(5, ctx.estimator->options().refine_peaks);
+    const Index peak_count = o.peaks_per_assessment > 0
+                                 ? o.peaks_per_assessment
+                                 : std::max<Index>(5, ctx.estimator->options().refine_peaks);
     const Index reducer_max = ctx.reducer->max_order();
     const Index max_order = std::min(o.max_order, reducer_max);
     std::vector<double> x =

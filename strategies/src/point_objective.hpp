@@ -68,7 +68,7 @@ namespace ecmor::point_search {
 
 /// Options common to both point-optimising strategies (YAML keys equal the field names).
 struct PointSearchOptions {
-  Index initial_points = 2;      ///< p at the start, log-spaced in the band, >= 1
+  Index initial_points = 2;      ///< p at the start (log- or linearly spaced), >= 1
   bool linear_spacing = false;   ///< start points equally spaced in f instead of log f
   Index moments = 2;             ///< moments matched per point, >= 1
   Index max_points = 12;         ///< point budget, >= initial_points
@@ -80,6 +80,8 @@ struct PointSearchOptions {
   /// floor = error_floor * tolerance is added to eps before the logarithm, in (0, 1].
   double error_floor = 1e-3;
   Index max_added_samples = 400; ///< cap on sample frequencies added to the estimator's grid, >= 0
+  bool stable_only = true;       ///< an unstable model is a failed evaluation
+  Index peaks_per_assessment = 0;///< local error maxima added per assessed model (0: max(5, refine_peaks))
 
   /// Reads (and so marks as known) the keys above. \throws ConfigError naming key and rule.
   static PointSearchOptions from(const ParameterMap& params, const std::string& strategy);
@@ -101,7 +103,10 @@ class PointObjective {
 
   /// `run` supplies the reducer, estimator, tolerance and the history. Samples start as the
   /// estimator's grid.
-  PointObjective(strategy_support::StrategyRun& run, Index moments, double error_floor);
+  /// With `stable_only`, an unstable reduced model is a failed evaluation (it can never pass, so
+  /// an optimiser must not be drawn towards it by its band error).
+  PointObjective(strategy_support::StrategyRun& run, Index moments, double error_floor,
+                 bool stable_only = true);
 
   double lower() const { return m_lower; }  ///< log10 f_min
   double upper() const { return m_upper; }  ///< log10 f_max
@@ -159,6 +164,7 @@ class PointObjective {
  private:
   strategy_support::StrategyRun& m_run;
   Index m_moments;
+  bool m_stable_only = true;
   double m_floor;
   double m_lower, m_upper;
   std::vector<double> m_samples;  // ascending, unique

@@ -334,6 +334,58 @@ TEST(OptimizePoints, ReducerFailureAtSomePointsDoesNotAbort) {
   EXPECT_EQ(r.termination, Termination::Converged) << r.message;
 }
 
+// Reports "unstable_poles" = 1 (as krylov does for a projection that lost stability) for any
+// point in [f_lo, f_hi] Hz; the model itself is the stable interpolant.
+class UnstableFlagReducer final : public Reducer {
+ public:
+  UnstableFlagReducer(double f_lo, double f_hi) : m_lo(f_lo), m_hi(f_hi) {}
+  void setup(const ReductionContext& ctx) override { m_inner.setup(ctx); }
+  ReducerResult reduce(const ReductionRequest& request) override {
+    ReducerResult r = m_inner.reduce(request);
+    bool flagged = false;
+    for (const ExpansionPoint& p : request.points) {
+      const double f = p.s.imag() / kTwoPi;
+      flagged = flagged || (f >= m_lo && f <= m_hi);
+    }
+    r.diagnostics["unstable_poles"] = flagged ? 1.0 : 0.0;
+    flagged_count += flagged ? 1 : 0;
+    return r;
+  }
+  int flagged_count = 0;
+
+ private:
+  double m_lo, m_hi;
+  test::InterpolationReducer m_inner;
+};
+
+// stable_only (the default) makes a model the reducer reports unstable a failed evaluation: the
+// optimiser never settles on it. Without it the same evaluations count as ordinary ones.
+TEST(OptimizePoints, UnstableModelsAreFailedEvaluationsUnlessAllowed) {
+  const double mid = std::sqrt(kFMin * kFMax);
+  for (const bool stable_only : {true, false}) {
+    Fixture fx;
+    UnstableFlagReducer reducer(mid * 0.97, mid * 1.03);
+    const StrategyResult r = fx.run(
+        "optimize_points", reducer, 1e-4,
+        params({{"max_points", 8LL}, {"max_iterations", 20LL}, {"stable_only", stable_only}}));
+    double failed = 0.0;
+    for (const IterationRecord& rec : r.history) {
+      if (rec.phase == "optimum") failed += rec.diagnostics.at("failed_evaluations");
+    }
+    ASSERT_GT(reducer.flagged_count, 0) << "DIRECT-L's first sample is the box centre";
+    if (stable_only) {
+      EXPECT_GT(failed, 0.0);
+      ASSERT_TRUE(r.best.has_value());
+      for (const ExpansionPoint& p : r.best->points) {
+        const double f = p.s.imag() / kTwoPi;
+        EXPECT_FALSE(f >= mid * 0.97 && f <= mid * 1.03) << f;
+      }
+    } else {
+      EXPECT_EQ(failed, 0.0);
+    }
+  }
+}
+
 TEST(MinimaxPoints, ReducerFailureAtSomePointsDoesNotAbort) {
   Fixture fx;
   // The lower start point (log cell centre) sits just below a refused interval: the first
@@ -508,6 +560,7 @@ TEST(PointStrategies, BadOptionsAreNamed) {
       {"optimize_points", params({{"initial_points", 0LL}}), "initial_points"},
       {"optimize_points", params({{"moments", 0LL}}), "moments"},
       {"optimize_points", params({{"initial_spacing", std::string("lin")}}), "initial_spacing"},
+      {"minimax_points", params({{"peaks_per_assessment", -1LL}}), "peaks_per_assessment"},
       {"optimize_points", params({{"initial_points", 4LL}, {"max_points", 3LL}}), "max_points"},
       {"optimize_points", params({{"algorithm", std::string("cobyla")}}), "algorithm"},
       {"optimize_points", params({{"global_fraction", 1.0}}), "global_fraction"},

@@ -62,6 +62,8 @@ struct ReducerResult {
   Matrix W;             ///< N x n left basis (W = V for one-sided/Galerkin methods)
   std::vector<ExpansionPoint> points;  ///< points actually used (for the history), may be empty
   /// Free-form numeric diagnostics for the history (e.g. "orthogonality_loss", "eigen_residual").
+  /// By convention "unstable_poles" is the number of reduced poles with Re >= 0 (NaN: not
+  /// computed); strategies use it, when present, instead of computing the poles again.
   std::map<std::string, double> diagnostics;
   std::string note;     ///< one line for the history, e.g. "12 modes + 1 static correction"
 };
