@@ -13,6 +13,8 @@
 #include <cstdio>
 #include <exception>
 #include <limits>
+#include <list>
+#include <mutex>
 #include <string>
 #include <type_traits>
 
@@ -239,24 +241,93 @@ std::vector<ComplexMatrix> frequency_response(const ReducedModel& model,
   return H;
 }
 
+namespace {
+
+// The pencil (A, E) of a reduced model's poles: companion form for second order.
+std::pair<Matrix, Matrix> pole_pencil(const ReducedModel& model) {
+  if (const auto* so = std::get_if<ReducedSecondOrderModel>(&model)) {
+    // Companion linearisation: [[0, I], [-K, -D]] z = lambda diag(I, M) z.
+    const Index n = so->size();
+    Matrix A = Matrix::Zero(2 * n, 2 * n), E = Matrix::Identity(2 * n, 2 * n);
+    A.topRightCorner(n, n).setIdentity();
+    A.bottomLeftCorner(n, n) = -so->K;
+    A.bottomRightCorner(n, n) = -so->D;
+    E.bottomRightCorner(n, n) = so->M;
+    return {std::move(A), std::move(E)};
+  }
+  const auto& ds = std::get<ReducedDescriptorModel>(model);
+  return {ds.A, ds.E};
+}
+
+// The matrices the poles depend on: (M, D, K) or (A, E).
+std::vector<const Matrix*> pole_key(const ReducedModel& model) {
+  if (const auto* so = std::get_if<ReducedSecondOrderModel>(&model)) return {&so->M, &so->D, &so->K};
+  const auto& ds = std::get<ReducedDescriptorModel>(model);
+  return {&ds.A, &ds.E};
+}
+
+// One model's poles are asked for several times in a row (the reducer's stability diagnostic, the
+// band estimator's pole samples, the strategy's stability check): the last few models' matrices
+// are kept with their poles and compared exactly, O(n^2) against the O(n^3) eigenvalue problem.
+// NaN entries compare unequal, so such a model is never matched.
+class PoleMemo {
+ public:
+  std::optional<ComplexVector> find(const std::vector<const Matrix*>& key) {
+    std::lock_guard<std::mutex> lock(m_mutex);
+    for (auto it = m_entries.begin(); it != m_entries.end(); ++it) {
+      if (same(it->key, key)) {
+        m_entries.splice(m_entries.begin(), m_entries, it);  // most recent first
+        return m_entries.front().poles;
+      }
+    }
+    return std::nullopt;
+  }
+  void store(const std::vector<const Matrix*>& key, ComplexVector poles) {
+    Index entries = 0;
+    for (const Matrix* m : key) entries += m->size();
+    if (entries > kMaxEntries) return;  // memory: a few models of order <= ~1000
+    Entry e;
+    for (const Matrix* m : key) e.key.push_back(*m);
+    e.poles = std::move(poles);
+    std::lock_guard<std::mutex> lock(m_mutex);
+    m_entries.push_front(std::move(e));
+    if (m_entries.size() > kCapacity) m_entries.pop_back();
+  }
+
+ private:
+  static constexpr std::size_t kCapacity = 4;
+  static constexpr Index kMaxEntries = 3 * 1000 * 1000;
+  struct Entry {
+    std::vector<Matrix> key;
+    ComplexVector poles;
+  };
+  static bool same(const std::vector<Matrix>& a, const std::vector<const Matrix*>& b) {
+    if (a.size() != b.size()) return false;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      if (a[i].rows() != b[i]->rows() || a[i].cols() != b[i]->cols() || a[i] != *b[i]) {
+        return false;
+      }
+    }
+    return true;
+  }
+  std::mutex m_mutex;
+  std::list<Entry> m_entries;
+};
+
+PoleMemo& pole_memo() {
+  static PoleMemo memo;
+  return memo;
+}
+
+}  // namespace
+
 ComplexVector poles(const ReducedModel& model) {
-  return std::visit(
-      [](const auto& sys) -> ComplexVector {
-        using Sys = std::decay_t<decltype(sys)>;
-        if constexpr (std::is_same_v<Sys, ReducedSecondOrderModel>) {
-          // Companion linearisation: [[0, I], [-K, -D]] z = lambda diag(I, M) z.
-          const Index n = sys.size();
-          Matrix A = Matrix::Zero(2 * n, 2 * n), E = Matrix::Identity(2 * n, 2 * n);
-          A.topRightCorner(n, n).setIdentity();
-          A.bottomLeftCorner(n, n) = -sys.K;
-          A.bottomRightCorner(n, n) = -sys.D;
-          E.bottomRightCorner(n, n) = sys.M;
-          return pencil_eigenvalues(A, E);
-        } else {
-          return pencil_eigenvalues(sys.A, sys.E);
-        }
-      },
-      model);
+  const std::vector<const Matrix*> key = pole_key(model);
+  if (auto hit = pole_memo().find(key)) return *hit;
+  const auto [A, E] = pole_pencil(model);
+  ComplexVector p = pencil_eigenvalues(A, E);
+  pole_memo().store(key, p);
+  return p;
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -389,6 +389,49 @@ TEST(Poles, SingularMassAndDescriptorDropInfiniteEigenvalues) {
   EXPECT_EQ(poles(ReducedModel(r)).size(), 3);
 }
 
+// poles() remembers the last few models (compared exactly): a repeated model gets the same
+// poles, and a model differing in one entry of M, D or K, or in size, gets its own.
+TEST(Poles, RepeatedModelsShareTheirPolesChangedOnesDoNot) {
+  const auto sys = two_dof();
+  const auto red = dense_copy(Model(sys));
+  const ComplexVector p = poles(red);
+  const ComplexVector again = poles(red);
+  ASSERT_EQ(again.size(), p.size());
+  EXPECT_EQ((again - p).cwiseAbs().maxCoeff(), 0.0);
+  for (const int which : {0, 1, 2}) {
+    ReducedSecondOrderModel r = std::get<ReducedSecondOrderModel>(red);
+    Matrix& X = which == 0 ? r.M : which == 1 ? r.D : r.K;
+    X(1, 1) *= 1.5;
+    const ComplexVector q = poles(ReducedModel(r));
+    ASSERT_EQ(q.size(), 4);
+    // Every new pole makes the new P(lambda) singular, and they differ from the old ones.
+    double moved = 0.0;
+    for (Index i = 0; i < q.size(); ++i) {
+      const Complex s = q(i);
+      const ComplexMatrix P = (s * s) * r.M.cast<Complex>() + s * r.D.cast<Complex>() +
+                              r.K.cast<Complex>();
+      EXPECT_LT(std::abs(P.determinant()) / P.norm() / P.norm(), 1e-12) << which << " " << s;
+      double nearest = std::numeric_limits<double>::infinity();
+      for (Index j = 0; j < p.size(); ++j) nearest = std::min(nearest, std::abs(s - p(j)));
+      moved = std::max(moved, nearest);
+    }
+    EXPECT_GT(moved, 1e-6) << "matrix " << which << ": the old poles came back";
+  }
+  // A NaN model is never matched to a cached one (NaN != NaN): it reaches the eigensolver.
+  ReducedSecondOrderModel bad = std::get<ReducedSecondOrderModel>(red);
+  bad.K(0, 0) = std::numeric_limits<double>::quiet_NaN();
+  bool threw = false;
+  ComplexVector pb;
+  try {
+    pb = poles(ReducedModel(bad));
+  } catch (const NumericalError&) {
+    threw = true;
+  }
+  if (!threw) {
+    EXPECT_FALSE(pb.allFinite());
+  }
+}
+
 TEST(ResponseCache, ComputesOnlyMissingFrequencies) {
   const auto sys = two_dof();
   Model model = sys;
