@@ -35,7 +35,9 @@ namespace {
 
 std::vector<std::string> config_files() {
   std::vector<std::string> out;
-  for (const auto& e : fs::directory_iterator(fs::path(ECMOR_TEST_SOURCE_DIR) / ECMOR_CONFIG_DIR)) {
+  const fs::path dir = fs::path(ECMOR_TEST_SOURCE_DIR) / ECMOR_CONFIG_DIR;
+  if (!fs::is_directory(dir)) return out;  // configs/slow/ may be empty (git keeps no empty dir)
+  for (const auto& e : fs::directory_iterator(dir)) {
     if (e.path().extension() == ".yaml") out.push_back(e.path().filename().string());
   }
   std::sort(out.begin(), out.end());
@@ -154,6 +156,7 @@ TEST_P(ConfigTarget, MeetsItsToleranceAndTheIndependentRecheckAgrees) {
   fs::remove(out.string() + ".log");
 }
 
+GTEST_ALLOW_UNINSTANTIATED_PARAMETERIZED_TEST(ConfigTarget);
 INSTANTIATE_TEST_SUITE_P(Configs, ConfigTarget, ::testing::ValuesIn(config_files()),
                          [](const ::testing::TestParamInfo<std::string>& param_info) {
                            std::string name = param_info.param.substr(0, param_info.param.size() - 5);
