@@ -656,6 +656,9 @@ TEST_F(Cli, BenchRunsTheToleranceLadderAndTabulatesEveryRun) {
     EXPECT_GE(row["reducer_calls"].get<Index>(), 1);
     // The reduction's time is part of the run's, never more.
     EXPECT_LE(row["reducer_seconds"].get<double>(), row["seconds"].get<double>());
+    // Every run factorises (the full model's band response at least): its sparse time is > 0.
+    EXPECT_GT(row["factorizations"].get<Index>(), 0);
+    EXPECT_GT(row["sparse_seconds"].get<double>(), 0.0);
   }
   // A tighter tolerance never needs a smaller model (same nested modal bases).
   EXPECT_LE(rows[0]["order"].get<Index>(), rows[1]["order"].get<Index>());
