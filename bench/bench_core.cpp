@@ -11,7 +11,7 @@
 // at 1e6 still leaves the smaller sizes' rows.
 //
 // Usage: ecmor_bench_core [--quick] [--sizes 1e4,1e5,...] [--csv file] [--plugin-dir dir]
-//                         [--modal-max-n 1e5]
+//                         [--modal-max-n 1e5] [--reduced-only]
 // Never run by ctest: timings are not assertions.
 
 #include <fmt/format.h>
@@ -29,12 +29,14 @@
 #include <limits>
 #include <memory>
 #include <optional>
+#include <random>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
+#include "ecmor/reduced_response.hpp"
 #include "ecmor/registry.hpp"
 #include "ecmor/shifted_solver.hpp"
 #include "triple_chain.hpp"
@@ -68,6 +70,8 @@ struct Options {
   // Modal reduction is skipped above this size: at N = 1e5 one modal reduction already costs
   // ~20 s of CPU in dense products (not in factorisations), so N = 1e6 would take most of an hour.
   Index modal_max_n = 100000;
+  // Only the reduced-response rows (no triple chain sizes): --reduced-only.
+  bool reduced_only = false;
 };
 
 double seconds_since(Clock::time_point t0) {
@@ -418,6 +422,75 @@ void bench_krylov(const ecmor::Model& model, Index N, const Options& opt, Report
   }
 }
 
+/// A random lightly damped reduced second-order model of order n with m inputs and p outputs:
+/// SPD M and K (eigenvalues spread over decades, as projected FE matrices), D = 1e-3 (M + K).
+ecmor::ReducedSecondOrderModel random_reduced_model(Index n, Index m, Index p, unsigned seed) {
+  std::mt19937 gen(seed);
+  std::normal_distribution<double> dist;
+  auto random = [&](Index rows, Index cols) {
+    ecmor::Matrix X(rows, cols);
+    for (Index j = 0; j < cols; ++j)
+      for (Index i = 0; i < rows; ++i) X(i, j) = dist(gen);
+    return X;
+  };
+  ecmor::ReducedSecondOrderModel r;
+  const ecmor::Matrix Qm = random(n, n).householderQr().householderQ();
+  const ecmor::Matrix Qk = random(n, n).householderQr().householderQ();
+  ecmor::Vector dm(n), dk(n);
+  for (Index i = 0; i < n; ++i) {
+    const double t = n > 1 ? static_cast<double>(i) / static_cast<double>(n - 1) : 0.0;
+    dm(i) = std::pow(10.0, -t);       // M: eigenvalues 1 .. 0.1
+    dk(i) = std::pow(10.0, 4.0 * t);  // K: eigenvalues 1 .. 1e4
+  }
+  r.M = Qm * dm.asDiagonal() * Qm.transpose();
+  r.K = Qk * dk.asDiagonal() * Qk.transpose();
+  r.D = 1e-3 * (r.M + r.K);
+  r.B = random(n, m);
+  r.C = random(p, n);
+  return r;
+}
+
+/// The reduced model's frequency response, the hot spot of every strategy's error assessment:
+/// per-frequency time of ReducedResponse (and its one-off setup) at first-order dimensions 40,
+/// 160 and 328 (the largest a greedy run on triplechain_mess_n1501 reaches), SISO and 3 x 3, one
+/// thread, next to the dense LU of P_r(s) (transfer_function) it replaces.
+void bench_reduced_response(Reporter& out) {
+  for (Index n : {20, 80, 164}) {
+    for (Index io : {1, 3}) {
+      const ecmor::ReducedModel model = random_reduced_model(n, io, io, 7u + static_cast<unsigned>(n));
+      // Frequencies across the poles (omega 1 .. 100 rad/s), as an assessment grid is.
+      const Index count = std::max<Index>(1000, 5000000 / (n * n));
+      const std::vector<double> f_hz = ecmor::log_grid(0.5 / ecmor::kTwoPi, 200.0 / ecmor::kTwoPi, count);
+      Stopwatch watch;
+      const ecmor::ReducedResponse response(model);
+      const double setup = watch.wall();
+      double guard = 0.0;
+      watch = Stopwatch{};
+      for (double f : f_hz) guard += std::abs(response(ecmor::s_from_hz(f))(0, 0));
+      const double per = watch.wall() / static_cast<double>(count);
+      const double per_cpu = watch.cpu() / static_cast<double>(count);
+      // Dense LU reference on a tenth of the frequencies (it is the slow path).
+      const Index dense_count = std::max<Index>(20, count / 10);
+      watch = Stopwatch{};
+      for (Index i = 0; i < dense_count; ++i) {
+        guard += std::abs(ecmor::transfer_function(
+            model, ecmor::s_from_hz(f_hz[static_cast<std::size_t>(i)]))(0, 0));
+      }
+      const double dense_per = watch.wall() / static_cast<double>(dense_count);
+      out.add({.n = 2 * n,
+               .stage = fmt::format("reduced response {}x{}", io, io),
+               .detail = fmt::format("{:.2f} us/freq; setup {:.2f} ms; dense LU {:.1f} us{}",
+                                     1e6 * per, 1e3 * setup, 1e6 * dense_per,
+                                     response.hessenberg() ? "" : "; FALLBACK"),
+               .seconds = per,
+               .cpu_seconds = per_cpu,
+               .rate = 1.0 / per,
+               .rate_unit = "freq/s"});
+      if (!std::isfinite(guard)) fmt::print("  (warning: non-finite reduced response)\n");
+    }
+  }
+}
+
 void run_size(Index N, const Options& opt) {
   Reporter out(opt.csv);
   const Index n1 = (N - 1) / 3;
@@ -479,16 +552,18 @@ Options parse_arguments(int argc, char** argv) {
         start = end + 1;
       }
       sizes_given = true;
+    } else if (arg == "--reduced-only") {
+      opt.reduced_only = true;
     } else if (arg == "--help" || arg == "-h") {
       fmt::print(
           "usage: {} [--quick] [--sizes 1e4,1e5,1e6] [--csv file] [--plugin-dir dir] "
-          "[--modal-max-n 1e5]\n",
+          "[--modal-max-n 1e5] [--reduced-only]\n",
           argv[0]);
       std::exit(0);
     } else {
       throw ecmor::ConfigError(
           fmt::format("bench: unknown argument '{}' (valid: --quick, --sizes, "
-                      "--csv, --plugin-dir, --modal-max-n, --help)",
+                      "--csv, --plugin-dir, --modal-max-n, --reduced-only, --help)",
                       arg));
     }
   }
@@ -530,6 +605,16 @@ int main(int argc, char** argv) {
     csv << "N,stage,detail,seconds,cpu_seconds,rate,rate_unit,factorizations,solves,peak_rss_mb\n";
   }
   print_header();
+
+  // Reduced models are small and dense: one process for all of them, before the large sizes.
+  try {
+    Reporter reduced_out(opt.csv);
+    bench_reduced_response(reduced_out);
+  } catch (const std::exception& e) {
+    fmt::print("  reduced response: failed: {}\n", e.what());
+    if (opt.reduced_only) return 1;
+  }
+  if (opt.reduced_only) return 0;
 
   int failures = 0;
   for (Index N : opt.sizes) {

@@ -1,7 +1,10 @@
 #include "ecmor/band_error.hpp"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <numeric>
 #include <sstream>
 
@@ -89,7 +92,8 @@ struct Sample {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// Samples the error at the given frequencies (full response from the cache, in parallel).
+// Samples the error at the given frequencies (full response from the cache, in parallel; the
+// reduced model's and the error norms in parallel too, with the cache's thread count).
 std::vector<Sample> sample(ResponseCache& full, const ReducedResponse& reduced,
                            const std::vector<double>& f_hz) {
   std::vector<Sample> out(f_hz.size());
@@ -110,14 +114,14 @@ std::vector<Sample> sample(ResponseCache& full, const ReducedResponse& reduced,
       }
     }
   }
-  for (std::size_t k = 0; k < f_hz.size(); ++k) {
+  auto evaluate = [&](std::size_t k) {
     Sample& s = out[k];
     s.f_hz = f_hz[k];
     if (full_singular[k]) {
       // |H| is unbounded here: the relative error is undefined (reported as such).
       s.ref2 = s.refF = kInf;
       s.abs2 = s.absF = kNaN;
-      continue;
+      return;
     }
     s.ref2 = matrix_norm(H[k], ErrorNorm::Spectral);
     s.refF = H[k].norm();
@@ -133,7 +137,33 @@ std::vector<Sample> sample(ResponseCache& full, const ReducedResponse& reduced,
       s.singular = true;
       s.abs2 = s.absF = kInf;
     }
+  };
+  // The reduced evaluations are independent across frequencies, like the full model's: the same
+  // threads share them (each sample is computed by one thread with the same code, so the result
+  // does not depend on the thread count, bitwise). As for the full model, a region for one or two
+  // frequencies costs more (thread wake-up) than it saves.
+  const auto count = static_cast<Index>(f_hz.size());
+  const int threads = static_cast<int>(std::min<Index>(
+      full.threads() > 0 ? full.threads() : omp_get_max_threads(), std::max<Index>(count / 2, 1)));
+  if (threads <= 1) {
+    for (std::size_t k = 0; k < f_hz.size(); ++k) evaluate(k);
+    return out;
   }
+  // Anything but the NumericalError handled per sample (say, bad_alloc) must not leave the
+  // parallel region: the first one is kept and rethrown after it.
+  std::exception_ptr error;
+#pragma omp parallel for schedule(dynamic, 4) num_threads(threads)
+  for (Index k = 0; k < count; ++k) {
+    try {
+      evaluate(static_cast<std::size_t>(k));
+    } catch (...) {
+#pragma omp critical(ecmor_band_error_sample)
+      {
+        if (!error) error = std::current_exception();
+      }
+    }
+  }
+  if (error) std::rethrow_exception(error);
   return out;
 }
 

@@ -7,7 +7,6 @@
 #include "ecmor/frequency_response.hpp"
 #include "ecmor/model_io.hpp"
 #include "ecmor/projection.hpp"
-#include "ecmor/reduced_response.hpp"
 
 namespace ecmor {
 namespace {
@@ -111,59 +110,6 @@ TEST(Orthonormalize, RejectsNonFiniteAndMismatchedInput) {
   Matrix X = Matrix::Ones(5, 1);
   X(2, 0) = std::numeric_limits<double>::infinity();
   EXPECT_THROW(orthonormalize_append(Q, X), NumericalError);
-}
-
-}  // namespace
-}  // namespace ecmor
-
-namespace ecmor {
-namespace {
-
-// The O(n^2) Hessenberg evaluation agrees with a dense LU of P_r(s) per frequency.
-TEST(ReducedResponse, HessenbergPathAgreesWithDenseLU) {
-  for (const char* name : {"build_so", "iss_so", "build", "cdplayer", "triplechain_saak09_n451"}) {
-    const Model full = load_model(std::string("../shared/models/") + name);
-    const Index N = size_of(full);
-    Matrix Q;
-    orthonormalize_append(Q, random_matrix(N, std::min<Index>(N, 30), 11));
-    const ReducedModel r = project(full, Q, Q);
-    const ReducedResponse fast(r);
-    EXPECT_TRUE(fast.hessenberg()) << name;
-    for (double f : {1e-4, 0.03, 1.0, 7.5, 300.0}) {
-      const Complex s = s_from_hz(f);
-      const ComplexMatrix ref = transfer_function(r, s);
-      EXPECT_LT(relative_difference(fast(s), ref), 1e-9) << name << " f=" << f;
-    }
-  }
-}
-
-// A singular reduced mass matrix (here: a basis vector in the kernel of a singular M) takes the
-// dense fallback and still evaluates correctly.
-TEST(ReducedResponse, SingularMassFallsBackToDenseLU) {
-  ReducedSecondOrderModel r;
-  r.M = Matrix::Zero(2, 2);
-  r.M(0, 0) = 1.0;
-  r.D = Matrix::Identity(2, 2);
-  r.K = 4.0 * Matrix::Identity(2, 2);
-  r.B = Matrix::Ones(2, 1);
-  r.C = Matrix::Ones(1, 2);
-  const ReducedResponse fast(r);
-  EXPECT_FALSE(fast.hessenberg());
-  const Complex s(0.0, 2.0);
-  const Complex expected = 1.0 / (s * s + s + 4.0) + 1.0 / (s + 4.0);
-  EXPECT_LT(std::abs(fast(s)(0, 0) - expected), 1e-14);
-}
-
-TEST(ReducedResponse, EvaluationAtAPoleIsANumericalError) {
-  ReducedDescriptorModel r;
-  r.E = Matrix::Identity(2, 2);
-  r.A = Matrix::Zero(2, 2);
-  r.A(0, 1) = 3.0;
-  r.A(1, 0) = -3.0;  // poles +-3i
-  r.B = Matrix::Ones(2, 1);
-  r.C = Matrix::Ones(1, 2);
-  const ReducedResponse fast(r);
-  EXPECT_THROW(fast(Complex(0.0, 3.0)), NumericalError);
 }
 
 }  // namespace

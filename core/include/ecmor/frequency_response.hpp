@@ -69,6 +69,9 @@ class ECMOR_API ResponseCache {
   double seconds() const;
   const Model& model() const { return m_model; }
   ShiftedSolver& solver() { return m_solver; }
+  /// Threads of the parallel evaluations as given to the constructor (<= 0: OpenMP's default), for
+  /// callers that parallelise their own per-frequency work over the same frequencies alike.
+  int threads() const { return m_threads; }
 
  private:
   const Model& m_model;

@@ -10,6 +10,9 @@
 /// (A. J. Laub, "Efficient multivariable frequency response computations", IEEE TAC 26, 1981).
 /// When Mr (or Er) is singular or ill-conditioned (reciprocal condition < 1e-8), the evaluator
 /// falls back to a dense LU of P_r(s) per frequency.
+///
+/// Thread safety: operator() is const and may be called concurrently from several threads (each
+/// thread keeps its own scratch space, reused across calls and evaluators).
 
 #include "ecmor/export.hpp"
 #include "ecmor/model.hpp"
@@ -20,7 +23,11 @@ class ECMOR_API ReducedResponse {
  public:
   /// Precomputes the Hessenberg form (O(n^3) once). The model is copied where needed.
   explicit ReducedResponse(const ReducedModel& model);
-  /// Hr(s). \throws NumericalError when s is (numerically) a pole of the reduced model.
+  /// Hr(s), p x m. O(n^2 (1 + min(m, p)) / 2) complex multiply-adds and O(n min(m, p))
+  /// memory on the Hessenberg path.
+  /// \throws NumericalError when s is (numerically) a pole of the reduced model: a pivot of the
+  ///         elimination of s I - H is below n eps (max |H_ij| + |s|) (Hessenberg path), or the
+  ///         dense LU's reciprocal condition is below eps (fallback path).
   ComplexMatrix operator()(Complex s) const;
   /// True when the O(n^2) Hessenberg path is used.
   bool hessenberg() const { return m_hessenberg; }
@@ -28,9 +35,10 @@ class ECMOR_API ReducedResponse {
  private:
   ReducedModel m_model;  // for the fallback path
   bool m_hessenberg = false;
-  Matrix m_H;   // upper Hessenberg Q' F Q
-  Matrix m_G;   // Q' G
-  Matrix m_L;   // L Q
+  bool m_transposed = false;  // H, G, L describe Hr' (fewer outputs than inputs): transpose back
+  Matrix m_minus_H;  // -(Q' F Q) (transposed: -J (Q' F Q)' J), upper Hessenberg
+  Matrix m_G;        // Q' G (transposed: J Q' L')
+  Matrix m_L;        // L Q (transposed: G' Q J)
   double m_scale = 0.0;  // max |H_ij|, for the singularity test
 };
 
