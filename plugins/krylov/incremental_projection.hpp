@@ -15,8 +15,8 @@
 // products T V_old, so nothing N x n is stored besides V and W themselves (the extra memory is the
 // n x n reduced blocks); for a symmetric T (exactly, checked once) T' W_new = T W_new, and
 // one-sided (W = V) the lower-left block is the transpose of the upper-right one: only the upper
-// triangle is computed and mirrored, so Mr, Dr, Kr are exactly symmetric. The Gram matrices V'V (and W'W, W'V two-sided) are kept the same way
-// (T = I) for the orthogonality diagnostics.
+// triangle is computed and mirrored, so Mr, Dr, Kr are exactly symmetric. The Gram matrices V'V
+// (and W'W, W'V two-sided) are kept the same way (T = I) for the orthogonality diagnostics.
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -191,9 +191,9 @@ class IncrementalProjection {
   std::vector<bool> m_symmetric;           // T' == T exactly
   const Matrix* m_B = nullptr;
   const Matrix* m_C = nullptr;
-  const Matrix* m_Cv = nullptr;  // nullptr: no velocity output
-  Index m_p = 0;                 // columns projected
-  std::vector<Matrix> m_reduced; // p x p each
+  const Matrix* m_Cv = nullptr;   // nullptr: no velocity output
+  Index m_p = 0;                  // columns projected
+  std::vector<Matrix> m_reduced;  // p x p each
   Matrix m_Br, m_Cr, m_Cvr;
   Matrix m_Gvv, m_Gww, m_Gwv;  // V'V, W'W, W'V (the last two two-sided only)
 };

@@ -479,7 +479,7 @@ class KrylovReducer final : public Reducer {
     m_reused_columns = b.valid ? v_keep : 0;
     // The kept columns are copied bit for bit below, so their projection stays valid (one-sided, W
     // has no columns and w_keep = 0).
-    m_points_projection->keep(!b.valid            ? 0
+    m_points_projection->keep(!b.valid              ? 0
                               : m_options.two_sided ? std::min(v_keep, w_keep)
                                                     : v_keep);
     Matrix V = b.valid ? Matrix(b.V.leftCols(v_keep)) : Matrix(m_n, 0);

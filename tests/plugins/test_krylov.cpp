@@ -626,7 +626,7 @@ TEST(Krylov, GrowOrderPathIsNestedExactAndReusesFactorizations) {
     expect_moments(model, r40, pt.s, pt.moments, kMomentTol, "grow");
 }
 
-// ---- incremental projection ----------------------------------------------------------------------
+// ---- incremental projection --------------------------------------------------------------------
 
 // The reducer keeps the projected blocks of the leading columns and computes only new rows and
 // columns; the result must be ecmor::project(full, V, W) from scratch. Both evaluate the same
@@ -673,13 +673,15 @@ void expect_matches_project(const Model& full, const ReducerResult& r, const std
 TEST(Krylov, IncrementalProjectionEqualsProjectFromScratch) {
   struct Case {
     const char* name;
-    double w_min, w_max;               // band, rad/s
+    double w_min, w_max;              // band, rad/s
     std::vector<ExpansionPoint> pts;  // p1, p2, p3 (moments set below)
   };
   // SISO with symmetric M, D, K (triple chain); SISO with slightly unsymmetric K, D and a velocity
   // output (build_so); MIMO 3 x 3 with velocity outputs (iss_so); MIMO descriptor (cdplayer).
   const std::vector<Case> cases = {
-      {"triplechain_saak09_n451", 1e-4, 1e2,
+      {"triplechain_saak09_n451",
+       1e-4,
+       1e2,
        {point_at_hz(0.05), point_at_hz(0.3), {Complex(0.0, 0.0), 1}}},
       {"build_so", 1e-1, 1e3, {point_at_hz(1.0), point_at_hz(3.0), point_at_hz(10.0)}},
       {"iss_so", 1e-2, 1e3, {point_at_hz(0.2), point_at_hz(2.0), point_at_hz(20.0)}},
