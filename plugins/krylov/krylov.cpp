@@ -17,6 +17,7 @@
 #include "ecmor/frequency_response.hpp"
 #include "ecmor/plugin.hpp"
 #include "ecmor/projection.hpp"
+#include "incremental_projection.hpp"
 #include "toar.hpp"
 
 namespace ecmor::krylov {
@@ -47,6 +48,60 @@ std::string describe(Complex s) {
   if (s.imag() == 0.0) return fmt::format("s0 = {:g}", s.real());
   if (s.real() == 0.0) return fmt::format("f = {:g} Hz (s0 = {:g}i)", s.imag() / kTwoPi, s.imag());
   return fmt::format("s0 = {:g}{:+g}i", s.real(), s.imag());
+}
+
+/// True if the symmetric matrix S is positive definite, proven despite rounding: the Cholesky
+/// factorisation of S~ - c I succeeds in floating point, where S~ = D S D with D a diagonal of
+/// powers of two (exact scaling, equilibrating the diagonal to [1, 4)) and c = 2 (n + 1) u /
+/// (1 - (n + 1) u) tr(S~) (u the unit round-off): a successful floating-point Cholesky of S~ - c I
+/// with c >= gamma_(n+1) / (1 - gamma_(n+1)) tr(S~) proves S~, hence S, positive definite (S. M.
+/// Rump, Verification of positive definiteness, BIT 46 (2006) 433-452; the factor 2 is a safety
+/// margin for the rounding of the shift itself; the underflow term is irrelevant at these
+/// magnitudes). False means "not proven" (semidefinite, indefinite, or too ill-conditioned for the
+/// margin c ~ 1e-15 n^2 relative to the equilibrated diagonal), never "indefinite".
+bool proven_positive_definite(const Matrix& S) {
+  const Index n = S.rows();
+  Vector scale(n);
+  for (Index i = 0; i < n; ++i) {
+    const double d = S(i, i);
+    if (!(d > 0.0) || !std::isfinite(d)) return false;
+    scale(i) = std::ldexp(1.0, -(std::ilogb(d) / 2));
+  }
+  Matrix St = scale.asDiagonal() * S * scale.asDiagonal();  // exact: powers of two
+  const double u = std::numeric_limits<double>::epsilon() / 2.0;
+  const double nu = static_cast<double>(n + 1) * u;
+  const double gamma = nu / (1.0 - nu);
+  const double c = 2.0 * gamma / (1.0 - gamma) * St.trace();
+  St.diagonal().array() -= c;
+  const Eigen::LLT<Matrix> llt(St);
+  return llt.info() == Eigen::Success;
+}
+
+/// Stability certificate for a reduced second-order model: Mr, Dr, Kr exactly symmetric and each
+/// proven positive definite. Then every pole has Re < 0 (for an eigenvector x, the pole solves
+/// m s^2 + d s + k = 0 with m = x^H Mr x, d, k real and > 0, whose roots have Re < 0), which is
+/// what the eigenvalues would report, without their O(n^3) cost on a 2n x 2n pencil. One-sided
+/// projection of a model with symmetric M, D, K gives exactly symmetric reduced matrices
+/// (IncrementalProjection mirrors them).
+bool certified_stable(const ReducedModel& model) {
+  const auto* so = std::get_if<ReducedSecondOrderModel>(&model);
+  if (so == nullptr || so->size() == 0) return false;
+  for (const Matrix* X : {&so->M, &so->D, &so->K}) {
+    if (!(*X == X->transpose()) || !proven_positive_definite(*X)) return false;
+  }
+  return true;
+}
+
+/// The matrices that determine the poles of a reduced model are equal (bit for bit).
+bool same_pencil(const ReducedModel& a, const ReducedModel& b) {
+  if (a.index() != b.index() || size_of(a) != size_of(b)) return false;
+  if (const auto* x = std::get_if<ReducedSecondOrderModel>(&a)) {
+    const auto& y = std::get<ReducedSecondOrderModel>(b);
+    return x->M == y.M && x->D == y.D && x->K == y.K;
+  }
+  const auto& x = std::get<ReducedDescriptorModel>(a);
+  const auto& y = std::get<ReducedDescriptorModel>(b);
+  return x.E == y.E && x.A == y.A;
 }
 
 /// One appended moment block: which point (index in the list) and block, and the column counts of
@@ -80,6 +135,8 @@ class KrylovReducer final : public Reducer {
     m_band = context.band;
     m_n = size_of(*m_model);
     m_second_order = std::holds_alternative<SecondOrderModel>(*m_model);
+    m_grow_projection.emplace(m_model);
+    m_points_projection.emplace(m_model);
     if (m_solver->size() != m_n) {
       throw InputError(
           fmt::format("krylov: the solver has size {}, the model N = {}", m_solver->size(), m_n));
@@ -372,7 +429,9 @@ class KrylovReducer final : public Reducer {
     }
     std::vector<ExpansionPoint> points;
     for (const auto& c : m_configured) points.push_back({c.s, 0});
-    return finish(g.V, g.W, g.segments, points, order, g.exhausted, "grow");
+    // V and W only grow here (a failed append restores them to their earlier columns), so the
+    // projection of their leading columns stays valid for ever.
+    return finish(g.V, g.W, *m_grow_projection, g.segments, points, order, g.exhausted, "grow");
   }
 
   // ---- points path ----------------------------------------------------------------------------
@@ -418,6 +477,11 @@ class KrylovReducer final : public Reducer {
       have[s.point] = s.block + 1;
     }
     m_reused_columns = b.valid ? v_keep : 0;
+    // The kept columns are copied bit for bit below, so their projection stays valid (one-sided, W
+    // has no columns and w_keep = 0).
+    m_points_projection->keep(!b.valid              ? 0
+                              : m_options.two_sided ? std::min(v_keep, w_keep)
+                                                    : v_keep);
     Matrix V = b.valid ? Matrix(b.V.leftCols(v_keep)) : Matrix(m_n, 0);
     Matrix W = b.valid && m_options.two_sided ? Matrix(b.W.leftCols(w_keep))
                                               : Matrix(m_options.two_sided ? m_n : 0, 0);
@@ -436,12 +500,41 @@ class KrylovReducer final : public Reducer {
     b.valid = true;
     std::vector<ExpansionPoint> points = pts;
     for (auto& p : points) p.moments = 0;
-    return finish(V, W, segments, points, request.order, false, "points");
+    return finish(V, W, *m_points_projection, segments, points, request.order, false, "points");
   }
 
   // ---- result -----------------------------------------------------------------------------------
 
-  ReducerResult finish(const Matrix& V_all, const Matrix& W_all,
+  /// Number of poles of `model` with Re >= 0 (NaN counts: a pole we cannot place is not known to
+  /// be stable). Exact, and cheap where possible: 0 when certified_stable() proves it (one-sided
+  /// projections of symmetric models: Cholesky factorisations of n x n matrices instead of the
+  /// eigenvalues of a 2n x 2n pencil); otherwise the eigenvalues (ecmor::poles), computed once
+  /// per model: a model whose Mr, Dr, Kr (Er, Ar) equal one of the last few counted reuses its
+  /// count (strategies ask again for lists they had, e.g. pruning back to an earlier set).
+  Index unstable_poles(const ReducedModel& model) {
+    m_last_certified = false;
+    if (certified_stable(model)) {
+      m_last_certified = true;
+      return 0;
+    }
+    for (auto it = m_pole_counts.begin(); it != m_pole_counts.end(); ++it) {
+      if (same_pencil(it->first, model)) {
+        m_pole_counts.splice(m_pole_counts.begin(), m_pole_counts, it);
+        return m_pole_counts.front().second;
+      }
+    }
+    const ComplexVector p = poles(model);
+    ++m_pole_computations;
+    Index unstable = 0;
+    for (Index i = 0; i < p.size(); ++i) {
+      if (!(p[i].real() < 0.0)) ++unstable;
+    }
+    m_pole_counts.emplace_front(model, unstable);
+    if (m_pole_counts.size() > kPoleCountCache) m_pole_counts.pop_back();
+    return unstable;
+  }
+
+  ReducerResult finish(const Matrix& V_all, const Matrix& W_all, IncrementalProjection& projection,
                        const std::vector<Segment>& segments, std::vector<ExpansionPoint> points,
                        Index order, bool exhausted, const std::string& path) {
     const bool two = m_options.two_sided;
@@ -476,7 +569,9 @@ class KrylovReducer final : public Reducer {
     ReducerResult result;
     result.V = V_all.leftCols(n);
     result.W = two ? Matrix(W_all.leftCols(n)) : result.V;
-    result.model = project(*m_model, result.V, result.W);
+    // = project(*m_model, result.V, result.W), computing only the columns not projected before.
+    projection.extend(V_all, W_all, n, two);
+    result.model = projection.model(n);
     // ExpansionPoint::moments counts moment blocks per side: k blocks match k moments at s0 (and
     // conj(s0)) one-sided, 2k two-sided (k blocks in V and k in W).
     Index total_moments = 0, used_points = 0;
@@ -490,10 +585,10 @@ class KrylovReducer final : public Reducer {
 
     // Diagnostics: bases, engines of the points in use, cache and work counters.
     auto& d = result.diagnostics;
-    d["orthogonality_loss"] = orthogonality_loss(result.V);
+    d["orthogonality_loss"] = projection.orthogonality_loss_v(n);
     if (two) {
-      d["orthogonality_loss_W"] = orthogonality_loss(result.W);
-      const Matrix G = result.W.transpose() * result.V;
+      d["orthogonality_loss_W"] = projection.orthogonality_loss_w(n);
+      const Matrix G = projection.wtv(n);
       if (G.size() > 0) {
         const Eigen::JacobiSVD<Matrix> svd(G);
         const Vector sv = svd.singularValues();
@@ -551,12 +646,7 @@ class KrylovReducer final : public Reducer {
     }
     // Stability: reported, never hidden or repaired.
     try {
-      const ComplexVector p = poles(result.model);
-      Index unstable = 0;
-      for (Index i = 0; i < p.size(); ++i) {
-        // NaN counts as unstable: a pole we cannot place is not known to be stable.
-        if (!(p[i].real() < 0.0)) ++unstable;
-      }
+      const Index unstable = unstable_poles(result.model);
       d["unstable_poles"] = static_cast<double>(unstable);
       if (unstable > 0) {
         note += fmt::format("; {} projection lost stability: {} pole{} with Re >= 0",
@@ -566,6 +656,8 @@ class KrylovReducer final : public Reducer {
       d["unstable_poles"] = std::numeric_limits<double>::quiet_NaN();
       note += std::string("; poles not computed: ") + e.what();
     }
+    d["stability_certified"] = m_last_certified ? 1.0 : 0.0;
+    d["pole_computations"] = static_cast<double>(m_pole_computations);
     result.note = note;
     return result;
   }
@@ -591,6 +683,13 @@ class KrylovReducer final : public Reducer {
   std::vector<Complex> m_touched;  // points accessed by the current request
   GrowState m_grow;
   PointsBuild m_points;
+  // Projections of the two paths' bases (set up in setup(): they need the model).
+  std::optional<IncrementalProjection> m_grow_projection, m_points_projection;
+  // Unstable-pole counts of the last models whose eigenvalues were computed (most recent first).
+  static constexpr std::size_t kPoleCountCache = 4;
+  std::list<std::pair<ReducedModel, Index>> m_pole_counts;
+  Index m_pole_computations = 0;  // eigenvalue computations by this reducer (cumulative)
+  bool m_last_certified = false;  // the last count came from certified_stable()
 };
 
 ReducerInfo krylov_info() {

@@ -156,16 +156,30 @@ class Toar final : public Engine {
     }
   }
 
+  // Both losses are kept between calls (the reducer reports them at every request, over every
+  // cached point): columns of Q and of the coefficients are only ever appended (the coefficient
+  // rows are padded with zeros, which changes no inner product), so the old entries of the Gram
+  // matrix never change and only the new columns of it are computed.
   double orthogonality_loss() const override {
-    if (m_Q.cols() == 0) return 0.0;
-    const Mat G = m_Q.adjoint() * m_Q;
-    return (G - Mat::Identity(G.rows(), G.cols())).cwiseAbs().maxCoeff();
+    const Index n = m_Q.cols(), p = m_q_loss_columns;
+    if (n > p) {
+      Mat G = m_Q.adjoint() * m_Q.rightCols(n - p);  // [Q_old^H Q_new; Q_new^H Q_new]
+      G.bottomRows(n - p) -= Mat::Identity(n - p, n - p);
+      m_q_loss = std::max(m_q_loss, G.cwiseAbs().maxCoeff());
+      m_q_loss_columns = n;
+    }
+    return m_q_loss;
   }
 
   double coefficient_orthogonality_loss() const override {
-    if (m_Ua.cols() == 0) return 0.0;
-    const Mat G = m_Ua.adjoint() * m_Ua + m_Ub.adjoint() * m_Ub;
-    return (G - Mat::Identity(G.rows(), G.cols())).cwiseAbs().maxCoeff();
+    const Index n = m_Ua.cols(), p = m_u_loss_columns;
+    if (n > p) {
+      Mat G = m_Ua.adjoint() * m_Ua.rightCols(n - p) + m_Ub.adjoint() * m_Ub.rightCols(n - p);
+      G.bottomRows(n - p) -= Mat::Identity(n - p, n - p);
+      m_u_loss = std::max(m_u_loss, G.cwiseAbs().maxCoeff());
+      m_u_loss_columns = n;
+    }
+    return m_u_loss;
   }
 
   const EngineStats& stats() const override { return m_stats; }
@@ -331,6 +345,9 @@ class Toar final : public Engine {
   Mat m_Ua, m_Ub;                   // eta x k coefficients of the accepted Arnoldi vectors
   std::deque<Candidate> m_queue;    // FIFO candidates (band Arnoldi)
   EngineStats m_stats;
+  // Orthogonality losses of the first *_columns columns (see orthogonality_loss()).
+  mutable double m_q_loss = 0.0, m_u_loss = 0.0;
+  mutable Index m_q_loss_columns = 0, m_u_loss_columns = 0;
 };
 
 }  // namespace ecmor::krylov
