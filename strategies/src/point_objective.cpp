@@ -303,13 +303,7 @@ void PointObjective::begin_round() {
 StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& o,
                                 const std::string& strategy, const Optimiser& optimise) {
   strategy_support::StrategyRun run(ctx);
-  Index kept_start = 0;  // optimisations whose optimum was worse than their start
   auto finish = [&](Termination t, std::string message) {
-    if (kept_start > 0) {
-      message += "; " + std::to_string(kept_start) + " optim" + (kept_start == 1 ? "um" : "a") +
-                 " assessed worse than " + (kept_start == 1 ? "its" : "their") +
-                 " starting points, which were kept";
-    }
     return run.finish(t, std::move(message));
   };
   return strategy_support::guarded(run, [&]() -> StrategyResult {
@@ -372,14 +366,6 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
       if (run.stopped()) return finish(Termination::Interrupted, "stopped by request at the start");
     }
 
-    // The assessed model at the current points before each optimisation (the start, or the grown
-    // set): an optimum steered by samples that miss a peak can be worse on the assessed error than
-    // where it started; then the run continues from the start (as greedy_points would).
-    std::optional<Candidate> before;
-    if (start) before = c;
-    auto effective = [](const Candidate& k) {
-      return k.stable ? k.error.sup_relative : std::numeric_limits<double>::infinity();
-    };
     Index reoptimized = 0;  // re-optimisations at the current p
     while (true) {
       if (assessments >= o.max_iterations) {
@@ -390,7 +376,6 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
       }
       objective.begin_round();
       const Optimisation opt = optimise(objective, x);
-      const std::vector<double> x_before = x;
       if (run.stopped()) {
         return finish(Termination::Interrupted,
                       "stopped by request while optimising " + std::to_string(x.size()) +
@@ -427,11 +412,6 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
         return finish(Termination::Interrupted,
                       "stopped by request after optimising " + std::to_string(x.size()) +
                           " points");
-      }
-      if (before && effective(c) > effective(*before)) {
-        x = x_before;
-        c = *before;
-        ++kept_start;
       }
       trace.push_back(run.best_error());
       const Index w = o.stagnation_window;
@@ -472,8 +452,7 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
       x.push_back(std::log10(std::clamp(c.error.f_peak_hz, band.f_min_hz, band.f_max_hz)));
       std::sort(x.begin(), x.end());
       reoptimized = 0;
-      // Assess the grown set: the optimum must beat it, and it may already pass.
-      before.reset();
+      // Assess the grown set: it may already pass, saving an optimisation at the same order.
       std::optional<ReducerResult> grown;
       try {
         grown = objective.reduce(x);
@@ -496,7 +475,6 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
                         "stopped by request after growing to " + std::to_string(x.size()) +
                             " points");
         }
-        before = c;
       }
     }
   });

@@ -166,18 +166,11 @@ void converges(const std::string& strategy) {
     EXPECT_LE(rec.diagnostics.at("objective_optimum"), rec.diagnostics.at("objective_start"));
   }
   EXPECT_TRUE(optimum);
-  // Each growth is assessed ("grow") before it is optimised: one point more than the model it grew
-  // from (the optimum, or its start when the optimum assessed worse), all of whose points it keeps.
-  auto effective = [](const IterationRecord& rec) {
-    return rec.stable ? rec.band_error : std::numeric_limits<double>::infinity();
-  };
-  const IterationRecord* before = nullptr;  // the last "start" or "grow" row
-  const IterationRecord* last = nullptr;    // the model the next growth starts from
+  // Each growth is assessed ("grow") before it is optimised: one point more than the optimum it
+  // grew from, all of whose points it keeps.
+  const IterationRecord* last = nullptr;  // the last "start" or "optimum" row
   for (const IterationRecord& rec : r.history) {
-    if (rec.phase == "start") before = last = &rec;
-    if (rec.phase == "optimum") {
-      last = before != nullptr && effective(rec) > effective(*before) ? before : &rec;
-    }
+    if (rec.phase == "start" || rec.phase == "optimum") last = &rec;
     if (rec.phase != "grow") continue;
     ASSERT_NE(last, nullptr);
     EXPECT_EQ(rec.points.size(), last->points.size() + 1) << "iteration " << rec.iteration;
@@ -186,7 +179,6 @@ void converges(const std::string& strategy) {
                               [&](const ExpansionPoint& q) { return q.s == p.s; }))
           << "iteration " << rec.iteration;
     }
-    before = last = &rec;
   }
   EXPECT_EQ(fx.seen.size(), r.history.size());
   std::cout << "[ " << strategy << " ] " << r.message << "; dense re-check " << dense
