@@ -92,18 +92,6 @@ bool certified_stable(const ReducedModel& model) {
   return true;
 }
 
-/// The matrices that determine the poles of a reduced model are equal (bit for bit).
-bool same_pencil(const ReducedModel& a, const ReducedModel& b) {
-  if (a.index() != b.index() || size_of(a) != size_of(b)) return false;
-  if (const auto* x = std::get_if<ReducedSecondOrderModel>(&a)) {
-    const auto& y = std::get<ReducedSecondOrderModel>(b);
-    return x->M == y.M && x->D == y.D && x->K == y.K;
-  }
-  const auto& x = std::get<ReducedDescriptorModel>(a);
-  const auto& y = std::get<ReducedDescriptorModel>(b);
-  return x.E == y.E && x.A == y.A;
-}
-
 /// One appended moment block: which point (index in the list) and block, and the column counts of
 /// V and W after it (W stays 0 for one-sided projection).
 struct Segment {
@@ -508,29 +496,20 @@ class KrylovReducer final : public Reducer {
   /// Number of poles of `model` with Re >= 0 (NaN counts: a pole we cannot place is not known to
   /// be stable). Exact, and cheap where possible: 0 when certified_stable() proves it (one-sided
   /// projections of symmetric models: Cholesky factorisations of n x n matrices instead of the
-  /// eigenvalues of a 2n x 2n pencil); otherwise the eigenvalues (ecmor::poles), computed once
-  /// per model: a model whose Mr, Dr, Kr (Er, Ar) equal one of the last few counted reuses its
-  /// count (strategies ask again for lists they had, e.g. pruning back to an earlier set).
+  /// eigenvalues of a 2n x 2n pencil); otherwise the eigenvalues (ecmor::poles, which reuses them
+  /// for a model it saw recently, so the estimator's pole samples cost nothing more).
   Index unstable_poles(const ReducedModel& model) {
     m_last_certified = false;
     if (certified_stable(model)) {
       m_last_certified = true;
       return 0;
     }
-    for (auto it = m_pole_counts.begin(); it != m_pole_counts.end(); ++it) {
-      if (same_pencil(it->first, model)) {
-        m_pole_counts.splice(m_pole_counts.begin(), m_pole_counts, it);
-        return m_pole_counts.front().second;
-      }
-    }
     const ComplexVector p = poles(model);
-    ++m_pole_computations;
+    ++m_pole_requests;
     Index unstable = 0;
     for (Index i = 0; i < p.size(); ++i) {
       if (!(p[i].real() < 0.0)) ++unstable;
     }
-    m_pole_counts.emplace_front(model, unstable);
-    if (m_pole_counts.size() > kPoleCountCache) m_pole_counts.pop_back();
     return unstable;
   }
 
@@ -657,7 +636,7 @@ class KrylovReducer final : public Reducer {
       note += std::string("; poles not computed: ") + e.what();
     }
     d["stability_certified"] = m_last_certified ? 1.0 : 0.0;
-    d["pole_computations"] = static_cast<double>(m_pole_computations);
+    d["pole_requests"] = static_cast<double>(m_pole_requests);
     result.note = note;
     return result;
   }
@@ -685,10 +664,7 @@ class KrylovReducer final : public Reducer {
   PointsBuild m_points;
   // Projections of the two paths' bases (set up in setup(): they need the model).
   std::optional<IncrementalProjection> m_grow_projection, m_points_projection;
-  // Unstable-pole counts of the last models whose eigenvalues were computed (most recent first).
-  static constexpr std::size_t kPoleCountCache = 4;
-  std::list<std::pair<ReducedModel, Index>> m_pole_counts;
-  Index m_pole_computations = 0;  // eigenvalue computations by this reducer (cumulative)
+  Index m_pole_requests = 0;  // models whose poles this reducer asked for (cumulative)
   bool m_last_certified = false;  // the last count came from certified_stable()
 };
 
