@@ -16,32 +16,9 @@
 ///    one moment is added at the nearest point f_i (phase "add_moment"); otherwise a new point at f
 ///    with `moments` moments is added (phase "add_point"). A model passes when it meets the
 ///    tolerance on the estimator's sampling, on the independent denser re-check, and is stable.
-///  * Pruning (phase "prune", `prune: true`), from the first passing point set. Every trial
-///    (a point set with a point or a moment fewer) is first *screened*: the reduced model is
-///    evaluated with BandErrorEstimator::evaluate_on on frequencies whose full response is already
-///    cached (the estimator's grid, every sample of the passing model's evaluate and verify: pole
-///    samples, refinement, the denser independent grid; plus the local maxima of the error of
-///    each assessed trial). All lie in the band, so a screened error above the tolerance proves the
-///    trial misses it: it is not assessed and leaves no history row. Only a trial screening at or
-///    below the tolerance is assessed (estimator evaluate, and verify if it meets the tolerance;
-///    phase "prune", with diagnostics screened_error, screen_samples, screened_trials). A screen
-///    first evaluates the 48 samples nearest (in log f) to the changed point and the 16 frequencies
-///    where the last passing model's error is largest; it evaluates the whole set only if those
-///    stay within the tolerance.
-///     1. removal costs: for each point, the model without it is screened (skipped when there is a
-///        single point). Cheapest first means: removals that screen within the tolerance before
-///        those that do not, then the one leaving the smaller model (a point whose columns partly
-///        deflated frees fewer), then the one with the smaller screened error;
-///     2. removal: the points whose single removal screened within the tolerance are removed one
-///        at a time, cheapest first, each trial (screened, then assessed) on the set left by the
-///        accepted removals; a point whose single removal screened above the tolerance is kept
-///        without a further trial (accuracy is not monotone in the point set, but nearly so);
-///     3. moments: for each remaining point (cheapest first) with more than one moment, moments
-///        are reduced one at a time while the model still passes.
-///    Cost: at most P + (P - 1) + sum_i (k_i - 1) screens for P points with k_i moments, each one
-///    reduction plus reduced-model solves at the screened frequencies (no full-model
-///    factorisation); a full assessment (new pole samples and refinement: tens of full-model
-///    factorisations, plus the re-check) only for trials that screen within the tolerance. The
+///  * Pruning (phase "prune", `prune: true`), from the first passing point set: points, then
+///    moments, that the tolerance does not need are dropped, each trial screened on cached
+///    frequencies before it is assessed (strategy_support::prune_points, prune_points.hpp). The
 ///    smallest passing model seen in any phase is reported.
 ///
 /// Budgets and termination
