@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "ecmor/error.hpp"
+#include "prune_points.hpp"
 
 namespace ecmor::point_search {
 
@@ -41,6 +42,8 @@ PointSearchOptions PointSearchOptions::from(const ParameterMap& p, const std::st
   o.max_added_samples = p.get_int("max_added_samples", o.max_added_samples, 0);
   o.stable_only = p.get_bool("stable_only", o.stable_only);
   o.peaks_per_assessment = p.get_int("peaks_per_assessment", o.peaks_per_assessment, 0, 100000);
+  o.points_per_growth = p.get_int("points_per_growth", o.points_per_growth, 1, 1000);
+  o.prune = p.get_bool("prune", o.prune);
   o.validate(strategy);
   return o;
 }
@@ -268,24 +271,55 @@ Index PointObjective::add_samples(const std::vector<double>& f_hz, Index cap) {
   return added;
 }
 
-Index PointObjective::add_peaks(const BandError& error, Index count, Index cap) {
-  // Local maxima of the assessed model's relative error, largest first: where the refined
-  // evaluation found error the grid alone would not see.
+std::vector<double> error_peaks_hz(const BandError& error, Index count, double above) {
   const std::vector<double>& r = error.relative;
   std::vector<std::size_t> peaks;
   auto val = [&](std::size_t i) { return std::isnan(r[i]) ? -1.0 : r[i]; };
   for (std::size_t i = 0; i < r.size(); ++i) {
-    if (val(i) < 0.0) continue;
+    if (val(i) < 0.0 || !(val(i) > above)) continue;
     const bool left = i == 0 || val(i - 1) <= val(i);
     const bool right = i + 1 == r.size() || val(i + 1) < val(i);
     if (left && right) peaks.push_back(i);
   }
   std::sort(peaks.begin(), peaks.end(), [&](std::size_t a, std::size_t b) { return val(a) > val(b); });
-  std::vector<double> f{error.f_peak_hz};
+  std::vector<double> f;
   for (std::size_t j = 0; j < peaks.size() && static_cast<Index>(j) < count; ++j) {
     f.push_back(error.f_hz[peaks[j]]);
   }
+  return f;
+}
+
+Index PointObjective::add_peaks(const BandError& error, Index count, Index cap) {
+  // Local maxima of the assessed model's relative error, largest first: where the refined
+  // evaluation found error the grid alone would not see.
+  std::vector<double> f{error.f_peak_hz};
+  const std::vector<double> peaks = error_peaks_hz(error, count, -1.0);
+  f.insert(f.end(), peaks.begin(), peaks.end());
   return add_samples(f, cap);
+}
+
+std::vector<double> growth_points(const BandError& error, const std::vector<double>& x, Index count,
+                                  double tolerance, double separation, const Band& band) {
+  std::vector<double> taken = x;
+  std::vector<double> out;
+  auto far = [&](double xf) {
+    for (double t : taken)
+      if (std::abs(xf - t) <= separation) return false;
+    return true;
+  };
+  auto take = [&](double f_hz) {
+    const double xf = std::log10(std::clamp(f_hz, band.f_min_hz, band.f_max_hz));
+    if (static_cast<Index>(out.size()) >= count || !far(xf)) return;
+    out.push_back(xf);
+    taken.push_back(xf);
+  };
+  // The supremum's peak always: on an existing point it still gets one (two interpolation points
+  // close together act as a higher moment there).
+  out.push_back(std::log10(std::clamp(error.f_peak_hz, band.f_min_hz, band.f_max_hz)));
+  taken.push_back(out.back());
+  // All local maxima above the tolerance (more than `count`: some fall near existing points).
+  for (double f : error_peaks_hz(error, static_cast<Index>(error.f_hz.size()), tolerance)) take(f);
+  return out;
 }
 
 void PointObjective::begin_round() {
@@ -334,13 +368,29 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
                         std::to_string(delivered) + " (not assessed): " +
                         (run.most_accurate() ? tail() : std::string("no model assessed")));
     };
+    // Points closer than this in log10 f count as one when growing (as greedy's min_separation
+    // default: 1e-3 of the band's log width).
+    const double separation = 1e-3 * (objective.upper() - objective.lower());
     auto converged = [&](const std::string& where) {
+      // The first passing set usually holds more than the tolerance needs (every point has the
+      // same moments, growth adds points where the error peaked): drop what it does not need.
+      std::string pruned;
+      if (o.prune) {
+        const Candidate first = *run.smallest_pass();
+        pruned = strategy_support::prune_points(
+            run, first.result.points.empty() ? objective.points_of(x) : first.result.points, first, std::numeric_limits<Index>::max(),
+            [&](const std::vector<ExpansionPoint>& pts) {
+              ReducerResult r = run.context().reducer->reduce(ReductionRequest{0, pts});
+              if (r.points.empty()) r.points = pts;
+              return r;
+            });
+      }
       const Candidate& c = *run.smallest_pass();
       return finish(Termination::Converged,
                     "band error " + sci(c.error.sup_relative) + " <= tolerance " +
                         sci(ctx.tolerance) + " at order " + std::to_string(c.order()) + " with " +
                         std::to_string(c.result.points.size()) + " points" + where +
-                        run.verified_phrase());
+                        run.verified_phrase() + pruned);
     };
 
     // The start may itself be unusable (a point on an eigenvalue): then the optimiser
@@ -437,19 +487,24 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
                       "point budget max_points = " + std::to_string(o.max_points) +
                           " reached (order " + std::to_string(c.order()) + "): " + tail());
       }
+      // Grow: new points where the optimum's error peaks (its supremum first, then other local
+      // maxima above the tolerance, up to points_per_growth); the others stay (warm start).
+      const Band& band = ctx.estimator->band();
+      const std::vector<double> added =
+          growth_points(c.error, x, std::min(o.points_per_growth, o.max_points - p),
+                        ctx.tolerance, separation, band);
+      const Index k = static_cast<Index>(added.size());
       // Each point adds about the same number of columns (2 m per moment for a complex point).
-      const Index next_order = c.order() + (c.order() + p - 1) / p;
+      const Index next_order = c.order() + k * ((c.order() + p - 1) / p);
       if (next_order > max_order) {
         return finish(reducer_limit ? Termination::ReducerExhausted : Termination::MaxOrderReached,
                       (reducer_limit ? "the reducer delivers at most order "
                                      : "order budget max_order = ") +
                           std::to_string(max_order) + " would be exceeded by " +
-                          std::to_string(p + 1) + " points (about order " +
+                          std::to_string(p + k) + " points (about order " +
                           std::to_string(next_order) + "): " + tail());
       }
-      // Grow: one more point where the optimum's error peaks; the others stay (warm start).
-      const Band& band = ctx.estimator->band();
-      x.push_back(std::log10(std::clamp(c.error.f_peak_hz, band.f_min_hz, band.f_max_hz)));
+      x.insert(x.end(), added.begin(), added.end());
       std::sort(x.begin(), x.end());
       reoptimized = 0;
       // Assess the grown set: it may already pass, saving an optimisation at the same order.

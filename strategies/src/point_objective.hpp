@@ -32,12 +32,17 @@
 /// independent verify() if it meets the tolerance); add that evaluation's local maxima to the
 /// sample set; if it passed: Converged. Otherwise, if the full evaluation found an error more than
 /// twice the optimiser's sample-set value (the sample set missed a peak), re-optimise at the same
-/// p with the new samples (at most `reoptimize` times per p); else grow: add one point at the
-/// optimum's peak frequency, the others stay where the optimiser put them (warm start).
+/// p with the new samples (at most `reoptimize` times per p); else grow: add a point at the
+/// optimum's peak frequency and, with points_per_growth = k > 1, up to k - 1 more at its other
+/// local error maxima above the tolerance (largest first, each more than 1e-3 of the band's log
+/// width from every point); the others stay where the optimiser put them (warm start). The grown
+/// set is assessed ("grow") before it is optimised. On convergence, with `prune` (default), the
+/// passing set is pruned as in greedy_points (strategy_support::prune_points: points, then
+/// moments, that the tolerance does not need; phase "prune"), so the result may mix moment counts.
 /// Budgets: max_points (MaxOrderReached), max_order (MaxOrderReached; ReducerExhausted when the
 /// reducer's own max_order() is the lower cap): checked on the order the reducer delivers for the
 /// start and for each optimum before it is assessed (an over-budget model is not assessed), and
-/// on the order predicted for p + 1 points from the current order per point before growing),
+/// on the order predicted for p + k points from the current order per point before growing),
 /// max_iterations (IterationLimit; counts
 /// assessed models, i.e. "start" and "optimum" records, not optimiser trials), stagnation
 /// (Stagnated: the best assessed error has not dropped below stagnation_ratio times its value
@@ -82,6 +87,8 @@ struct PointSearchOptions {
   Index max_added_samples = 400; ///< cap on sample frequencies added to the estimator's grid, >= 0
   bool stable_only = true;       ///< an unstable model is a failed evaluation
   Index peaks_per_assessment = 0;///< local error maxima added per assessed model (0: max(5, refine_peaks))
+  Index points_per_growth = 1;   ///< points added when an optimum misses, >= 1
+  bool prune = true;             ///< after the first pass, drop the points and moments not needed
 
   /// Reads (and so marks as known) the keys above. \throws ConfigError naming key and rule.
   static PointSearchOptions from(const ParameterMap& params, const std::string& strategy);
@@ -189,6 +196,17 @@ struct Optimisation {
 /// jacobian (the objective tracks the best x itself). May throw ecmor::Error only for bugs or
 /// configuration problems; evaluation failures are handled by the objective.
 using Optimiser = std::function<Optimisation(PointObjective& objective, const std::vector<double>& x0)>;
+
+/// Frequencies (Hz) of the local maxima of error.relative above `above`, largest first, at most
+/// `count` (undefined samples, NaN, are skipped).
+std::vector<double> error_peaks_hz(const BandError& error, Index count, double above);
+
+/// Where to add up to `count` points (as log10 f, clamped to the band) when a model with points
+/// at x misses the tolerance: always the error's supremum (error.f_peak_hz), then the other local
+/// maxima above `tolerance`, largest first, each farther than `separation` (decades) from every
+/// point of x and every point already chosen.
+std::vector<double> growth_points(const BandError& error, const std::vector<double>& x, Index count,
+                                  double tolerance, double separation, const Band& band);
 
 /// p log-spaced frequencies in the band as log10 values: centres of p equal cells in log f.
 std::vector<double> log_spaced(double lower, double upper, Index p);

@@ -564,6 +564,84 @@ TEST(PointStrategies, InitialSpacingPlacesTheStartPoints) {
   }
 }
 
+// Growth candidates: the supremum's frequency first (even on an existing point), then the other
+// local maxima above the tolerance, largest first, none within the separation of a point or of
+// another candidate, at most `count`.
+TEST(PointObjective, GrowthPointsTakeThePeakThenSeparatedMaximaAboveTheTolerance) {
+  BandError e;
+  //            f (Hz):   1     2     3     4     5     6     7     8     9     10
+  e.f_hz = {1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0};
+  e.relative = {0.1, 0.5, 0.1, 0.3, 0.05, 0.2, 0.1, std::nan(""), 0.4, 0.2};
+  // Local maxima: 2 Hz (0.5), 4 Hz (0.3), 6 Hz (0.2), 9 Hz (0.4); 8 Hz is undefined.
+  e.f_peak_hz = 2.0;
+  e.sup_relative = 0.5;
+  const Band band{1.0, 10.0};
+  const double tol = 0.15;
+  auto hz = [](const std::vector<double>& x) {
+    std::vector<double> f;
+    for (double v : x) f.push_back(std::pow(10.0, v));
+    return f;
+  };
+  auto near = [](const std::vector<double>& a, const std::vector<double>& b) {
+    if (a.size() != b.size()) return false;
+    for (std::size_t i = 0; i < a.size(); ++i)
+      if (std::abs(a[i] - b[i]) > 1e-12 * b[i]) return false;
+    return true;
+  };
+  // Largest first, all four maxima above 0.15.
+  EXPECT_TRUE(near(hz(point_search::growth_points(e, {}, 10, tol, 1e-3, band)), {2, 9, 4, 6}));
+  // The count caps them; the tolerance filters the smaller maxima.
+  EXPECT_TRUE(near(hz(point_search::growth_points(e, {}, 2, tol, 1e-3, band)), {2, 9}));
+  EXPECT_TRUE(near(hz(point_search::growth_points(e, {}, 10, 0.35, 1e-3, band)), {2, 9}));
+  // An existing point at 9 Hz removes that candidate, not the supremum on an existing point.
+  EXPECT_TRUE(near(hz(point_search::growth_points(e, {std::log10(9.0), std::log10(2.0)}, 10, tol,
+                                                   1e-3, band)),
+                   {2, 4, 6}));
+  // A separation of 0.2 decades: 9 Hz is 0.65 decades from 2 Hz (kept), 4 Hz is 0.30 from 2 Hz
+  // (kept), 6 Hz is 0.18 from 4 Hz (dropped).
+  EXPECT_TRUE(near(hz(point_search::growth_points(e, {}, 10, tol, 0.2, band)), {2, 9, 4}));
+  // error_peaks_hz itself: the undefined sample is neither a maximum nor a neighbour's blocker.
+  EXPECT_TRUE(near(point_search::error_peaks_hz(e, 10, -1.0), {2, 9, 4, 6}));
+}
+
+// points_per_growth adds up to k points per growth (each at a local error maximum), and pruning
+// (default on) leaves a passing model no larger than the first passing set, re-checked densely.
+TEST(PointStrategies, GrowthBySeveralPointsThenPruning) {
+  const double tol = 1e-4;
+  auto run = [&](bool prune, Fixture& fx) {
+    test::InterpolationReducer reducer;
+    ParameterMap p = params({{"max_points", 12LL}, {"max_iterations", 20LL},
+                             {"points_per_growth", 3LL}, {"max_evaluations", 60LL}});
+    p.set("prune", prune);
+    return fx.run("optimize_points", reducer, tol, p);
+  };
+  Fixture fa, fb;
+  const StrategyResult plain = run(false, fa);
+  const StrategyResult pruned = run(true, fb);
+  ASSERT_EQ(plain.termination, Termination::Converged) << plain.message;
+  ASSERT_EQ(pruned.termination, Termination::Converged) << pruned.message;
+  // The runs are identical up to the first pass; growth took more than one point at a time.
+  bool several = false;
+  const IterationRecord* last = nullptr;
+  for (const IterationRecord& rec : plain.history) {
+    EXPECT_NE(rec.phase, "prune");
+    if (rec.phase == "start" || rec.phase == "optimum") last = &rec;
+    if (rec.phase != "grow") continue;
+    ASSERT_NE(last, nullptr);
+    EXPECT_GE(rec.points.size(), last->points.size() + 1) << "iteration " << rec.iteration;
+    EXPECT_LE(rec.points.size(), last->points.size() + 3) << "iteration " << rec.iteration;
+    several = several || rec.points.size() >= last->points.size() + 2;
+  }
+  EXPECT_TRUE(several) << plain.message;
+  ASSERT_TRUE(plain.best && pruned.best);
+  EXPECT_LE(pruned.best->V.cols(), plain.best->V.cols());
+  EXPECT_NE(pruned.message.find("pruning:"), std::string::npos) << pruned.message;
+  const SecondOrderModel& m = std::get<SecondOrderModel>(fb.model);
+  EXPECT_LE(dense_sup_error(m, pruned.best->V), tol) << pruned.message;
+  std::cout << "without pruning: order " << plain.best->V.cols() << "; with: "
+            << pruned.best->V.cols() << " (" << pruned.message << ")\n";
+}
+
 TEST(PointStrategies, BadOptionsAreNamed) {
   struct Case {
     std::string strategy;
@@ -575,6 +653,8 @@ TEST(PointStrategies, BadOptionsAreNamed) {
       {"optimize_points", params({{"moments", 0LL}}), "moments"},
       {"optimize_points", params({{"initial_spacing", std::string("lin")}}), "initial_spacing"},
       {"minimax_points", params({{"peaks_per_assessment", -1LL}}), "peaks_per_assessment"},
+      {"optimize_points", params({{"points_per_growth", 0LL}}), "points_per_growth"},
+      {"minimax_points", params({{"prune", 3LL}}), "prune"},
       {"optimize_points", params({{"initial_points", 4LL}, {"max_points", 3LL}}), "max_points"},
       {"optimize_points", params({{"algorithm", std::string("cobyla")}}), "algorithm"},
       {"optimize_points", params({{"global_fraction", 1.0}}), "global_fraction"},
