@@ -160,6 +160,7 @@ int bench(const BenchOptions& options, const CommonOptions& common) {
         if (g_bench_interrupted.load()) break;
         RunConfig config = base;
         config.tolerance = tol;
+        if (options.time_limit_s > 0.0) config.time_limit_s = options.time_limit_s;
         // One directory per run: configs with the same file name in different folders, or a
         // tolerance given twice, get a numbered suffix instead of overwriting a run's outputs.
         std::string run_name = base.source.stem().string() + "_tol" + tol_tag(tol);

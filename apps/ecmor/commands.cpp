@@ -160,7 +160,8 @@ int reduce(const std::filesystem::path& config_path, const CommonOptions& common
     TablePrinter printer(common.quiet);
     const RunSummary summary = run_reduction(config, registry, &printer);
     if (summary.has_model && !common.no_plot) plot_error(summary, config, common.quiet);
-    if (summary.termination == Termination::Interrupted) return 130;
+    // 130 only for a signal; a run stopped by its time limit missed its target like any budget.
+    if (summary.termination == Termination::Interrupted && g_interrupted.load()) return 130;
     return summary.exit_code();
   });
 }

@@ -38,6 +38,7 @@ struct BenchOptions {
   std::vector<std::filesystem::path> configs;
   std::vector<double> tolerances;            ///< empty: each config's own tolerance
   std::filesystem::path output_dir = "out/bench";
+  double time_limit_s = 0.0;                 ///< > 0: wall-clock limit of every run (overrides YAML)
 };
 /// `ecmor bench CONFIG...`: runs every config at every tolerance of the ladder, records order,
 /// errors, times and counters per run; writes bench.csv, bench.json and bench.md (a table).

@@ -50,6 +50,11 @@ int main(int argc, char** argv) {
       ->delimiter(',');
   bench->add_option("-o,--output", bench_options.output_dir,
                     "output directory (default out/bench)");
+  bench->add_option("--time-limit", bench_options.time_limit_s,
+                    "wall-clock limit of each run in seconds (a run that reaches it is "
+                    "reported as interrupted, with its best model; default: the YAML's "
+                    "strategy.time_limit_s, else none)")
+      ->check(CLI::PositiveNumber);
   add_common(bench);
 
   std::filesystem::path model_dir;

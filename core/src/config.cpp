@@ -283,7 +283,8 @@ void Parser::collect_parameters(const YAML::Node& map, const std::string& sec,
                                 ParameterMap& params) {
   for (auto it = map.begin(); it != map.end(); ++it) {
     const std::string& key = it->first.Scalar();
-    if (key == "name") continue;
+    // `name`, and the driver's wall-clock budget in the strategy section, are not parameters.
+    if (key == "name" || (sec == "strategy" && key == "time_limit_s")) continue;
     params.set(key, parameter(it->first, it->second, sec + "." + key));
   }
 }
@@ -352,6 +353,13 @@ RunConfig Parser::parse(const std::string& yaml) {
   if (auto name = text(strategy, "strategy", "name", false)) config.strategy_name = *name;
   config.strategy_params = ParameterMap("strategy '" + config.strategy_name + "'");
   collect_parameters(strategy, "strategy", config.strategy_params);
+  if (auto v = number(strategy, "strategy", "time_limit_s", false)) {
+    if (!(*v > 0.0))
+      fail(at(strategy["time_limit_s"]),
+           fmt::format("strategy.time_limit_s = {}: must be > 0 (seconds of wall-clock time)",
+                       strategy["time_limit_s"].Scalar()));
+    config.time_limit_s = *v;
+  }
 
   const YAML::Node error =
       section(m_root, "error",

@@ -5,6 +5,8 @@
 #include <chrono>
 #include <fstream>
 #include <iomanip>
+
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "ecmor/atomic_file.hpp"
@@ -141,15 +143,29 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   ctx.start = start;
   ctx.counters = [&] { return solver->counters(); };
   ctx.full_evaluations = [&] { return cache.size(); };
-  ctx.stop_requested = [&] { return observer != nullptr && observer->stop_requested(); };
+  // The time limit acts as an interrupt: strategies poll stop_requested() and finish with the
+  // best model so far; the message then says which of the two ended the run.
+  bool out_of_time = false;
+  auto time_is_up = [&] {
+    if (config.time_limit_s > 0.0 && elapsed() > config.time_limit_s) out_of_time = true;
+    return out_of_time;
+  };
+  ctx.stop_requested = [&] {
+    return time_is_up() || (observer != nullptr && observer->stop_requested());
+  };
   ctx.on_iteration = [&](const IterationRecord& rec) {
     IterationRecord with_memory = rec;
     with_memory.diagnostics["peak_memory_mb"] = peak_memory_mb();
     history.append(with_memory);
-    return observer ? observer->on_iteration(with_memory) : true;
+    const bool go_on = observer ? observer->on_iteration(with_memory) : true;
+    return !time_is_up() && go_on;
   };
 
   StrategyResult result = strategy->run(ctx);
+  if (out_of_time && result.termination == Termination::Interrupted) {
+    result.message = fmt::format("time limit strategy.time_limit_s = {} s used up: {}",
+                                 config.time_limit_s, result.message);
+  }
 
   RunSummary summary;
   summary.termination = result.termination;

@@ -312,6 +312,24 @@ TEST(RunConfig, RangesAreChecked) {
             "mean 'frobenius'?)");
 }
 
+// strategy.time_limit_s is the driver's wall-clock budget: read into RunConfig, not handed to the
+// strategy as a parameter (which would reject it as unknown), and positive.
+TEST(RunConfig, TimeLimitIsTheDriversKey) {
+  const RunConfig none = parse_run_config(kMinimal, "r");
+  EXPECT_EQ(none.time_limit_s, 0.0);
+  const RunConfig c = parse_run_config(
+      kMinimal + "strategy:\n  name: grow_order\n  time_limit_s: 90\n  max_order: 7\n", "r");
+  EXPECT_EQ(c.time_limit_s, 90.0);
+  EXPECT_FALSE(c.strategy_params.has("time_limit_s"));
+  EXPECT_TRUE(c.strategy_params.has("max_order"));
+  EXPECT_EQ(parse_error(kMinimal + "strategy:\n  time_limit_s: 0\n"),
+            "run.yaml:13: strategy.time_limit_s = 0: must be > 0 (seconds of wall-clock time)");
+  EXPECT_EQ(parse_error(kMinimal + "strategy:\n  time_limit_s: -5\n"),
+            "run.yaml:13: strategy.time_limit_s = -5: must be > 0 (seconds of wall-clock time)");
+  EXPECT_EQ(parse_error(kMinimal + "strategy:\n  time_limit_s: soon\n"),
+            "run.yaml:13: strategy.time_limit_s = 'soon': must be a number");
+}
+
 TEST(RunConfig, ReducerParameterRules) {
   EXPECT_EQ(parse_error(replace(kMinimal, "  name: modal\n", "  name: modal\n  opts: {a: 1}\n")),
             "run.yaml:10: reducer.opts: nested mappings are not supported (a parameter is a "

@@ -531,6 +531,24 @@ TEST_F(Cli, MissedTargetExitsTwoWithModelAndHistory) {
   EXPECT_TRUE(temporary_files(output()).empty());
 }
 
+// A run that uses up strategy.time_limit_s stops like an interrupted one (history and best model
+// written, termination "interrupted") but exits 2 (target missed), not 130 (a signal), and says
+// that the time limit ended it. A limit of 1 microsecond is used up by the first record.
+TEST_F(Cli, TimeLimitEndsTheRunWithItsBestModel) {
+  const Result r =
+      reduce(lf10_yaml(output(), 1e-14, "{name: grow_order, time_limit_s: 1.0e-6, max_order: 18}"));
+  ASSERT_EQ(r.exit_code, 2) << r.out << r.err;
+  const nlohmann::json s = read_json(output() / "summary.json");
+  EXPECT_EQ(s["termination"].get<std::string>(), "interrupted");
+  EXPECT_TRUE(s["has_model"].get<bool>());
+  const std::string message = s["message"].get<std::string>();
+  EXPECT_EQ(message.rfind("time limit strategy.time_limit_s = 1e-06 s used up: ", 0), 0u)
+      << message;
+  // Stopped at the first record instead of growing to order 18.
+  EXPECT_EQ(s["iterations"].get<Index>(), 1);
+  expect_history_rows(output(), 1);
+}
+
 // H_r(i 2 pi f) = Cr (s^2 Mr + s Dr + Kr)^-1 Br of a reduced second-order model, computed here
 // with a dense LU so the check does not go through the library's frequency response code.
 Complex reduced_siso_response(const ReducedSecondOrderModel& m, double f_hz) {

@@ -37,6 +37,10 @@ struct RunConfig {
   ParameterMap reducer_params{"reducer"};
   std::string strategy_name = "grow_order";
   ParameterMap strategy_params{"strategy"};
+  /// Wall-clock budget of the run in seconds (YAML strategy.time_limit_s; 0: none). When it is
+  /// used up the strategy is asked to stop, as for an interrupt: the run ends "interrupted" with
+  /// the best model so far, and the message says that the time limit ended it.
+  double time_limit_s = 0.0;
   BandErrorOptions error;            ///< norm is copied from target.norm
   Index verify_factor = 4;           ///< independent re-check grid is this many times denser
   SolverOptions solver;
