@@ -200,7 +200,7 @@ class IncrementalProjection {
   const Model* m_model;
   std::vector<const SparseMatrix*> m_ops;  // M, D, K or E, A (then the extra matrix, if any)
   bool m_has_extra = false;
-  std::vector<bool> m_symmetric;           // T' == T exactly
+  std::vector<bool> m_symmetric;  // T' == T exactly
   const Matrix* m_B = nullptr;
   const Matrix* m_C = nullptr;
   const Matrix* m_Cv = nullptr;   // nullptr: no velocity output

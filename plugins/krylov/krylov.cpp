@@ -248,7 +248,8 @@ class KrylovReducer final : public Reducer {
     // the symmetric argument for stability does not hold for it.
     constexpr double kSymmetryTol = 1e-10;
     if (!(relative_asymmetry(so->D) <= kSymmetryTol) ||
-        !(relative_asymmetry(so->K) <= kSymmetryTol) || !is_positive_definite(so->M, kSymmetryTol)) {
+        !(relative_asymmetry(so->K) <= kSymmetryTol) ||
+        !is_positive_definite(so->M, kSymmetryTol)) {
       return nullptr;
     }
     // Two-sided second-order Krylov needs one output start block (C or Cv, see setup); with both
@@ -722,11 +723,10 @@ class KrylovReducer final : public Reducer {
       note += fmt::format("; last block cut at order {}", states(n));
     }
     if (two && V_all.cols() != W_all.cols() && !capped) {
-      note +=
-          fmt::format("; {} trimmed from {} to {} columns to match {} (deflation)",
-                      V_all.cols() > W_all.cols() ? "V" : "W",
-                      states(std::max(V_all.cols(), W_all.cols())), states(n),
-                      V_all.cols() > W_all.cols() ? "W" : "V");
+      note += fmt::format("; {} trimmed from {} to {} columns to match {} (deflation)",
+                          V_all.cols() > W_all.cols() ? "V" : "W",
+                          states(std::max(V_all.cols(), W_all.cols())), states(n),
+                          V_all.cols() > W_all.cols() ? "W" : "V");
     }
     if (path == "grow" && n < order) {
       note +=
@@ -781,7 +781,7 @@ class KrylovReducer final : public Reducer {
   PointsBuild m_points;
   // Projections of the two paths' bases (set up in setup(): they need the model).
   std::optional<IncrementalProjection> m_grow_projection, m_points_projection;
-  Index m_pole_requests = 0;  // models whose poles this reducer asked for (cumulative)
+  Index m_pole_requests = 0;      // models whose poles this reducer asked for (cumulative)
   bool m_last_certified = false;  // the last count came from certified_stable()
 };
 

@@ -99,8 +99,9 @@ class SecondOrderView final : public ShiftedSolver {
   std::shared_ptr<const Factorization> factorize_combination(
       std::span<const Complex> weights) override {
     if (weights.size() != 3 || weights[0] == Complex(0.0)) {
-      throw InputError("krylov: the second-order view of a first-order model factorises "
-                       "K + s D + s^2 M only");
+      throw InputError(
+          "krylov: the second-order view of a first-order model factorises "
+          "K + s D + s^2 M only");
     }
     const Complex c = weights[0];
     const Complex s = weights[1] / c;

@@ -1,7 +1,7 @@
-// second_order_form(): recognising a first-order model E x' = A x + B u that is a second-order model
-// in the state x = [q; q']. References: the shipped second-order form of the ISS model (iss_so,
-// converted independently from the same SLICOT file), a one-degree-of-freedom oscillator whose
-// transfer function is written down by hand, and transfer functions by dense Eigen LU solves.
+// second_order_form(): recognising a first-order model E x' = A x + B u that is a second-order
+// model in the state x = [q; q']. References: the shipped second-order form of the ISS model
+// (iss_so, converted independently from the same SLICOT file), a one-degree-of-freedom oscillator
+// whose transfer function is written down by hand, and transfer functions by dense Eigen LU solves.
 #include <gtest/gtest.h>
 
 #include <Eigen/LU>
@@ -28,8 +28,8 @@ ComplexMatrix dense_h(const DescriptorModel& m, Complex s) {
 
 // H(s) = (C + s Cv) (s^2 M + s D + K)^-1 B by a dense LU.
 ComplexMatrix dense_h(const SecondOrderModel& m, Complex s) {
-  const ComplexMatrix P = (s * s) * Matrix(m.M).cast<Complex>() +
-                          s * Matrix(m.D).cast<Complex>() + Matrix(m.K).cast<Complex>();
+  const ComplexMatrix P = (s * s) * Matrix(m.M).cast<Complex>() + s * Matrix(m.D).cast<Complex>() +
+                          Matrix(m.K).cast<Complex>();
   ComplexMatrix C = m.C.cast<Complex>();
   if (m.has_velocity_output()) C += s * m.Cv.cast<Complex>();
   return C * P.partialPivLu().solve(m.B.cast<Complex>());
@@ -87,8 +87,8 @@ TEST(SecondOrderForm, OneDegreeOfFreedomMatchesTheAnalyticTransferFunction) {
   EXPECT_EQ(so->C(0, 0), c);
   ASSERT_TRUE(so->has_velocity_output());
   EXPECT_EQ(so->Cv(0, 0), cv);
-  for (const Complex s : {Complex(0.0, 0.0), Complex(0.0, 1.0), Complex(0.0, std::sqrt(k / m)),
-                          Complex(2.0, 30.0)}) {
+  for (const Complex s :
+       {Complex(0.0, 0.0), Complex(0.0, 1.0), Complex(0.0, std::sqrt(k / m)), Complex(2.0, 30.0)}) {
     const Complex h = (c + s * cv) * b / (m * s * s + d * s + k);
     // A 1 x 1 (2 x 2 first-order) solve: rounding only, a few eps relative.
     EXPECT_NEAR(std::abs(dense_h(*so, s)(0, 0) - h) / std::abs(h), 0.0, 1e-14) << s;
@@ -111,8 +111,8 @@ TEST(SecondOrderForm, SmallModelWithNonIdentityE11HasTheSameTransferFunction) {
   const auto so = second_order_form(fo);
   ASSERT_TRUE(so.has_value());
   EXPECT_EQ(so->size(), 3);
-  for (const Complex s : {Complex(0.0, 0.0), Complex(0.0, 0.7), Complex(0.0, 5.0),
-                          Complex(1.0, 2.0)}) {
+  for (const Complex s :
+       {Complex(0.0, 0.0), Complex(0.0, 0.7), Complex(0.0, 5.0), Complex(1.0, 2.0)}) {
     const ComplexMatrix H = dense_h(fo, s);
     // 3 x 3 and 6 x 6 well-conditioned dense solves: agreement to a few hundred eps.
     EXPECT_LT((dense_h(*so, s) - H).norm() / H.norm(), 1e-13) << s;
@@ -151,7 +151,7 @@ TEST(SecondOrderForm, EachBrokenRuleIsNotRecognised) {
   const DescriptorModel good = small_model();
   ASSERT_TRUE(second_order_form(good).has_value());
   const Index n = 3;
-  auto with = [&](const std::function<void(Matrix& E, Matrix& A, DescriptorModel& m)>& change) {
+  auto with = [&](const std::function<void(Matrix & E, Matrix & A, DescriptorModel & m)>& change) {
     DescriptorModel m = good;
     Matrix E(m.E), A(m.A);
     change(E, A, m);
@@ -235,7 +235,8 @@ TEST(SecondOrderForm, ShippedFirstOrderModels) {
     }
   }
   // Models without the structure: E SPD and A symmetric (rail), a dense A (beam), general ones.
-  for (const char* name : {"rail_371", "cdplayer", "beam", "heat_cont", "pde", "random200", "fom"}) {
+  for (const char* name :
+       {"rail_371", "cdplayer", "beam", "heat_cont", "pde", "random200", "fom"}) {
     const Model full = load(name);
     const auto& fo = std::get<DescriptorModel>(full);
     EXPECT_FALSE(second_order_form(fo).has_value()) << name;

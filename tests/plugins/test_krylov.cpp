@@ -1211,9 +1211,8 @@ std::vector<std::vector<ExpansionPoint>> iss_point_sets() {
     }
     return pts;
   };
-  return {log_points(kIssBand.f_min_hz, kIssBand.f_max_hz, 4, 2),
-          log_points(0.1, 10.0, 6, 1), log_points(0.05, 20.0, 8, 2),
-          log_points(0.1, 10.0, 12, 3)};
+  return {log_points(kIssBand.f_min_hz, kIssBand.f_max_hz, 4, 2), log_points(0.1, 10.0, 6, 1),
+          log_points(0.05, 20.0, 8, 2), log_points(0.1, 10.0, 12, 3)};
 }
 
 // Dense poles of a reduced first-order model: eigenvalues of Er^-1 Ar (Er = blkdiag(F, Mr) is
@@ -1239,7 +1238,8 @@ double relative_entry_difference(const Matrix& X, const Matrix& Y) {
   return (X - Y).cwiseAbs().maxCoeff() / Y.cwiseAbs().maxCoeff();
 }
 
-const std::string kStructureNote = "second-order structure of the first-order model used (x = [q; q'])";
+const std::string kStructureNote =
+    "second-order structure of the first-order model used (x = [q; q'])";
 
 TEST(KrylovStructure, IssResultIsTheProjectionOfTheFirstOrderModelWithBlockDiagonalBases) {
   const Model model = load("iss");
@@ -1310,7 +1310,8 @@ TEST(KrylovStructure, IssStaysStableWhereTheFirstOrderPathDoesNot) {
     EXPECT_EQ(rs.diagnostics.at("stability_certified"), 1.0) << what;
     EXPECT_EQ(rs.note.find("lost stability"), std::string::npos) << rs.note;
     std::cout << what << ": first-order path order " << rp.V.cols() << ", " << lost
-              << " unstable poles (max Re " << max_real(dense_poles(std::get<ReducedDescriptorModel>(rp.model)))
+              << " unstable poles (max Re "
+              << max_real(dense_poles(std::get<ReducedDescriptorModel>(rp.model)))
               << "); structured order " << rs.V.cols() << ", max Re " << max_real(p) << "\n";
   }
   EXPECT_EQ(structured->reducer->reduce({0, iss_point_sets()[0]}).diagnostics.at("pole_requests"),
@@ -1323,8 +1324,8 @@ TEST(KrylovStructure, IssMatchesTheMomentsOfTheFirstOrderModel) {
   // kMomentTol: see above; the points here keep cond(s0 E - A) moderate). No point at s0 = 0:
   // with velocity outputs H(0) = 0, and a relative comparison means nothing there.
   const Model model = load("iss");
-  const std::vector<ExpansionPoint> pts = {point_at_hz(0.03, 3), point_at_hz(0.5, 2),
-                                           point_at_hz(4.0, 2), {Complex(2.0, 0.0), 1}};
+  const std::vector<ExpansionPoint> pts = {
+      point_at_hz(0.03, 3), point_at_hz(0.5, 2), point_at_hz(4.0, 2), {Complex(2.0, 0.0), 1}};
   auto f = make(model, kIssBand, params());
   const ReducerResult r = f->reducer->reduce({0, pts});
   ASSERT_EQ(r.diagnostics.at("second_order_structure"), 1.0);
@@ -1351,6 +1352,36 @@ TEST(KrylovStructure, IssMatchesTheMomentsOfTheFirstOrderModel) {
   for (const auto& p : pts) {
     expect_moments(model, r2, p.s, 2 * p.moments, kMomentTol, "two-sided");
   }
+}
+
+TEST(KrylovStructure, NonIdentityE11IsProjectedInBothPlaces) {
+  // iss with E11 = A12 = F, a diagonal SPD matrix other than I (F q' = F v still means q' = v, so
+  // H is unchanged): the reduced model must use V2' F V2 in Er and in Ar, i.e. still equal the
+  // projection of this first-order model, match its moments and stay stable.
+  const Model iss = load("iss");
+  DescriptorModel m = std::get<DescriptorModel>(iss);
+  const Index n = size_of(iss) / 2;
+  for (Index i = 0; i < n; ++i) {
+    const double fi = 0.5 + static_cast<double>(i) / static_cast<double>(n);  // [0.5, 1.5)
+    m.E.coeffRef(i, i) = fi;
+    m.A.coeffRef(i, n + i) = fi;
+  }
+  const Model model(m);
+  const std::vector<ExpansionPoint> pts = {point_at_hz(0.05, 2), point_at_hz(0.5, 2),
+                                           point_at_hz(5.0, 2)};
+  auto f = make(model, kIssBand, params());
+  const ReducerResult r = f->reducer->reduce({0, pts});
+  ASSERT_EQ(r.diagnostics.at("second_order_structure"), 1.0);
+  const auto ref = project(m, r.V, r.W);
+  const auto& red = std::get<ReducedDescriptorModel>(r.model);
+  EXPECT_LT(relative_entry_difference(red.E, ref.E), 1e-12);
+  EXPECT_LT(relative_entry_difference(red.A, ref.A), 1e-12);
+  const Index k = r.V.cols() / 2;
+  EXPECT_GT((red.E.topLeftCorner(k, k) - Matrix::Identity(k, k)).cwiseAbs().maxCoeff(), 0.1)
+      << "F = V2' E11 V2 is not I here";
+  for (const auto& p : pts) expect_moments(model, r, p.s, p.moments, kMomentTol, "E11 != I");
+  EXPECT_LT(max_real(dense_poles(red)), 0.0);
+  EXPECT_EQ(r.diagnostics.at("stability_certified"), 1.0);
 }
 
 TEST(KrylovStructure, OrdersAreEvenAndCapsMapToHalfTheSecondOrderColumns) {
@@ -1438,10 +1469,9 @@ TEST(Krylov, InfoDocumentsEveryParameter) {
   ASSERT_NE(it, entries.end());
   std::vector<std::string> names;
   for (const auto& p : it->info.parameters) names.push_back(p.name);
-  for (const char* key :
-       {"projection", "points", "real_points", "point_moments", "point_count",
-        "tangential_directions", "deflation_tolerance", "cache_points", "max_moments_per_point",
-        "structure"}) {
+  for (const char* key : {"projection", "points", "real_points", "point_moments", "point_count",
+                          "tangential_directions", "deflation_tolerance", "cache_points",
+                          "max_moments_per_point", "structure"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), key), names.end()) << key;
   }
   // The cache holds a greedy run's points (greedy_points: max_points 40 by default).
