@@ -7,8 +7,10 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <string>
 #include <type_traits>
+#include <vector>
 
 #include "ecmor/error.hpp"
 
@@ -300,6 +302,88 @@ void require_spd_mass(const Model& model, std::string_view origin, double symmet
   if (!(r.rcond > singular_rcond(A.rows())))
     throw InputError(prefix + " is numerically singular (Cholesky pivot ratio estimate " +
                      sci(r.rcond) + ")");
+}
+
+namespace {
+
+/// The four n x n blocks of an N x N sparse matrix (N = 2n), each built from the stored values
+/// that are nonzero (an explicitly stored zero is no coupling).
+struct Blocks {
+  SparseMatrix b11, b12, b21, b22;
+};
+
+Blocks split(const SparseMatrix& X, Index n) {
+  using Triplet = Eigen::Triplet<double, SparseMatrix::StorageIndex>;
+  std::vector<Triplet> t[2][2];
+  for (Index j = 0; j < X.outerSize(); ++j) {
+    for (SparseMatrix::InnerIterator it(X, j); it; ++it) {
+      if (it.value() == 0.0) continue;
+      const Index r = it.row(), c = it.col();
+      const int bi = r < n ? 0 : 1, bj = c < n ? 0 : 1;
+      t[bi][bj].emplace_back(static_cast<SparseMatrix::StorageIndex>(r - bi * n),
+                             static_cast<SparseMatrix::StorageIndex>(c - bj * n), it.value());
+    }
+  }
+  Blocks b;
+  SparseMatrix* out[2][2] = {{&b.b11, &b.b12}, {&b.b21, &b.b22}};
+  for (int i = 0; i < 2; ++i) {
+    for (int k = 0; k < 2; ++k) {
+      out[i][k]->resize(n, n);
+      // No duplicates: each (row, col) of X is stored once in a compressed or uncompressed matrix.
+      out[i][k]->setFromTriplets(t[i][k].begin(), t[i][k].end());
+    }
+  }
+  return b;
+}
+
+/// True if the sparse matrices hold the same nonzero values at the same positions (bit for bit).
+bool same_entries(const SparseMatrix& X, const SparseMatrix& Y) {
+  if (X.rows() != Y.rows() || X.cols() != Y.cols() || X.nonZeros() != Y.nonZeros()) return false;
+  for (Index j = 0; j < X.outerSize(); ++j) {
+    SparseMatrix::InnerIterator a(X, j), b(Y, j);
+    for (; a && b; ++a, ++b) {
+      if (a.row() != b.row() || a.value() != b.value()) return false;
+    }
+    if (a || b) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+std::optional<SecondOrderModel> second_order_form(const DescriptorModel& model) {
+  const Index N = model.A.rows();
+  // Shapes first: a malformed model is simply "not this pattern" (validate() names its faults).
+  if (N < 2 || N % 2 != 0 || model.A.cols() != N || model.E.rows() != N || model.E.cols() != N ||
+      model.B.rows() != N || model.C.cols() != N) {
+    return std::nullopt;
+  }
+  const Index n = N / 2;
+  // B1 = 0: the input drives the velocity equation only.
+  if (model.B.cols() > 0 && model.B.topRows(n).cwiseAbs().maxCoeff() != 0.0) return std::nullopt;
+  Blocks e = split(model.E, n);
+  if (e.b12.nonZeros() > 0 || e.b21.nonZeros() > 0) return std::nullopt;
+  Blocks a = split(model.A, n);
+  if (a.b11.nonZeros() > 0) return std::nullopt;
+  // A12 == E11 exactly: the first block row is E11 q' = E11 v, i.e. q' = v once E11 is
+  // nonsingular (checked last: the Cholesky is the only non-trivial cost).
+  e.b11.makeCompressed();
+  a.b12.makeCompressed();
+  if (!same_entries(a.b12, e.b11)) return std::nullopt;
+  if (!is_positive_definite(e.b11)) return std::nullopt;
+
+  SecondOrderModel so;
+  so.M = std::move(e.b22);
+  so.K = -a.b21;
+  so.D = -a.b22;
+  so.M.makeCompressed();
+  so.K.makeCompressed();
+  so.D.makeCompressed();
+  so.B = model.B.bottomRows(n);
+  so.C = model.C.leftCols(n);
+  const Matrix C2 = model.C.rightCols(n);
+  if (C2.size() > 0 && C2.cwiseAbs().maxCoeff() != 0.0) so.Cv = C2;
+  return so;
 }
 
 }  // namespace ecmor

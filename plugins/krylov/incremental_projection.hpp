@@ -32,8 +32,11 @@ namespace ecmor::krylov {
 class IncrementalProjection {
  public:
   /// Binds to a full model (which must outlive this object) and records which coefficient
-  /// matrices are exactly symmetric. Starts empty.
-  explicit IncrementalProjection(const Model* model) : m_model(model) {
+  /// matrices are exactly symmetric. Starts empty. `extra` (N x N, outliving this object, may be
+  /// nullptr) is one more matrix projected alongside the model's, W' extra V, e.g. the block E11
+  /// of a first-order model reduced through its second-order form.
+  explicit IncrementalProjection(const Model* model, const SparseMatrix* extra = nullptr)
+      : m_model(model) {
     if (const auto* so = std::get_if<SecondOrderModel>(model)) {
       m_ops = {&so->M, &so->D, &so->K};
       m_B = &so->B;
@@ -45,6 +48,8 @@ class IncrementalProjection {
       m_B = &ds.B;
       m_C = &ds.C;
     }
+    m_has_extra = extra != nullptr;
+    if (m_has_extra) m_ops.push_back(extra);
     for (const SparseMatrix* T : m_ops) m_symmetric.push_back(relative_asymmetry(*T) == 0.0);
     m_reduced.assign(m_ops.size(), Matrix(0, 0));
     m_Br.resize(0, m_B->cols());
@@ -161,6 +166,12 @@ class IncrementalProjection {
     return r;
   }
 
+  /// W' extra V of the first n <= columns() columns (exactly symmetric one-sided when extra is);
+  /// 0 x 0 without an extra matrix.
+  Matrix extra(Index n) const {
+    return m_has_extra ? Matrix(m_reduced.back().topLeftCorner(n, n)) : Matrix();
+  }
+
   /// ||V'V - I||_max over the first n columns (ecmor::orthogonality_loss, to rounding).
   double orthogonality_loss_v(Index n) const { return loss(m_Gvv, n); }
   /// ||W'W - I||_max over the first n columns (two-sided only).
@@ -187,8 +198,9 @@ class IncrementalProjection {
   }
 
   const Model* m_model;
-  std::vector<const SparseMatrix*> m_ops;  // M, D, K or E, A
-  std::vector<bool> m_symmetric;           // T' == T exactly
+  std::vector<const SparseMatrix*> m_ops;  // M, D, K or E, A (then the extra matrix, if any)
+  bool m_has_extra = false;
+  std::vector<bool> m_symmetric;  // T' == T exactly
   const Matrix* m_B = nullptr;
   const Matrix* m_C = nullptr;
   const Matrix* m_Cv = nullptr;   // nullptr: no velocity output

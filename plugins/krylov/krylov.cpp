@@ -18,6 +18,7 @@
 #include "ecmor/plugin.hpp"
 #include "ecmor/projection.hpp"
 #include "incremental_projection.hpp"
+#include "second_order_view.hpp"
 #include "toar.hpp"
 
 namespace ecmor::krylov {
@@ -36,6 +37,9 @@ struct Options {
   double deflation_tolerance = 1e-10;
   Index cache_points = 64;
   Index max_moments_per_point = 100;
+  // structure: auto reduces a first-order model with second-order structure (second_order_form,
+  // symmetric M, D, K, M SPD) through that structure; first_order never looks for it.
+  bool structure_auto = true;
 };
 
 /// A configured point and its weight (moment blocks added per round by the grow path).
@@ -118,17 +122,25 @@ class KrylovReducer final : public Reducer {
     if (context.model == nullptr || context.solver == nullptr) {
       throw InputError("krylov: setup needs a model and a shifted solver");
     }
+    if (context.solver->size() != size_of(*context.model)) {
+      throw InputError(fmt::format("krylov: the solver has size {}, the model N = {}",
+                                   context.solver->size(), size_of(*context.model)));
+    }
     m_model = context.model;
     m_solver = context.solver;
+    m_structure = detect_structure(context);
+    if (m_structure) {
+      // From here on the reducer works on the recovered second-order model (its solves answered
+      // by the first-order solver); finish() turns each result back into a first-order one.
+      m_model = &m_structure->second;
+      m_solver = m_structure->solver.get();
+    }
     m_band = context.band;
     m_n = size_of(*m_model);
     m_second_order = std::holds_alternative<SecondOrderModel>(*m_model);
-    m_grow_projection.emplace(m_model);
-    m_points_projection.emplace(m_model);
-    if (m_solver->size() != m_n) {
-      throw InputError(
-          fmt::format("krylov: the solver has size {}, the model N = {}", m_solver->size(), m_n));
-    }
+    const SparseMatrix* E11 = m_structure ? &m_structure->E11 : nullptr;
+    m_grow_projection.emplace(m_model, E11);
+    m_points_projection.emplace(m_model, E11);
     std::visit([&](const auto& m) { m_B = m.B; }, *m_model);
     // Output side: C, or Cv when the position output is zero (velocity output): the moments of
     // s g(s) at s0 span the same space as those of g(s). Both non-zero: no single start block.
@@ -187,21 +199,105 @@ class KrylovReducer final : public Reducer {
     if (request.order < 0) {
       throw InputError(fmt::format("krylov: order = {}: must be >= 0", request.order));
     }
-    if (!request.points.empty()) return reduce_points(request);
-    if (request.order < 1) {
+    if (request.points.empty() && request.order < 1) {
       throw InputError(
           fmt::format("krylov: order = {}: must be >= 1 when the request gives no expansion points",
                       request.order));
     }
-    return reduce_grow(request.order);
+    m_requested_order = request.order;
+    // Through the second-order structure every column of the second-order basis V2 gives two
+    // first-order states (V = blkdiag(V2, V2)): a cap r allows floor(r / 2) columns, and r = 1
+    // the smallest such model, order 2 (the note says so).
+    ReductionRequest mapped = request;
+    if (m_structure && request.order > 0) mapped.order = std::max<Index>(1, request.order / 2);
+    if (!mapped.points.empty()) return reduce_points(mapped);
+    return reduce_grow(mapped.order);
   }
 
   Index max_order() const override {
-    if (m_grow.exhausted) return usable(m_grow.V, m_grow.W);
-    return m_n;
+    const Index n = m_grow.exhausted ? usable(m_grow.V, m_grow.W) : m_n;
+    return m_structure ? 2 * n : n;
   }
 
+  /// Two first-order states per second-order column through the second-order structure.
+  Index order_step() const override { return m_structure ? 2 : 1; }
+
  private:
+  // ---- second-order structure of a first-order model -----------------------------------------
+
+  /// The recovered second-order model of a first-order one, with the E11 block (projected as
+  /// W2' E11 V2 for the first-order reduced model) and its solver view.
+  struct Structure {
+    Model second;
+    SparseMatrix E11;
+    std::unique_ptr<SecondOrderView> solver;
+  };
+
+  /// The structure to reduce through, or nullptr for the plain path: structure: auto, a
+  /// descriptor model that second_order_form() recognises, symmetric D and K, M symmetric positive
+  /// definite (then one-sided projection keeps Mr, Dr, Kr symmetric, and SPD ones SPD, which is
+  /// what makes the path worth taking), and, two-sided, a single output block.
+  std::unique_ptr<Structure> detect_structure(const ReductionContext& context) const {
+    if (!m_options.structure_auto) return nullptr;
+    const auto* ds = std::get_if<DescriptorModel>(context.model);
+    if (ds == nullptr) return nullptr;
+    std::optional<SecondOrderModel> so = second_order_form(*ds);
+    if (!so) return nullptr;
+    // The library's symmetry threshold (is_positive_definite's default). The SLICOT building
+    // (build: K and D of build_so, slightly unsymmetric) fails it and keeps the first-order path:
+    // the symmetric argument for stability does not hold for it.
+    constexpr double kSymmetryTol = 1e-10;
+    if (!(relative_asymmetry(so->D) <= kSymmetryTol) ||
+        !(relative_asymmetry(so->K) <= kSymmetryTol) ||
+        !is_positive_definite(so->M, kSymmetryTol)) {
+      return nullptr;
+    }
+    // Two-sided second-order Krylov needs one output start block (C or Cv, see setup); with both
+    // the first-order path, which has one (C = [C1 C2]), is taken.
+    const bool has_c = so->C.size() > 0 && so->C.cwiseAbs().maxCoeff() > 0.0;
+    if (m_options.two_sided && has_c && so->has_velocity_output()) return nullptr;
+    auto st = std::make_unique<Structure>();
+    const Index n = so->size();
+    st->E11 = ds->E.topLeftCorner(n, n);
+    st->second = std::move(*so);
+    st->solver =
+        std::make_unique<SecondOrderView>(*context.solver, std::get<SecondOrderModel>(st->second));
+    return st;
+  }
+
+  /// blkdiag(X, X).
+  static Matrix block_diagonal(const Matrix& X) {
+    Matrix Y = Matrix::Zero(2 * X.rows(), 2 * X.cols());
+    Y.topLeftCorner(X.rows(), X.cols()) = X;
+    Y.bottomRightCorner(X.rows(), X.cols()) = X;
+    return Y;
+  }
+
+  /// The first-order reduced model of the reduced second-order model r and F = W2' E11 V2:
+  /// Er = blkdiag(F, Mr), Ar = [0 F; -Kr -Dr], Br = [0; Br], Cr = [Cr Cvr], which is
+  /// project(first-order model, blkdiag(V2, V2), blkdiag(W2, W2)) since E12 = E21 = 0, A11 = 0,
+  /// A12 = E11 and B1 = 0.
+  static ReducedDescriptorModel first_order_of(const ReducedSecondOrderModel& r, const Matrix& F) {
+    const Index k = r.size();
+    ReducedDescriptorModel d;
+    d.E = Matrix::Zero(2 * k, 2 * k);
+    d.E.topLeftCorner(k, k) = F;
+    d.E.bottomRightCorner(k, k) = r.M;
+    d.A = Matrix::Zero(2 * k, 2 * k);
+    d.A.topRightCorner(k, k) = F;
+    d.A.bottomLeftCorner(k, k) = -r.K;
+    d.A.bottomRightCorner(k, k) = -r.D;
+    d.B = Matrix::Zero(2 * k, r.B.cols());
+    d.B.bottomRows(k) = r.B;
+    d.C = Matrix::Zero(r.C.rows(), 2 * k);
+    d.C.leftCols(k) = r.C;
+    if (r.has_velocity_output()) d.C.rightCols(k) = r.Cv;
+    return d;
+  }
+
+  /// First-order states of n second-order columns (n itself on the plain path).
+  Index states(Index n) const { return m_structure ? 2 * n : n; }
+
   // ---- points --------------------------------------------------------------------------------
 
   void validate_point(Complex s, Index moments, const std::string& what) const {
@@ -498,9 +594,10 @@ class KrylovReducer final : public Reducer {
   /// projections of symmetric models: Cholesky factorisations of n x n matrices instead of the
   /// eigenvalues of a 2n x 2n pencil); otherwise the eigenvalues (ecmor::poles, which reuses them
   /// for a model it saw recently, so the estimator's pole samples cost nothing more).
-  Index unstable_poles(const ReducedModel& model) {
+  /// `certified`: the caller has proven every pole stable (see finish(), second-order structure).
+  Index unstable_poles(const ReducedModel& model, bool certified) {
     m_last_certified = false;
-    if (certified_stable(model)) {
+    if (certified) {
       m_last_certified = true;
       return 0;
     }
@@ -551,6 +648,19 @@ class KrylovReducer final : public Reducer {
     // = project(*m_model, result.V, result.W), computing only the columns not projected before.
     projection.extend(V_all, W_all, n, two);
     result.model = projection.model(n);
+    bool certified = certified_stable(result.model);
+    if (m_structure) {
+      // Back to the first-order model: V = blkdiag(V2, V2), W = blkdiag(W2, W2). Its reduced
+      // pencil s Er - Ar = [s F, -F; Kr, s Mr + Dr] has det = det(F) det(s^2 Mr + s Dr + Kr), so
+      // with F nonsingular its poles are those of the second-order reduced model: the
+      // certificate of (Mr, Dr, Kr) carries over once F is proven positive definite (one-sided
+      // with E11 exactly symmetric, F is exactly symmetric: mirrored by the projection).
+      const Matrix F = projection.extra(n);
+      certified = certified && F == F.transpose() && proven_positive_definite(F);
+      result.model = first_order_of(std::get<ReducedSecondOrderModel>(result.model), F);
+      result.V = block_diagonal(result.V);
+      result.W = two ? block_diagonal(result.W) : result.V;
+    }
     // ExpansionPoint::moments counts moment blocks per side: k blocks match k moments at s0 (and
     // conj(s0)) one-sided, 2k two-sided (k blocks in V and k in W).
     Index total_moments = 0, used_points = 0;
@@ -610,22 +720,27 @@ class KrylovReducer final : public Reducer {
       note += fmt::format("; {} repeated point{} merged", repeats, repeats == 1 ? "" : "s");
     }
     if (std::any_of(partial.begin(), partial.end(), [](bool x) { return x; }) && capped) {
-      note += fmt::format("; last block cut at order {}", n);
+      note += fmt::format("; last block cut at order {}", states(n));
     }
     if (two && V_all.cols() != W_all.cols() && !capped) {
-      note +=
-          fmt::format("; {} trimmed from {} to {} columns to match {} (deflation)",
-                      V_all.cols() > W_all.cols() ? "V" : "W", std::max(V_all.cols(), W_all.cols()),
-                      n, V_all.cols() > W_all.cols() ? "W" : "V");
+      note += fmt::format("; {} trimmed from {} to {} columns to match {} (deflation)",
+                          V_all.cols() > W_all.cols() ? "V" : "W",
+                          states(std::max(V_all.cols(), W_all.cols())), states(n),
+                          V_all.cols() > W_all.cols() ? "W" : "V");
     }
     if (path == "grow" && n < order) {
       note +=
-          fmt::format("; order {} requested, {} available ({})", order, n,
+          fmt::format("; order {} requested, {} available ({})", m_requested_order, states(n),
                       exhausted ? "Krylov subspaces exhausted or moment budget used" : "deflation");
+    } else if (m_structure && m_requested_order % 2 == 1 && states(n) != m_requested_order) {
+      note += fmt::format("; order {} requested, {} delivered (two states per second-order column)",
+                          m_requested_order, states(n));
     }
+    d["second_order_structure"] = m_structure ? 1.0 : 0.0;
+    if (m_structure) note += "; second-order structure of the first-order model used (x = [q; q'])";
     // Stability: reported, never hidden or repaired.
     try {
-      const Index unstable = unstable_poles(result.model);
+      const Index unstable = unstable_poles(result.model, certified);
       d["unstable_poles"] = static_cast<double>(unstable);
       if (unstable > 0) {
         note += fmt::format("; {} projection lost stability: {} pole{} with Re >= 0",
@@ -645,8 +760,10 @@ class KrylovReducer final : public Reducer {
   const Model* m_model = nullptr;
   ShiftedSolver* m_solver = nullptr;
   Band m_band;
-  Index m_n = 0;
+  Index m_n = 0;  // size of the model reduced (n = N / 2 through the second-order structure)
   bool m_second_order = true;
+  std::unique_ptr<Structure> m_structure;  // set: reducing through the second-order structure
+  Index m_requested_order = 0;             // order of the current request, as given
   Matrix m_B;
   Matrix m_output;  // p x N start of the output side (C, or Cv for velocity outputs)
   bool m_velocity_start = false;
@@ -664,7 +781,7 @@ class KrylovReducer final : public Reducer {
   PointsBuild m_points;
   // Projections of the two paths' bases (set up in setup(): they need the model).
   std::optional<IncrementalProjection> m_grow_projection, m_points_projection;
-  Index m_pole_requests = 0;  // models whose poles this reducer asked for (cumulative)
+  Index m_pole_requests = 0;      // models whose poles this reducer asked for (cumulative)
   bool m_last_certified = false;  // the last count came from certified_stable()
 };
 
@@ -707,6 +824,11 @@ ReducerInfo krylov_info() {
        "point states (factorisation, Q, Arnoldi coefficients) kept, least recently used dropped; "
        "a request with more distinct points keeps all of its own for that request; >= 1"},
       {"max_moments_per_point", "int", "100", "budget of moment blocks at one point, >= 1"},
+      {"structure", "string", "auto",
+       "auto: a first-order model that is a second-order one in the state x = [q; q'] "
+       "(ecmor::second_order_form; symmetric M, D, K, M SPD) is reduced through that structure, "
+       "V = blkdiag(V2, V2), which keeps one-sided models stable; orders are even (a cap r "
+       "allows floor(r/2) second-order columns, r = 1 gives order 2); first_order: never"},
   };
   return info;
 }
@@ -716,6 +838,7 @@ std::unique_ptr<Reducer> create_krylov(const ParameterMap& params) {
   const std::string projection =
       params.get_string("projection", "one_sided", {"one_sided", "two_sided"});
   o.two_sided = projection == "two_sided";
+  o.structure_auto = params.get_string("structure", "auto", {"auto", "first_order"}) == "auto";
   const std::string owner = params.owner();
   auto fail = [&](const std::string& key, const std::string& rule) {
     const std::string where = params.location(key);

@@ -160,6 +160,12 @@ ParameterMap params(const std::string& projection = "one_sided") {
   return p;
 }
 
+// The plain first-order path, also for first-order models with second-order structure (iss).
+ParameterMap first_order(ParameterMap p) {
+  p.set("structure", "first_order");
+  return p;
+}
+
 Model load(const std::string& name) { return load_model("../shared/models/" + name); }
 
 // Band in Hz from the models' suggested angular band (info.json lists rad/s).
@@ -339,9 +345,11 @@ TEST(Krylov, VelocityOutputBuildSoOneAndTwoSided) {
 }
 
 TEST(Krylov, DescriptorMimoCdplayerAndIss) {
+  // iss on its first-order path (structure: first_order): the general descriptor machinery;
+  // its second-order structure is tested in the "second-order structure" section below.
   for (const char* name : {"cdplayer", "iss"}) {
     const Model model = load(name);
-    auto f = make(model, band_rad(1e-1, 1e3), params());
+    auto f = make(model, band_rad(1e-1, 1e3), first_order(params()));
     const Index m = inputs_of(model);
     const std::vector<ExpansionPoint> pts = {point_at_hz(2.0, 3), {Complex(5.0, 0.0), 2}};
     const ReducerResult r = f->reducer->reduce({0, pts});
@@ -350,7 +358,7 @@ TEST(Krylov, DescriptorMimoCdplayerAndIss) {
     for (const auto& p : pts) expect_moments(model, r, p.s, p.moments, kMomentTol, name);
     // Unsymmetric: one-sided does not match moment k, two-sided does (up to 2k - 1).
     EXPECT_GT(moment_errors(model, r.model, pts[0].s, 4)[3], kUnmatched) << name;
-    auto g = make(model, band_rad(1e-1, 1e3), params("two_sided"));
+    auto g = make(model, band_rad(1e-1, 1e3), first_order(params("two_sided")));
     const ReducerResult r2 = g->reducer->reduce({0, pts});
     for (const auto& p : pts) {
       expect_moments(model, r2, p.s, 2 * p.moments, kMomentTol, std::string(name) + " two-sided");
@@ -388,7 +396,7 @@ TEST(Krylov, TwoSidedTangentialIsBitangentialInterpolation) {
   // H_j v and u^H H_j match for j < k, and u^H H_j v for j < 2k.
   const Model model = load("iss");
   const Complex s0 = point_at_hz(0.2).s;
-  ParameterMap p = params("two_sided");
+  ParameterMap p = first_order(params("two_sided"));
   p.set("tangential_directions", 1);
   auto f = make(model, band_rad(1e-2, 1e3), p);
   const Index k = 3;
@@ -1187,6 +1195,273 @@ TEST(Krylov, LinearPointSpacingPlacesMidpointsOfEqualSections) {
   EXPECT_NE(msg.find("point_count points only"), std::string::npos) << msg;
 }
 
+// ---- second-order structure of a first-order model (structure: auto) ----------------------------
+
+// iss is the first-order form x = [q; q'] of the modal second-order model iss_so (N = 270,
+// n = 135, M = I, D and K diagonal SPD, velocity outputs). The band of the shipped configs.
+const Band kIssBand{0.0016, 160.0};
+
+// The point sets of the stability tests (Hz): the first-order path loses stability on each.
+std::vector<std::vector<ExpansionPoint>> iss_point_sets() {
+  auto log_points = [](double lo, double hi, Index count, Index moments) {
+    std::vector<ExpansionPoint> pts;
+    for (Index i = 0; i < count; ++i) {
+      const double t = (static_cast<double>(i) + 0.5) / static_cast<double>(count);
+      pts.push_back(point_at_hz(lo * std::pow(hi / lo, t), moments));
+    }
+    return pts;
+  };
+  return {log_points(kIssBand.f_min_hz, kIssBand.f_max_hz, 4, 2), log_points(0.1, 10.0, 6, 1),
+          log_points(0.05, 20.0, 8, 2), log_points(0.1, 10.0, 12, 3)};
+}
+
+// Dense poles of a reduced first-order model: eigenvalues of Er^-1 Ar (Er = blkdiag(F, Mr) is
+// SPD here), independent of ecmor::poles.
+ComplexVector dense_poles(const ReducedDescriptorModel& m) {
+  return Matrix(Eigen::PartialPivLU<Matrix>(m.E).solve(m.A)).eigenvalues();
+}
+
+double max_real(const ComplexVector& p) {
+  double worst = -std::numeric_limits<double>::infinity();
+  for (Index i = 0; i < p.size(); ++i) worst = std::max(worst, p[i].real());
+  return worst;
+}
+
+Index count_unstable(const ComplexVector& p) {
+  Index unstable = 0;
+  for (Index i = 0; i < p.size(); ++i) unstable += p[i].real() >= 0.0 ? 1 : 0;
+  return unstable;
+}
+
+// Largest entry of |X - Y| relative to the largest entry of |Y|.
+double relative_entry_difference(const Matrix& X, const Matrix& Y) {
+  return (X - Y).cwiseAbs().maxCoeff() / Y.cwiseAbs().maxCoeff();
+}
+
+const std::string kStructureNote =
+    "second-order structure of the first-order model used (x = [q; q'])";
+
+TEST(KrylovStructure, IssResultIsTheProjectionOfTheFirstOrderModelWithBlockDiagonalBases) {
+  const Model model = load("iss");
+  const Index N = size_of(model), n = N / 2;
+  for (const char* projection : {"one_sided", "two_sided"}) {
+    auto f = make(model, kIssBand, params(projection));
+    for (const auto& pts : iss_point_sets()) {
+      const ReducerResult r = f->reducer->reduce({0, pts});
+      const std::string what = fmt::format("{}, {} points", projection, pts.size());
+      EXPECT_EQ(r.diagnostics.at("second_order_structure"), 1.0) << what;
+      EXPECT_NE(r.note.find(kStructureNote), std::string::npos) << r.note;
+      ASSERT_TRUE(std::holds_alternative<ReducedDescriptorModel>(r.model)) << what;
+      const Index k = r.V.cols() / 2;
+      ASSERT_EQ(r.V.rows(), N);
+      ASSERT_EQ(r.V.cols(), 2 * k);
+      ASSERT_EQ(size_of(r.model), 2 * k);
+      // V = blkdiag(V2, V2) (W likewise) with V2 orthonormal.
+      const Matrix V2 = r.V.topLeftCorner(n, k), W2 = r.W.topLeftCorner(n, k);
+      EXPECT_EQ(r.V.bottomRightCorner(n, k), V2) << what;
+      EXPECT_EQ(r.V.topRightCorner(n, k).cwiseAbs().maxCoeff(), 0.0) << what;
+      EXPECT_EQ(r.V.bottomLeftCorner(n, k).cwiseAbs().maxCoeff(), 0.0) << what;
+      EXPECT_EQ(r.W.bottomRightCorner(n, k), W2) << what;
+      EXPECT_EQ(r.W.topRightCorner(n, k).cwiseAbs().maxCoeff(), 0.0) << what;
+      EXPECT_LT((V2.transpose() * V2 - Matrix::Identity(k, k)).cwiseAbs().maxCoeff(), 1e-12)
+          << what;
+      if (std::string(projection) == "one_sided") {
+        EXPECT_EQ(r.W, r.V) << what;
+      }
+      // A genuine Petrov-Galerkin projection of the given first-order model: equal to
+      // ecmor::project to rounding (the products are the same up to summation order; the
+      // entries are O(||K||) = O(4e3) at most, so 1e-12 relative is ~1e4 eps).
+      const auto ref = project(std::get<DescriptorModel>(model), r.V, r.W);
+      const auto& red = std::get<ReducedDescriptorModel>(r.model);
+      EXPECT_LT(relative_entry_difference(red.E, ref.E), 1e-12) << what;
+      EXPECT_LT(relative_entry_difference(red.A, ref.A), 1e-12) << what;
+      EXPECT_LT(relative_entry_difference(red.B, ref.B), 1e-12) << what;
+      EXPECT_LT(relative_entry_difference(red.C, ref.C), 1e-12) << what;
+      std::cout << what << ": order " << r.V.cols() << ", projection difference "
+                << std::max({relative_entry_difference(red.E, ref.E),
+                             relative_entry_difference(red.A, ref.A),
+                             relative_entry_difference(red.B, ref.B),
+                             relative_entry_difference(red.C, ref.C)})
+                << "\n";
+    }
+  }
+}
+
+TEST(KrylovStructure, IssStaysStableWhereTheFirstOrderPathDoesNot) {
+  const Model model = load("iss");
+  auto structured = make(model, kIssBand, params());
+  auto plain = make(model, kIssBand, first_order(params()));
+  for (const auto& pts : iss_point_sets()) {
+    const std::string what = fmt::format("{} points, {} moments", pts.size(), pts[0].moments);
+    // The first-order path: Galerkin projection of the unsymmetric A = [0 I; -K -D] loses
+    // stability (which is why this test exists), and says so.
+    const ReducerResult rp = plain->reducer->reduce({0, pts});
+    EXPECT_EQ(rp.diagnostics.at("second_order_structure"), 0.0) << what;
+    const Index lost = count_unstable(dense_poles(std::get<ReducedDescriptorModel>(rp.model)));
+    EXPECT_GT(lost, 0) << what << ": expected the first-order path to lose stability";
+    EXPECT_EQ(rp.diagnostics.at("unstable_poles"), static_cast<double>(lost)) << what;
+    // Through the second-order structure: Mr, Dr, Kr SPD, certified without eigenvalues, and
+    // the dense eigenvalues agree.
+    const ReducerResult rs = structured->reducer->reduce({0, pts});
+    const ComplexVector p = dense_poles(std::get<ReducedDescriptorModel>(rs.model));
+    EXPECT_EQ(p.size(), rs.V.cols());
+    EXPECT_LT(max_real(p), 0.0) << what;
+    EXPECT_EQ(rs.diagnostics.at("unstable_poles"), 0.0) << what;
+    EXPECT_EQ(rs.diagnostics.at("stability_certified"), 1.0) << what;
+    EXPECT_EQ(rs.note.find("lost stability"), std::string::npos) << rs.note;
+    std::cout << what << ": first-order path order " << rp.V.cols() << ", " << lost
+              << " unstable poles (max Re "
+              << max_real(dense_poles(std::get<ReducedDescriptorModel>(rp.model)))
+              << "); structured order " << rs.V.cols() << ", max Re " << max_real(p) << "\n";
+  }
+  EXPECT_EQ(structured->reducer->reduce({0, iss_point_sets()[0]}).diagnostics.at("pole_requests"),
+            0.0);
+}
+
+TEST(KrylovStructure, IssMatchesTheMomentsOfTheFirstOrderModel) {
+  // Reference: the moments of the full first-order model by the plain recurrence with a dense LU
+  // of s0 E - A (270 x 270), compared with those of the reduced first-order model (moments(),
+  // kMomentTol: see above; the points here keep cond(s0 E - A) moderate). No point at s0 = 0:
+  // with velocity outputs H(0) = 0, and a relative comparison means nothing there.
+  const Model model = load("iss");
+  const std::vector<ExpansionPoint> pts = {
+      point_at_hz(0.03, 3), point_at_hz(0.5, 2), point_at_hz(4.0, 2), {Complex(2.0, 0.0), 1}};
+  auto f = make(model, kIssBand, params());
+  const ReducerResult r = f->reducer->reduce({0, pts});
+  ASSERT_EQ(r.diagnostics.at("second_order_structure"), 1.0);
+  for (const auto& p : pts) {
+    expect_moments(model, r, p.s, p.moments, kMomentTol, "one-sided");
+    const auto e = moment_errors(model, r.model, p.s, p.moments);
+    std::cout << "one-sided, s0 = " << p.s << ": worst matched moment error "
+              << *std::max_element(e.begin(), e.end()) << "\n";
+  }
+  // H itself at each point, against a dense solve of the full model.
+  const Dense d = dense(model);
+  for (const auto& p : pts) {
+    const ComplexMatrix P = d.T[0] + p.s * d.T[1];
+    const ComplexMatrix H = d.C * P.partialPivLu().solve(d.B);
+    EXPECT_LT((transfer_function(r.model, p.s) - H).norm() / H.norm(), kMomentTol) << p.s;
+  }
+  // A moment beyond those matched is not (the test can fail).
+  EXPECT_GT(moment_errors(model, r.model, pts[1].s, 4)[3], kUnmatched);
+
+  // Two-sided (velocity output: the output side starts from Cv'): 2k moments.
+  auto g = make(model, kIssBand, params("two_sided"));
+  const ReducerResult r2 = g->reducer->reduce({0, pts});
+  ASSERT_EQ(r2.diagnostics.at("second_order_structure"), 1.0);
+  for (const auto& p : pts) {
+    expect_moments(model, r2, p.s, 2 * p.moments, kMomentTol, "two-sided");
+  }
+}
+
+TEST(KrylovStructure, NonIdentityE11IsProjectedInBothPlaces) {
+  // iss with E11 = A12 = F, a diagonal SPD matrix other than I (F q' = F v still means q' = v, so
+  // H is unchanged): the reduced model must use V2' F V2 in Er and in Ar, i.e. still equal the
+  // projection of this first-order model, match its moments and stay stable.
+  const Model iss = load("iss");
+  DescriptorModel m = std::get<DescriptorModel>(iss);
+  const Index n = size_of(iss) / 2;
+  for (Index i = 0; i < n; ++i) {
+    const double fi = 0.5 + static_cast<double>(i) / static_cast<double>(n);  // [0.5, 1.5)
+    m.E.coeffRef(i, i) = fi;
+    m.A.coeffRef(i, n + i) = fi;
+  }
+  const Model model(m);
+  const std::vector<ExpansionPoint> pts = {point_at_hz(0.05, 2), point_at_hz(0.5, 2),
+                                           point_at_hz(5.0, 2)};
+  auto f = make(model, kIssBand, params());
+  const ReducerResult r = f->reducer->reduce({0, pts});
+  ASSERT_EQ(r.diagnostics.at("second_order_structure"), 1.0);
+  const auto ref = project(m, r.V, r.W);
+  const auto& red = std::get<ReducedDescriptorModel>(r.model);
+  EXPECT_LT(relative_entry_difference(red.E, ref.E), 1e-12);
+  EXPECT_LT(relative_entry_difference(red.A, ref.A), 1e-12);
+  const Index k = r.V.cols() / 2;
+  EXPECT_GT((red.E.topLeftCorner(k, k) - Matrix::Identity(k, k)).cwiseAbs().maxCoeff(), 0.1)
+      << "F = V2' E11 V2 is not I here";
+  for (const auto& p : pts) expect_moments(model, r, p.s, p.moments, kMomentTol, "E11 != I");
+  EXPECT_LT(max_real(dense_poles(red)), 0.0);
+  EXPECT_EQ(r.diagnostics.at("stability_certified"), 1.0);
+}
+
+TEST(KrylovStructure, OrdersAreEvenAndCapsMapToHalfTheSecondOrderColumns) {
+  const Model model = load("iss");
+  ParameterMap p = params();
+  p.set("point_count", 4);
+  auto f = make(model, kIssBand, p);
+  EXPECT_EQ(f->reducer->order_step(), 2);
+  EXPECT_EQ(f->reducer->max_order(), 270);
+  // Grow path: order r gives floor(r / 2) second-order columns, nested across orders.
+  const ReducerResult r10 = f->reducer->reduce({10, {}});
+  EXPECT_EQ(r10.V.cols(), 10);
+  EXPECT_EQ(size_of(r10.model), 10);
+  const ReducerResult r7 = f->reducer->reduce({7, {}});
+  EXPECT_EQ(r7.V.cols(), 6);
+  EXPECT_NE(r7.note.find("order 7 requested, 6 delivered"), std::string::npos) << r7.note;
+  EXPECT_EQ(r7.V.topLeftCorner(135, 3), r10.V.topLeftCorner(135, 3));
+  // Order 1: the smallest structured model, order 2, and the note says so.
+  const ReducerResult r1 = f->reducer->reduce({1, {}});
+  EXPECT_EQ(r1.V.cols(), 2);
+  EXPECT_NE(r1.note.find("order 1 requested, 2 delivered"), std::string::npos) << r1.note;
+  EXPECT_LT(max_real(dense_poles(std::get<ReducedDescriptorModel>(r1.model))), 0.0);
+  // Points path with a cap.
+  const std::vector<ExpansionPoint> pts = {point_at_hz(0.1, 2), point_at_hz(1.0, 2)};
+  const ReducerResult all = f->reducer->reduce({0, pts});
+  // 3 inputs x 2 points x 2 moments, real and imaginary parts: 24 columns of V2, 48 states.
+  EXPECT_EQ(all.V.cols(), 2 * 24);
+  const ReducerResult capped = f->reducer->reduce({9, pts});
+  EXPECT_EQ(capped.V.cols(), 8);
+  EXPECT_EQ(capped.V.topLeftCorner(135, 4), all.V.topLeftCorner(135, 4));
+}
+
+TEST(KrylovStructure, SolvesGoThroughTheSharedFirstOrderSolver) {
+  // The second-order solves are answered by factorisations of s0 E - A from the driver's solver:
+  // one per point, counted there (no private solver whose work the history would not see).
+  const Model model = load("iss");
+  auto f = make(model, kIssBand, params());
+  const SolverCounters before = f->solver->counters();
+  const ReducerResult r =
+      f->reducer->reduce({0, {point_at_hz(0.1, 2), point_at_hz(1.0, 2), {Complex(0.0), 1}}});
+  const SolverCounters after = f->solver->counters();
+  EXPECT_EQ(after.factorizations - before.factorizations, 3);
+  EXPECT_EQ(r.diagnostics.at("factorizations"), 3.0);
+  EXPECT_GE(after.solves - before.solves, 3 * 5);  // 3 inputs, 5 moment blocks
+}
+
+TEST(KrylovStructure, FirstOrderKeyAndUnsuitableModelsKeepThePlainPath) {
+  const std::vector<ExpansionPoint> pts = {point_at_hz(0.5, 2)};
+  // structure: first_order on iss.
+  {
+    auto f = make(load("iss"), kIssBand, first_order(params()));
+    const ReducerResult r = f->reducer->reduce({0, pts});
+    EXPECT_EQ(r.diagnostics.at("second_order_structure"), 0.0);
+    EXPECT_EQ(r.note.find("second-order structure"), std::string::npos) << r.note;
+    EXPECT_EQ(r.V.cols(), 3 * 2 * 2);  // complex point: real and imaginary parts, no blkdiag
+    EXPECT_EQ(f->reducer->order_step(), 1);
+  }
+  // build: the structure is there, but K and D (those of build_so) are slightly unsymmetric,
+  // where the symmetric stability argument does not apply: first-order path under auto.
+  {
+    auto f = make(load("build"), band_rad(1e-1, 1e3), params());
+    const ReducerResult r = f->reducer->reduce({0, pts});
+    EXPECT_EQ(r.diagnostics.at("second_order_structure"), 0.0);
+    EXPECT_EQ(r.V.cols(), 2 * 2);
+  }
+  // rail_371 (no such structure) and a second-order model.
+  for (const char* name : {"rail_371", "iss_so"}) {
+    auto f = make(load(name), kIssBand, params());
+    EXPECT_EQ(f->reducer->reduce({0, pts}).diagnostics.at("second_order_structure"), 0.0) << name;
+  }
+}
+
+TEST(KrylovStructure, BadStructureValueIsAConfigErrorNamingIt) {
+  ParameterMap p("reducer 'krylov'");
+  p.set("structure", "second_order");
+  const std::string msg = message_of<ConfigError>([&] { registry().create("krylov", p); });
+  EXPECT_NE(msg.find("structure"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("second_order"), std::string::npos) << msg;
+}
+
 TEST(Krylov, InfoDocumentsEveryParameter) {
   const auto entries = registry().entries();
   const auto it = std::find_if(entries.begin(), entries.end(),
@@ -1194,9 +1469,9 @@ TEST(Krylov, InfoDocumentsEveryParameter) {
   ASSERT_NE(it, entries.end());
   std::vector<std::string> names;
   for (const auto& p : it->info.parameters) names.push_back(p.name);
-  for (const char* key :
-       {"projection", "points", "real_points", "point_moments", "point_count",
-        "tangential_directions", "deflation_tolerance", "cache_points", "max_moments_per_point"}) {
+  for (const char* key : {"projection", "points", "real_points", "point_moments", "point_count",
+                          "tangential_directions", "deflation_tolerance", "cache_points",
+                          "max_moments_per_point", "structure"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), key), names.end()) << key;
   }
   // The cache holds a greedy run's points (greedy_points: max_points 40 by default).

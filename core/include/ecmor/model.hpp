@@ -7,6 +7,7 @@
 /// Full models hold sparse N x N matrices; reduced models (seed Eqs. 2 and 4) hold dense n x n ones.
 /// B (N x m) and C, Cv (p x N) are dense in both: m and p are small.
 
+#include <optional>
 #include <string>
 #include <string_view>
 #include <variant>
@@ -96,5 +97,22 @@ ECMOR_API bool is_positive_definite(const SparseMatrix& A, double symmetry_tol =
 ///         "<origin>: E is numerically singular (...)".
 ECMOR_API void require_spd_mass(const Model& model, std::string_view origin = "model",
                                 double symmetry_tol = 1e-10);
+
+/// Recognises a first-order model that is a second-order model written in the state x = [q; q']
+/// and returns that second-order model, or std::nullopt (never throws). With N even, n = N / 2
+/// and n x n blocks  E = [E11 E12; E21 E22],  A = [A11 A12; A21 A22],  B = [B1; B2],
+/// C = [C1 C2], the pattern recognised is exactly:
+///   * E12 and E21 hold no stored nonzero value, A11 holds no stored nonzero value;
+///   * A12 == E11 entrywise (bit for bit, e.g. both I), and E11 is symmetric positive definite
+///     (is_positive_definite with its default tolerance);
+///   * B1 is zero.
+/// Then E11 q' = E11 v gives q' = v, and the second block row reads E22 v' = A21 q + A22 v + B2 u,
+/// so the model is  M q'' + D q' + K q = B u,  y = C q + Cv q'  with
+///   M = E22,  K = -A21,  D = -A22,  B = B2,  C = C1 (p x n, zero if all zero),
+///   Cv = C2 (left empty, 0 x 0, when C2 is all zero).
+/// Both models have the same transfer matrix. Nothing is required of M, D, K (symmetry,
+/// definiteness): callers check what their method needs. A model whose blocks do not have these
+/// sizes (inconsistent dimensions, N odd or 0) is not recognised.
+ECMOR_API std::optional<SecondOrderModel> second_order_form(const DescriptorModel& model);
 
 }  // namespace ecmor
