@@ -207,6 +207,20 @@ int info(const std::filesystem::path& model_dir, int eigenfrequencies, const Com
                  fmt::format("{}x{}", m.rows, m.cols), m.nnz, m.relative_asymmetry,
                  m.definiteness);
     }
+    if (const auto* ds = std::get_if<DescriptorModel>(&model)) {
+      // Worth knowing before choosing a reducer: such a model can be reduced with its structure
+      // (and stability) preserved, see the krylov plugin's `structure` key.
+      if (const auto so = second_order_form(*ds)) {
+        const bool symmetric = relative_asymmetry(so->M) <= 1e-10 &&
+                               relative_asymmetry(so->D) <= 1e-10 &&
+                               relative_asymmetry(so->K) <= 1e-10;
+        fmt::print("  second-order structure: x = [q; q'], M q'' + D q' + K q = B u with n = {}; "
+                   "M, D, K {}\n",
+                   so->size(),
+                   symmetric ? "symmetric (krylov reduces it as second order: structure: auto)"
+                             : "not all symmetric (krylov keeps the first-order path)");
+      }
+    }
     if (eigenfrequencies <= 0) return 0;
     const Index n = size_of(model);
     const Index nev = std::min<Index>(eigenfrequencies, std::max<Index>(1, n - 2));

@@ -441,6 +441,20 @@ TEST_F(Cli, InfoDescribesLf10) {
   EXPECT_TRUE(found_m) << r.out;
 }
 
+// A first-order model that is a second-order one (iss: E = I, A = [0 I; -K -D]) is said to be one;
+// a first-order model without that structure (rail_371: E SPD, A symmetric) is not.
+TEST_F(Cli, InfoNamesTheSecondOrderStructureOfAFirstOrderModel) {
+  const Result iss = run({"info", "../shared/models/iss", "--eigenfrequencies", "0"});
+  ASSERT_EQ(iss.exit_code, 0) << iss.err;
+  EXPECT_NE(iss.out.find("second-order structure: x = [q; q'], M q'' + D q' + K q = B u with "
+                         "n = 135; M, D, K symmetric"),
+            std::string::npos)
+      << iss.out;
+  const Result rail = run({"info", "../shared/models/rail_371", "--eigenfrequencies", "0"});
+  ASSERT_EQ(rail.exit_code, 0) << rail.err;
+  EXPECT_EQ(rail.out.find("second-order structure"), std::string::npos) << rail.out;
+}
+
 TEST_F(Cli, InfoEigenfrequenciesMatchAnalyticValues) {
   // M = I, K = tridiag(-1, 2, -1) of size n: lambda_k = 2 - 2 cos(k pi / (n + 1)), f = sqrt/2pi.
   SmallModel spec;
