@@ -29,8 +29,7 @@ std::string key_rule(const std::string& strategy, const std::string& key, const 
 PointSearchOptions PointSearchOptions::from(const ParameterMap& p, const std::string& strategy) {
   PointSearchOptions o;
   o.initial_points = p.get_int("initial_points", o.initial_points, 1, 1000);
-  o.linear_spacing =
-      p.get_string("initial_spacing", "log", {"log", "linear"}) == "linear";
+  o.linear_spacing = p.get_string("initial_spacing", "log", {"log", "linear"}) == "linear";
   o.moments = p.get_int("moments", o.moments, 1, 1000);
   o.max_points = p.get_int("max_points", o.max_points, 1, 1000);
   o.max_order = p.get_int("max_order", o.max_order, 1);
@@ -50,8 +49,8 @@ PointSearchOptions PointSearchOptions::from(const ParameterMap& p, const std::st
 
 void PointSearchOptions::validate(const std::string& strategy) const {
   if (initial_points < 1) {
-    throw ConfigError(key_rule(strategy, "initial_points", std::to_string(initial_points),
-                               "must be >= 1"));
+    throw ConfigError(
+        key_rule(strategy, "initial_points", std::to_string(initial_points), "must be >= 1"));
   }
   if (moments < 1) {
     throw ConfigError(key_rule(strategy, "moments", std::to_string(moments), "must be >= 1"));
@@ -64,8 +63,8 @@ void PointSearchOptions::validate(const std::string& strategy) const {
     throw ConfigError(key_rule(strategy, "max_order", std::to_string(max_order), "must be >= 1"));
   }
   if (max_iterations < 1) {
-    throw ConfigError(key_rule(strategy, "max_iterations", std::to_string(max_iterations),
-                               "must be >= 1"));
+    throw ConfigError(
+        key_rule(strategy, "max_iterations", std::to_string(max_iterations), "must be >= 1"));
   }
   if (reoptimize < 0 || stagnation_window < 0 || max_added_samples < 0) {
     throw ConfigError("strategy '" + strategy +
@@ -73,8 +72,8 @@ void PointSearchOptions::validate(const std::string& strategy) const {
   }
   // Ratios of 0 would make every step "stagnated", a floor of 0 brings back log10(0) = -inf.
   if (!(stagnation_ratio > 0.0 && stagnation_ratio <= 1.0)) {
-    throw ConfigError(key_rule(strategy, "stagnation_ratio", sci(stagnation_ratio),
-                               "must be in (0, 1]"));
+    throw ConfigError(
+        key_rule(strategy, "stagnation_ratio", sci(stagnation_ratio), "must be in (0, 1]"));
   }
   if (!(error_floor > 0.0 && error_floor <= 1.0)) {
     throw ConfigError(key_rule(strategy, "error_floor", sci(error_floor),
@@ -152,8 +151,8 @@ PointObjective::Levels PointObjective::evaluate(const std::vector<double>& x) {
     const auto it = reduced->diagnostics.find("unstable_poles");
     const bool reported = it != reduced->diagnostics.end() && std::isfinite(it->second);
     if (reported ? it->second > 0.0 : !strategy_support::is_stable(reduced->model)) {
-      out.failure = reported ? "unstable reduced model (" + std::to_string(std::lround(it->second)) +
-                                   " poles with Re >= 0)"
+      out.failure = reported ? "unstable reduced model (" +
+                                   std::to_string(std::lround(it->second)) + " poles with Re >= 0)"
                              : std::string("unstable reduced model");
     }
   }
@@ -197,9 +196,9 @@ PointObjective::Levels PointObjective::evaluate(const std::vector<double>& x) {
     for (double& xi : m_best_x) xi = std::clamp(xi, m_lower, m_upper);
     if (first || out.value <= m_recorded_value - kRecordGain) {
       m_recorded_value = out.value;
-      m_run.record_trial("optimize", *reduced, error,
-                         {{"evaluation", static_cast<double>(m_round_evaluations)},
-                          {"objective", out.value}});
+      m_run.record_trial(
+          "optimize", *reduced, error,
+          {{"evaluation", static_cast<double>(m_round_evaluations)}, {"objective", out.value}});
     }
   }
   return out;
@@ -281,7 +280,8 @@ std::vector<double> error_peaks_hz(const BandError& error, Index count, double a
     const bool right = i + 1 == r.size() || val(i + 1) < val(i);
     if (left && right) peaks.push_back(i);
   }
-  std::sort(peaks.begin(), peaks.end(), [&](std::size_t a, std::size_t b) { return val(a) > val(b); });
+  std::sort(peaks.begin(), peaks.end(),
+            [&](std::size_t a, std::size_t b) { return val(a) > val(b); });
   std::vector<double> f;
   for (std::size_t j = 0; j < peaks.size() && static_cast<Index>(j) < count; ++j) {
     f.push_back(error.f_hz[peaks[j]]);
@@ -361,12 +361,12 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
     // deflated directions). Such a model is not assessed; the cost is its one reduction.
     const bool reducer_limit = reducer_max <= o.max_order;
     auto over_order = [&](Index delivered, const std::string& what) {
-      return finish(reducer_limit ? Termination::ReducerExhausted : Termination::MaxOrderReached,
-                    (reducer_limit ? "the reducer delivers at most order "
-                                   : "order budget max_order = ") +
-                        std::to_string(max_order) + " exceeded: " + what + " gave order " +
-                        std::to_string(delivered) + " (not assessed): " +
-                        (run.most_accurate() ? tail() : std::string("no model assessed")));
+      return finish(
+          reducer_limit ? Termination::ReducerExhausted : Termination::MaxOrderReached,
+          (reducer_limit ? "the reducer delivers at most order " : "order budget max_order = ") +
+              std::to_string(max_order) + " exceeded: " + what + " gave order " +
+              std::to_string(delivered) + " (not assessed): " +
+              (run.most_accurate() ? tail() : std::string("no model assessed")));
     };
     // Points closer than this in log10 f count as one when growing (as greedy's min_separation
     // default: 1e-3 of the band's log width).
@@ -378,19 +378,19 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
       if (o.prune) {
         const Candidate first = *run.smallest_pass();
         pruned = strategy_support::prune_points(
-            run, first.result.points.empty() ? objective.points_of(x) : first.result.points, first, std::numeric_limits<Index>::max(),
-            [&](const std::vector<ExpansionPoint>& pts) {
+            run, first.result.points.empty() ? objective.points_of(x) : first.result.points, first,
+            std::numeric_limits<Index>::max(), [&](const std::vector<ExpansionPoint>& pts) {
               ReducerResult r = run.context().reducer->reduce(ReductionRequest{0, pts});
               if (r.points.empty()) r.points = pts;
               return r;
             });
       }
       const Candidate& c = *run.smallest_pass();
-      return finish(Termination::Converged,
-                    "band error " + sci(c.error.sup_relative) + " <= tolerance " +
-                        sci(ctx.tolerance) + " at order " + std::to_string(c.order()) + " with " +
-                        std::to_string(c.result.points.size()) + " points" + where +
-                        run.verified_phrase() + pruned);
+      return finish(Termination::Converged, "band error " + sci(c.error.sup_relative) +
+                                                " <= tolerance " + sci(ctx.tolerance) +
+                                                " at order " + std::to_string(c.order()) +
+                                                " with " + std::to_string(c.result.points.size()) +
+                                                " points" + where + run.verified_phrase() + pruned);
     };
 
     // The start may itself be unusable (a point on an eigenvalue): then the optimiser
@@ -402,8 +402,7 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
     } catch (const Error&) {
     }
     if (start && start->V.cols() > max_order) {
-      return over_order(start->V.cols(),
-                        "the start with " + std::to_string(x.size()) + " points");
+      return over_order(start->V.cols(), "the start with " + std::to_string(x.size()) + " points");
     }
     if (start) {
       c = run.assess(std::move(*start), "start",
@@ -427,14 +426,12 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
       objective.begin_round();
       const Optimisation opt = optimise(objective, x);
       if (run.stopped()) {
-        return finish(Termination::Interrupted,
-                      "stopped by request while optimising " + std::to_string(x.size()) +
-                          " points");
+        return finish(Termination::Interrupted, "stopped by request while optimising " +
+                                                    std::to_string(x.size()) + " points");
       }
       if (objective.best_x().empty()) {
         return finish(Termination::Failed,
-                      strategy + ": every one of " +
-                          std::to_string(objective.round_evaluations()) +
+                      strategy + ": every one of " + std::to_string(objective.round_evaluations()) +
                           " objective evaluations with " + std::to_string(x.size()) +
                           " points failed; last: " + objective.last_failure());
       }
@@ -459,9 +456,8 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
       objective.add_peaks(c.error, peak_count, o.max_added_samples);
       if (c.passed) return converged("");
       if (run.stopped()) {
-        return finish(Termination::Interrupted,
-                      "stopped by request after optimising " + std::to_string(x.size()) +
-                          " points");
+        return finish(Termination::Interrupted, "stopped by request after optimising " +
+                                                    std::to_string(x.size()) + " points");
       }
       trace.push_back(run.best_error());
       const Index w = o.stagnation_window;
@@ -491,18 +487,17 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
       // maxima above the tolerance, up to points_per_growth); the others stay (warm start).
       const Band& band = ctx.estimator->band();
       const std::vector<double> added =
-          growth_points(c.error, x, std::min(o.points_per_growth, o.max_points - p),
-                        ctx.tolerance, separation, band);
+          growth_points(c.error, x, std::min(o.points_per_growth, o.max_points - p), ctx.tolerance,
+                        separation, band);
       const Index k = static_cast<Index>(added.size());
       // Each point adds about the same number of columns (2 m per moment for a complex point).
       const Index next_order = c.order() + k * ((c.order() + p - 1) / p);
       if (next_order > max_order) {
-        return finish(reducer_limit ? Termination::ReducerExhausted : Termination::MaxOrderReached,
-                      (reducer_limit ? "the reducer delivers at most order "
-                                     : "order budget max_order = ") +
-                          std::to_string(max_order) + " would be exceeded by " +
-                          std::to_string(p + k) + " points (about order " +
-                          std::to_string(next_order) + "): " + tail());
+        return finish(
+            reducer_limit ? Termination::ReducerExhausted : Termination::MaxOrderReached,
+            (reducer_limit ? "the reducer delivers at most order " : "order budget max_order = ") +
+                std::to_string(max_order) + " would be exceeded by " + std::to_string(p + k) +
+                " points (about order " + std::to_string(next_order) + "): " + tail());
       }
       x.insert(x.end(), added.begin(), added.end());
       std::sort(x.begin(), x.end());
@@ -515,8 +510,8 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
         // Unusable (a point on an eigenvalue): the optimiser starts there and steers away.
       }
       if (grown && grown->V.cols() > max_order) {
-        return over_order(grown->V.cols(), "the grown set with " + std::to_string(x.size()) +
-                                               " points");
+        return over_order(grown->V.cols(),
+                          "the grown set with " + std::to_string(x.size()) + " points");
       }
       if (grown) {
         c = run.assess(std::move(*grown), "grow",
@@ -526,9 +521,8 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
         objective.add_peaks(c.error, peak_count, o.max_added_samples);
         if (c.passed) return converged(" (grown set, before optimising)");
         if (run.stopped()) {
-          return finish(Termination::Interrupted,
-                        "stopped by request after growing to " + std::to_string(x.size()) +
-                            " points");
+          return finish(Termination::Interrupted, "stopped by request after growing to " +
+                                                      std::to_string(x.size()) + " points");
         }
       }
     }

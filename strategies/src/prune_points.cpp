@@ -98,8 +98,7 @@ std::string prune_points(StrategyRun& run, const std::vector<ExpansionPoint>& po
   // The candidate keeps only the larger of its two estimates (evaluate or verify); the other
   // one's samples are recomputed from the cache (same model, same deterministic sampling).
   try {
-    const bool holds_verify =
-        c.error.grid_samples != static_cast<Index>(estimator.grid().size());
+    const bool holds_verify = c.error.grid_samples != static_cast<Index>(estimator.grid().size());
     add_screen(all_samples(holds_verify ? estimator.evaluate(c.result.model)
                                         : estimator.verify(c.result.model, ctx.verify_factor)));
   } catch (const std::exception&) {
@@ -189,8 +188,8 @@ std::string prune_points(StrategyRun& run, const std::vector<ExpansionPoint>& po
   // 1. The cost of each point: the screened band error without it (no history records).
   struct Cost {
     std::size_t index;
-    double error;  // screened band error without this point (inf: the reduction broke down)
-    Index order;   // order without this point
+    double error;      // screened band error without this point (inf: the reduction broke down)
+    Index order;       // order without this point
     bool screened_in;  // screened error <= tolerance: the removal may pass
   };
   std::vector<Cost> costs;
@@ -251,10 +250,9 @@ std::string prune_points(StrategyRun& run, const std::vector<ExpansionPoint>& po
   std::ostringstream os;
   os << "; pruning: " << points_before << " -> " << smallest.result.points.size() << " points, "
      << moments_before << " -> " << total_moments(smallest.result.points) << " moments, order "
-     << order_before << " -> " << smallest.order() << " in " << trials
-     << " trials screened on " << screen_f.size() << " cached frequencies (" << early
-     << " ruled out on the " << kNear << " nearest and the " << kWorst
-     << " worst), " << assessed << " of them assessed";
+     << order_before << " -> " << smallest.order() << " in " << trials << " trials screened on "
+     << screen_f.size() << " cached frequencies (" << early << " ruled out on the " << kNear
+     << " nearest and the " << kWorst << " worst), " << assessed << " of them assessed";
   if (cut) os << (run.stopped() ? " (cut short by request)" : " (cut short by max_iterations)");
   if (!trial_failure.empty()) os << " (a trial failed: " << trial_failure << ")";
   return os.str();

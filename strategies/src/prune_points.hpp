@@ -39,7 +39,8 @@
 
 namespace ecmor::strategy_support {
 
-/// Reduces at exactly the given points (ReductionRequest{0, points}; the result's points filled in).
+/// Reduces at exactly the given points (ReductionRequest{0, points}; the result's points filled
+/// in).
 using PointReduction = std::function<ReducerResult(const std::vector<ExpansionPoint>&)>;
 
 /// Prunes `points` (the point set of the passing candidate `passing`, points on the imaginary
