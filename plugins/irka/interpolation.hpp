@@ -1,0 +1,173 @@
+#pragma once
+// interpolation.hpp: the data IRKA iterates on (shifts and tangential directions), the pole-residue
+// form of a reduced model it derives them from, and the comparisons of shift sets that its
+// convergence, cycling and stagnation tests use. Private to the irka plugin (see README.md).
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+
+#include "ecmor/error.hpp"
+#include "ecmor/model.hpp"
+
+namespace ecmor::irka {
+
+/// Shifts sigma_i closed under conjugation, each pair stored as (sigma, conj sigma) adjacent with
+/// Im sigma > 0 first, real shifts after the pairs; column i of b (m x r) and c (p x r) are the
+/// right and left tangential directions of shift i (conjugate for conjugate shifts).
+struct Interpolation {
+  std::vector<Complex> shifts;
+  ComplexMatrix b;
+  ComplexMatrix c;
+  Index size() const { return static_cast<Index>(shifts.size()); }
+};
+
+/// Reduced poles lambda_i with residue directions: Gr(s) = sum_i c_i b_i^T / (s - lambda_i).
+struct PoleResidues {
+  ComplexVector poles;
+  ComplexMatrix b;  ///< m x n
+  ComplexMatrix c;  ///< p x n
+  /// Reciprocal condition estimate of the eigenvector matrix (0: defective to working precision).
+  double eigenvector_rcond = 0.0;
+};
+
+/// Pole-residue form of E x' = A x + B u, y = C x (E nonsingular, A diagonalisable).
+/// \throws NumericalError when E is numerically singular or the eigenvectors are (numerically)
+///         dependent, naming what failed.
+inline PoleResidues pole_residues(const Matrix& E, const Matrix& A, const Matrix& B,
+                                  const Matrix& C) {
+  const Index n = A.rows();
+  PoleResidues out;
+  if (n == 0) return out;
+  const Eigen::PartialPivLU<Matrix> lu(E);
+  const double rcond = lu.rcond();
+  if (!(rcond > std::numeric_limits<double>::epsilon() * static_cast<double>(n))) {
+    throw NumericalError(fmt::format(
+        "the reduced E = W' E V is numerically singular (reciprocal condition {:.2e}): the bases "
+        "V and W are (nearly) orthogonal to each other",
+        rcond));
+  }
+  const Matrix F = lu.solve(A);
+  const Matrix G = lu.solve(B);
+  const Eigen::EigenSolver<Matrix> eig(F);
+  if (eig.info() != Eigen::Success) {
+    throw NumericalError("the eigenvalues of the reduced model did not converge (QR iteration)");
+  }
+  out.poles = eig.eigenvalues();
+  const ComplexMatrix X = eig.eigenvectors();
+  const Eigen::PartialPivLU<ComplexMatrix> xlu(X);
+  out.eigenvector_rcond = xlu.rcond();
+  if (!(out.eigenvector_rcond > 1e3 * std::numeric_limits<double>::epsilon())) {
+    throw NumericalError(fmt::format(
+        "the reduced model is not diagonalisable to working precision (eigenvector matrix "
+        "reciprocal condition {:.2e}): its poles and residues, hence the next shifts, are undefined",
+        out.eigenvector_rcond));
+  }
+  out.c = C.cast<Complex>() * X;
+  out.b = xlu.solve(G.cast<Complex>()).transpose();
+  return out;
+}
+
+/// Orders the shifts as Interpolation requires (pairs (Im > 0, Im < 0) adjacent, sorted by |Im|,
+/// then real shifts ascending), permuting the direction columns alike. Imaginary parts below
+/// 1e-12 |sigma| are set to zero (a real shift) with real directions. The caller guarantees
+/// closure under conjugation.
+/// \throws NumericalError if a shift has no conjugate partner.
+inline Interpolation canonical(const std::vector<Complex>& shifts, const ComplexMatrix& b,
+                               const ComplexMatrix& c) {
+  const Index r = static_cast<Index>(shifts.size());
+  std::vector<Index> upper, lower, real;
+  std::vector<Complex> s = shifts;
+  for (Index i = 0; i < r; ++i) {
+    if (std::abs(s[i].imag()) <= 1e-12 * std::abs(s[i])) {
+      s[i] = Complex(s[i].real(), 0.0);
+      real.push_back(i);
+    } else if (s[i].imag() > 0.0) {
+      upper.push_back(i);
+    } else {
+      lower.push_back(i);
+    }
+  }
+  if (upper.size() != lower.size()) {
+    throw NumericalError(fmt::format("{} shifts with Im > 0 but {} with Im < 0: the shift set is not "
+                                     "closed under conjugation",
+                                     upper.size(), lower.size()));
+  }
+  std::sort(upper.begin(), upper.end(), [&](Index x, Index y) {
+    return s[x].imag() != s[y].imag() ? s[x].imag() < s[y].imag() : s[x].real() < s[y].real();
+  });
+  std::sort(real.begin(), real.end(), [&](Index x, Index y) { return s[x].real() < s[y].real(); });
+  Interpolation out;
+  out.b.resize(b.rows(), r);
+  out.c.resize(c.rows(), r);
+  Index k = 0;
+  for (Index i : upper) {
+    out.shifts.push_back(s[i]);
+    out.shifts.push_back(std::conj(s[i]));
+    out.b.col(k) = b.col(i);
+    out.b.col(k + 1) = b.col(i).conjugate();
+    out.c.col(k) = c.col(i);
+    out.c.col(k + 1) = c.col(i).conjugate();
+    k += 2;
+  }
+  for (Index i : real) {
+    out.shifts.push_back(s[i]);
+    // A real shift's directions are real up to a complex factor; the subspace does not care about
+    // the factor, so keep the larger of the real and imaginary parts.
+    auto real_part = [](const ComplexVector& v) -> ComplexVector {
+      const double re = v.real().norm(), im = v.imag().norm();
+      const Vector part = re >= im ? Vector(v.real()) : Vector(v.imag());
+      return part.cast<Complex>();
+    };
+    out.b.col(k) = real_part(b.col(i));
+    out.c.col(k) = real_part(c.col(i));
+    ++k;
+  }
+  return out;
+}
+
+/// Sine of the angle between two direction vectors (0: the same line; phase-invariant).
+inline double direction_angle(const ComplexVector& x, const ComplexVector& y) {
+  const double nx = x.norm(), ny = y.norm();
+  if (nx == 0.0 || ny == 0.0) return nx == ny ? 0.0 : 1.0;
+  const double cosine = std::min(1.0, std::abs(x.dot(y)) / (nx * ny));
+  return std::sqrt(std::max(0.0, 1.0 - cosine * cosine));
+}
+
+/// How far two interpolation data sets of the same size are apart: a greedy nearest matching of
+/// the shifts, then the largest of |sigma_new - sigma_old| / |sigma_old| and the sines of the
+/// angles between matched directions b and c (so MIMO data converge only when the tangential
+/// directions do too). Infinity when the sizes differ.
+inline double data_change(const Interpolation& previous, const Interpolation& next) {
+  if (previous.size() != next.size()) return std::numeric_limits<double>::infinity();
+  const std::size_t r = previous.shifts.size();
+  std::vector<bool> used(r, false);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < r; ++i) {
+    const Complex s = next.shifts[i];
+    std::size_t best = r;
+    double distance = std::numeric_limits<double>::infinity();
+    for (std::size_t j = 0; j < r; ++j) {
+      if (used[j]) continue;
+      const double d = std::abs(s - previous.shifts[j]);
+      if (d < distance) {
+        distance = d;
+        best = j;
+      }
+    }
+    used[best] = true;
+    const double scale = std::max(std::abs(previous.shifts[best]), std::numeric_limits<double>::min());
+    const auto ib = static_cast<Index>(i), jb = static_cast<Index>(best);
+    worst = std::max({worst, distance / scale,
+                      direction_angle(previous.b.col(jb), next.b.col(ib)),
+                      direction_angle(previous.c.col(jb), next.c.col(ib))});
+  }
+  return worst;
+}
+
+}  // namespace ecmor::irka

@@ -1,0 +1,709 @@
+// irka.cpp: the "irka" reducer: the iterative rational Krylov algorithm for H2-optimal reduction
+// (Gugercin, Antoulas, Beattie 2008), MIMO with tangential directions, for descriptor models and
+// for second-order models through their first-order realisation (solves on s^2 M + s D + K), plus
+// a structure-preserving second-order variant, with safeguards (convergence, cycling, stagnation,
+// restarts, reflected poles) reported in the history. See README.md.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <Eigen/QR>
+
+#include "ecmor/error.hpp"
+#include "ecmor/frequency_response.hpp"
+#include "ecmor/plugin.hpp"
+#include "ecmor/projection.hpp"
+#include "full_model_view.hpp"
+#include "interpolation.hpp"
+
+namespace ecmor::irka {
+namespace {
+
+constexpr const char* kName = "irka";
+
+enum class Structure { FirstOrder, SecondOrder };
+enum class SecondOrderShifts { Iterate, FromFirstOrder };
+
+struct Options {
+  Structure structure = Structure::FirstOrder;
+  SecondOrderShifts second_order_shifts = SecondOrderShifts::Iterate;
+  bool two_sided = true;  // second-order variant only; first-order IRKA is always two-sided
+  double initial_damping = 0.0;
+  Index max_iterations = 50;
+  double tolerance = 1e-6;
+  Index stagnation_window = 10;
+  Index restarts = 2;
+  bool warm_start = true;
+  bool check_stability = true;
+  Index dense_check_limit = 2000;
+};
+
+/// A reduced model built from one interpolation data set, with its bases and the pole-residue
+/// form of its (first-order realisation's) transfer function.
+struct Built {
+  ReducedModel model;
+  Matrix V, W;
+  PoleResidues poles;
+};
+
+/// What one IRKA run at a fixed order ends with.
+struct Outcome {
+  Built built;
+  Interpolation data;  // the shifts and directions `built` interpolates at
+  bool converged = false;
+  std::string reason;
+  Index iterations = 0;
+  Index restarts = 0;
+  Index reflected = 0;
+  double shift_change = std::numeric_limits<double>::infinity();  // data_change() at the end
+};
+
+std::string describe(Complex s) {
+  if (s.imag() == 0.0) return fmt::format("{:.6g}", s.real());
+  return fmt::format("{:.6g}{:+.6g}i", s.real(), s.imag());
+}
+
+/// Orthonormal basis of the columns of X by Householder QR with column pivoting, the columns
+/// normalised first (resolvent norms differ by orders of magnitude across a band; the rank test
+/// is then on angles, not on norms).
+/// \throws NumericalError if X is rank deficient to 1e-12.
+Matrix orthonormal_basis(Matrix X, const char* side) {
+  if (!X.allFinite()) {
+    throw NumericalError(fmt::format("the {} basis contains NaN or Inf", side));
+  }
+  for (Index j = 0; j < X.cols(); ++j) {
+    const double norm = X.col(j).norm();
+    if (norm > 0.0) X.col(j) /= norm;
+  }
+  Eigen::ColPivHouseholderQR<Matrix> qr(X);
+  qr.setThreshold(1e-12);
+  if (qr.rank() < X.cols()) {
+    throw NumericalError(fmt::format(
+        "the {} basis has rank {} < {}: two shifts (or directions) coincide to working precision",
+        side, qr.rank(), X.cols()));
+  }
+  Matrix Q = qr.householderQ() * Matrix::Identity(X.rows(), X.cols());
+  return Q;
+}
+
+/// Poles with Re >= -1e-12 max |lambda| (not asymptotically stable to working precision).
+Index unstable_count(const ComplexVector& poles) {
+  const double scale = poles.size() > 0 ? poles.cwiseAbs().maxCoeff() : 0.0;
+  Index count = 0;
+  for (const Complex& p : poles) count += p.real() >= -1e-12 * scale ? 1 : 0;
+  return count;
+}
+
+/// The first-order realisation x = [q; q'] of a reduced second-order model.
+ReducedDescriptorModel realisation(const ReducedSecondOrderModel& so) {
+  const Index n = so.size();
+  ReducedDescriptorModel r;
+  r.E = Matrix::Zero(2 * n, 2 * n);
+  r.E.topLeftCorner(n, n).setIdentity();
+  r.E.bottomRightCorner(n, n) = so.M;
+  r.A = Matrix::Zero(2 * n, 2 * n);
+  r.A.topRightCorner(n, n).setIdentity();
+  r.A.bottomLeftCorner(n, n) = -so.K;
+  r.A.bottomRightCorner(n, n) = -so.D;
+  r.B = Matrix::Zero(2 * n, so.inputs());
+  r.B.bottomRows(n) = so.B;
+  r.C = Matrix::Zero(so.outputs(), 2 * n);
+  r.C.leftCols(n) = so.C;
+  if (so.has_velocity_output()) r.C.rightCols(n) = so.Cv;
+  return r;
+}
+
+class IrkaReducer final : public Reducer {
+ public:
+  explicit IrkaReducer(Options options) : m_options(options) {}
+
+  void setup(const ReductionContext& context) override {
+    if (context.model == nullptr || context.solver == nullptr) {
+      throw InputError("irka: setup needs a model and a shifted solver");
+    }
+    if (context.solver->size() != size_of(*context.model)) {
+      throw InputError(fmt::format("irka: the solver has size {}, the model N = {}",
+                                   context.solver->size(), size_of(*context.model)));
+    }
+    m_view.emplace(*context.model, *context.solver);
+    m_band = context.band;
+    if (m_options.structure == Structure::SecondOrder && !m_view->second_order()) {
+      throw ConfigError(
+          "reducer 'irka': structure = second_order needs a second-order model (M, D, K); this "
+          "model is first order (E, A): use structure: first_order");
+    }
+    check_model(*context.model);
+  }
+
+  ReducerResult reduce(const ReductionRequest& request) override {
+    if (!m_view) throw InputError("irka: reduce() called before setup()");
+    if (!request.points.empty()) {
+      throw ConfigError(
+          "reducer 'irka' chooses its own interpolation points (the mirror images of the reduced "
+          "poles); a strategy that sets expansion points cannot drive it: use grow_order");
+    }
+    const Index r = request.order;
+    if (r < 1 || r > max_order()) {
+      throw InputError(fmt::format("irka: order = {}: must be in [1, {}] (the {})", r, max_order(),
+                                   second_order_variant() ? "size N of the second-order model"
+                                                          : "size of the first-order state"));
+    }
+    Outcome out;
+    std::string prefix;
+    if (second_order_variant() &&
+        m_options.second_order_shifts == SecondOrderShifts::FromFirstOrder) {
+      // First-order IRKA finds the shifts; one second-order projection uses them.
+      Outcome first = run(r, false);
+      Built so = build(first.data, true);
+      out = std::move(first);
+      out.built = std::move(so);
+      prefix = "second-order projection at the shifts of first-order IRKA; ";
+    } else {
+      out = run(r, second_order_variant());
+    }
+    m_warm[r] = out.data;
+
+    ReducerResult result;
+    result.model = out.built.model;
+    result.V = std::move(out.built.V);
+    result.W = std::move(out.built.W);
+    result.diagnostics["irka_iterations"] = static_cast<double>(out.iterations);
+    result.diagnostics["irka_converged"] = out.converged ? 1.0 : 0.0;
+    result.diagnostics["irka_restarts"] = static_cast<double>(out.restarts);
+    result.diagnostics["irka_reflected_poles"] = static_cast<double>(out.reflected);
+    result.diagnostics["irka_change"] = out.shift_change;
+    result.diagnostics["eigenvector_rcond"] = out.built.poles.eigenvector_rcond;
+    const Index unstable = unstable_count(out.built.poles.poles);
+    result.diagnostics["unstable_poles"] = static_cast<double>(unstable);
+    result.note = fmt::format("irka r = {}: {}{} after {} iterations, {} restarts, {} poles reflected",
+                              r, prefix, out.reason, out.iterations, out.restarts, out.reflected);
+    if (unstable > 0) result.note += fmt::format("; {} reduced poles with Re >= 0", unstable);
+    return result;
+  }
+
+  Index max_order() const override {
+    if (!m_view) return kUnlimitedOrder;
+    return second_order_variant() ? m_view->size() : m_view->state_size();
+  }
+
+ private:
+  bool second_order_variant() const { return m_options.structure == Structure::SecondOrder; }
+
+  /// Refuses models IRKA cannot treat: unstable ones (no H2 norm, IRKA's fixed point undefined)
+  /// and descriptor models with singular E (the polynomial part of a DAE is not handled).
+  void check_model(const Model& model) {
+    m_stability = "not verified";
+    if (!m_options.check_stability) return;
+    bool certified = false;
+    if (const auto* ds = std::get_if<DescriptorModel>(&model)) {
+      // E SPD and A symmetric negative definite: every pole is real and negative.
+      const SparseMatrix minus_a = -ds->A;
+      certified = is_positive_definite(ds->E) && is_positive_definite(minus_a);
+    } else {
+      const auto& so = std::get<SecondOrderModel>(model);
+      // M, D, K SPD: for an eigenvector x, x^H (s^2 M + s D + K) x = 0 has roots with Re < 0.
+      certified = is_positive_definite(so.M) && is_positive_definite(so.D) &&
+                  is_positive_definite(so.K);
+    }
+    if (certified) {
+      m_stability = "certified (symmetric definite)";
+      return;
+    }
+    const Index dim = m_view->state_size();
+    if (dim <= m_options.dense_check_limit) {
+      const ComplexVector p = dense_poles(model);
+      const Index unstable = unstable_count(p);
+      if (unstable > 0) {
+        double largest = -std::numeric_limits<double>::infinity();
+        for (const Complex& z : p) largest = std::max(largest, z.real());
+        throw InputError(fmt::format(
+            "irka: the model is not asymptotically stable: {} of its {} finite poles have Re >= 0 "
+            "(largest real part {:.3e}); its H2 norm does not exist and IRKA has no H2-optimal "
+            "model to converge to (set check_stability: false to try anyway)",
+            unstable, p.size(), largest));
+      }
+      m_stability = "dense eigenvalues";
+    }
+    if (std::holds_alternative<DescriptorModel>(model)) {
+      const std::vector<Complex> e_only{Complex(0.0), Complex(1.0)};
+      try {
+        (void)m_view->solver().factorize_combination(e_only);
+      } catch (const NumericalError& e) {
+        throw InputError(fmt::format(
+            "irka: E is singular ({}): the model is a DAE, whose polynomial part IRKA does not "
+            "handle; reduce it with krylov or modal, or give an ODE realisation",
+            e.what()));
+      }
+    }
+  }
+
+  /// Finite poles of the full model by a dense shift-invert eigenproblem: the eigenvalues mu of
+  /// (A - sigma E)^-1 E give lambda = sigma + 1 / mu, and mu = 0 (to 1e-12 max |mu|) are the
+  /// infinite eigenvalues of a singular E. Unlike QZ on (A, E), the nonsymmetric QR iteration
+  /// also converges on pencils as badly scaled as peec's (|lambda| from 1 to 1e12).
+  /// sigma = -||A||_F / ||E||_F (negative: not a pole of a stable model; else a second try).
+  ComplexVector dense_poles(const Model& model) const {
+    Matrix E, A;
+    if (const auto* ds = std::get_if<DescriptorModel>(&model)) {
+      E = Matrix(ds->E);
+      A = Matrix(ds->A);
+    } else {
+      const auto& so = std::get<SecondOrderModel>(model);
+      const Index n = so.size();
+      E = Matrix::Identity(2 * n, 2 * n);
+      E.bottomRightCorner(n, n) = Matrix(so.M);
+      A = Matrix::Zero(2 * n, 2 * n);
+      A.topRightCorner(n, n).setIdentity();
+      A.bottomLeftCorner(n, n) = -Matrix(so.K);
+      A.bottomRightCorner(n, n) = -Matrix(so.D);
+    }
+    const double scale = A.norm() / std::max(E.norm(), std::numeric_limits<double>::min());
+    for (const double sigma : {-scale, -0.7315 * scale}) {
+      const Eigen::PartialPivLU<Matrix> lu(A - sigma * E);
+      if (!(lu.rcond() > 1e-14)) continue;
+      const Eigen::EigenSolver<Matrix> eig(Matrix(lu.solve(E)), false);
+      if (eig.info() != Eigen::Success) continue;
+      const ComplexVector mu = eig.eigenvalues();
+      const double largest = mu.size() > 0 ? mu.cwiseAbs().maxCoeff() : 0.0;
+      std::vector<Complex> finite;
+      for (const Complex& z : mu) {
+        if (std::abs(z) > 1e-12 * largest) finite.push_back(sigma + 1.0 / z);
+      }
+      return Eigen::Map<const ComplexVector>(finite.data(), static_cast<Index>(finite.size()));
+    }
+    throw NumericalError(
+        "irka: the stability check could not compute the model's poles (the shifted pencil "
+        "A - sigma E was singular at two shifts or the QR iteration failed); set "
+        "check_stability: false to skip it");
+  }
+
+  /// The reduced model interpolating at `data`: first-order (of the realisation) or second-order.
+  Built build(const Interpolation& data, bool second_order) {
+    FullModelView& view = *m_view;
+    const Index r = data.size();
+    const Index rows = second_order ? view.size() : view.state_size();
+    Matrix V(rows, r), W(rows, r);
+    const bool two_sided = second_order ? m_options.two_sided : true;
+    Index k = 0;
+    for (Index i = 0; i < r; ++i) {
+      const Complex s = data.shifts[static_cast<std::size_t>(i)];
+      if (s.imag() < 0.0) continue;  // the conjugate of the previous shift: same real span
+      std::shared_ptr<const Factorization> p;
+      try {
+        p = view.solver().factorize(s);
+      } catch (const NumericalError& e) {
+        throw NumericalError(fmt::format("factorisation at the shift {} failed: {}", describe(s),
+                                         e.what()));
+      }
+      const ComplexMatrix b = data.b.col(i), c = data.c.col(i);
+      ComplexMatrix v = second_order ? view.right_second_order(*p, b) : view.right(*p, s, b);
+      ComplexMatrix w;
+      if (two_sided) {
+        w = second_order ? view.left_second_order(*p, s, c) : view.left(*p, s, c);
+      }
+      V.col(k) = v.col(0).real();
+      if (two_sided) W.col(k) = w.col(0).real();
+      if (s.imag() > 0.0) {
+        V.col(k + 1) = v.col(0).imag();
+        if (two_sided) W.col(k + 1) = w.col(0).imag();
+        k += 2;
+      } else {
+        k += 1;
+      }
+    }
+    Built out;
+    out.V = orthonormal_basis(V, "right");
+    out.W = two_sided ? orthonormal_basis(W, "left") : out.V;
+    if (second_order) {
+      const auto so = project(*view.so(), out.V, out.W);
+      const ReducedDescriptorModel fo = realisation(so);
+      out.poles = pole_residues(fo.E, fo.A, fo.B, fo.C);
+      out.model = so;
+    } else {
+      auto fo = view.project_first_order(out.V, out.W);
+      out.poles = pole_residues(fo.E, fo.A, fo.B, fo.C);
+      out.model = std::move(fo);
+    }
+    return out;
+  }
+
+  /// The next shifts: mirror images of the reduced poles (r of the 2r poles of a second-order
+  /// model, the largest H2 contributions first), poles with Re >= 0 reflected first; directions
+  /// the residue directions, normalised.
+  Interpolation next_shifts(const PoleResidues& pr, Index r, Index& reflected) const {
+    const Index n = pr.poles.size();
+    std::vector<Index> chosen;
+    if (n == r) {
+      for (Index i = 0; i < n; ++i) chosen.push_back(i);
+    } else {
+      chosen = dominant(pr, r);
+    }
+    std::vector<Complex> shifts;
+    ComplexMatrix b(pr.b.rows(), r), c(pr.c.rows(), r);
+    Index k = 0;
+    for (Index i : chosen) {
+      Complex lambda = pr.poles(i);
+      if (lambda.real() >= 0.0) {
+        lambda = -std::conj(lambda);
+        ++reflected;
+      }
+      shifts.push_back(-lambda);
+      const double nb = pr.b.col(i).norm(), nc = pr.c.col(i).norm();
+      b.col(k) = nb > 0.0 ? ComplexVector(pr.b.col(i) / nb) : ComplexVector(pr.b.col(i));
+      c.col(k) = nc > 0.0 ? ComplexVector(pr.c.col(i) / nc) : ComplexVector(pr.c.col(i));
+      ++k;
+    }
+    // An odd r with no real pole left among the dominant ones (second order): the best pair not
+    // chosen gives a real shift |lambda| with the real parts of its directions.
+    if (static_cast<Index>(shifts.size()) == r - 1) {
+      Index extra = -1;
+      double heaviest = -1.0;
+      for (Index i = 0; i < n; ++i) {
+        if (std::find(chosen.begin(), chosen.end(), i) != chosen.end()) continue;
+        const double w = h2_weight(pr, i);
+        if (pr.poles(i).imag() > 0.0 && w > heaviest) {
+          heaviest = w;
+          extra = i;
+        }
+      }
+      if (extra >= 0) {
+        shifts.emplace_back(std::abs(pr.poles(extra)), 0.0);
+        b.col(k) = pr.b.col(extra).real().normalized().cast<Complex>();
+        c.col(k) = pr.c.col(extra).real().normalized().cast<Complex>();
+      }
+    }
+    if (static_cast<Index>(shifts.size()) < r) {
+      throw NumericalError(fmt::format("only {} of the {} next shifts could be chosen from {} reduced poles",
+                                       shifts.size(), r, n));
+    }
+    return canonical(shifts, b, c);
+  }
+
+  /// |c_i|^2 |b_i|^2 / |Re lambda_i|: the size of pole i's term in the H2 norm.
+  static double h2_weight(const PoleResidues& pr, Index i) {
+    return pr.b.col(i).squaredNorm() * pr.c.col(i).squaredNorm() /
+           std::max(std::abs(pr.poles(i).real()), std::numeric_limits<double>::min());
+  }
+
+  /// r poles of the 2r of a second-order reduced model, closed under conjugation, by decreasing
+  /// H2 weight |c_i|^2 |b_i|^2 / |Re lambda_i| (the size of the pole's term in the H2 norm).
+  /// An odd r with no real pole left is completed by the pair's member with Im > 0 turned into
+  /// the real shift |lambda|; handled by the caller through canonical() (a real shift).
+  static std::vector<Index> dominant(const PoleResidues& pr, Index r) {
+    struct Item {
+      std::vector<Index> members;
+      double weight;
+    };
+    std::vector<Item> items;
+    const Index n = pr.poles.size();
+    for (Index i = 0; i < n; ++i) {
+      const Complex p = pr.poles(i);
+      if (p.imag() < 0.0) continue;
+      const double w = h2_weight(pr, i);
+      Item item{{i}, p.imag() > 0.0 ? 2.0 * w : w};
+      if (p.imag() > 0.0) {
+        // Its conjugate partner: the nearest pole to conj(p) with Im < 0.
+        Index partner = -1;
+        double best = std::numeric_limits<double>::infinity();
+        for (Index j = 0; j < n; ++j) {
+          if (pr.poles(j).imag() >= 0.0) continue;
+          const double d = std::abs(pr.poles(j) - std::conj(p));
+          if (d < best) {
+            best = d;
+            partner = j;
+          }
+        }
+        if (partner < 0) continue;
+        item.members.push_back(partner);
+      }
+      items.push_back(std::move(item));
+    }
+    std::stable_sort(items.begin(), items.end(),
+                     [](const Item& a, const Item& b) { return a.weight > b.weight; });
+    std::vector<Index> chosen;
+    for (const Item& item : items) {
+      const Index left = r - static_cast<Index>(chosen.size());
+      if (left == 0) break;
+      if (static_cast<Index>(item.members.size()) <= left) {
+        chosen.insert(chosen.end(), item.members.begin(), item.members.end());
+      }
+    }
+    return chosen;
+  }
+
+  /// Band-based starting shifts: floor(r/2) conjugate pairs omega (zeta + i) at log-spaced
+  /// frequencies of the band, one real shift at the band's geometric centre when r is odd.
+  /// Restart a > 0 moves the frequencies by a fraction of their spacing and damps them more.
+  Interpolation band_shifts(Index r, Index attempt) const {
+    const Index pairs = r / 2;
+    const double lo = std::log(m_band.f_min_hz), hi = std::log(m_band.f_max_hz);
+    const double offset = std::fmod(0.5 + 0.381966 * static_cast<double>(attempt), 1.0);
+    const double zeta = attempt == 0 ? m_options.initial_damping
+                                     : std::max(m_options.initial_damping,
+                                                1e-2 * std::pow(10.0, attempt - 1));
+    std::vector<Complex> shifts;
+    for (Index k = 0; k < pairs; ++k) {
+      const double t = (static_cast<double>(k) + offset) / static_cast<double>(pairs);
+      const double w = kTwoPi * std::exp(lo + t * (hi - lo));
+      shifts.emplace_back(zeta * w, w);
+      shifts.emplace_back(zeta * w, -w);
+    }
+    if (r % 2 == 1) shifts.emplace_back(kTwoPi * std::exp(0.5 * (lo + hi)), 0.0);
+    return with_uniform_directions(shifts);
+  }
+
+  Interpolation with_uniform_directions(const std::vector<Complex>& shifts) const {
+    const Index r = static_cast<Index>(shifts.size());
+    const Index m = m_view->inputs(), p = m_view->outputs();
+    const ComplexMatrix b = ComplexMatrix::Constant(m, r, 1.0 / std::sqrt(static_cast<double>(m)));
+    const ComplexMatrix c = ComplexMatrix::Constant(p, r, 1.0 / std::sqrt(static_cast<double>(p)));
+    return canonical(shifts, b, c);
+  }
+
+  /// Warm start for order r: the final data of the largest smaller order run before, completed by
+  /// shifts in the widest gaps (in log f) of its frequencies; none: band_shifts.
+  Interpolation start(Index r) const {
+    if (!m_options.warm_start || m_warm.empty()) return band_shifts(r, 0);
+    auto it = m_warm.lower_bound(r);
+    if (it != m_warm.end() && it->first == r) return it->second;
+    if (it == m_warm.begin()) return band_shifts(r, 0);
+    --it;
+    const Interpolation& previous = it->second;
+    std::vector<Complex> shifts = previous.shifts;
+    ComplexMatrix b = previous.b, c = previous.c;
+    const Index add = r - previous.size();
+    const Index m = b.rows(), p = c.rows();
+    std::vector<double> logs{std::log(m_band.f_min_hz), std::log(m_band.f_max_hz)};
+    for (const Complex& s : shifts) {
+      const double f = std::abs(s.imag()) / kTwoPi;
+      if (f > m_band.f_min_hz && f < m_band.f_max_hz) logs.push_back(std::log(f));
+    }
+    auto widest_gap_midpoint = [&]() {
+      std::sort(logs.begin(), logs.end());
+      double best = -1.0, mid = logs.front();
+      for (std::size_t i = 0; i + 1 < logs.size(); ++i) {
+        if (logs[i + 1] - logs[i] > best) {
+          best = logs[i + 1] - logs[i];
+          mid = 0.5 * (logs[i] + logs[i + 1]);
+        }
+      }
+      logs.push_back(mid);
+      return kTwoPi * std::exp(mid);
+    };
+    std::vector<Complex> added;
+    for (Index k = 0; k + 1 < add; k += 2) {
+      const double w = widest_gap_midpoint();
+      added.emplace_back(m_options.initial_damping * w, w);
+      added.emplace_back(m_options.initial_damping * w, -w);
+    }
+    if (add % 2 == 1) added.emplace_back(widest_gap_midpoint(), 0.0);
+    const Index old = previous.size();
+    b.conservativeResize(m, r);
+    c.conservativeResize(p, r);
+    for (Index k = 0; k < add; ++k) {
+      shifts.push_back(added[static_cast<std::size_t>(k)]);
+      b.col(old + k).setConstant(1.0 / std::sqrt(static_cast<double>(m)));
+      c.col(old + k).setConstant(1.0 / std::sqrt(static_cast<double>(p)));
+    }
+    return canonical(shifts, b, c);
+  }
+
+  /// IRKA at order r with the safeguards: converged when the shifts change by at most
+  /// `tolerance` (relative); cycling (the data return to within a tenth of the current step to
+  /// those of 2..10 iterations before) and stagnation (no 10 % smaller change within stagnation_window
+  /// iterations) and breakdowns restart from other band shifts while restarts remain;
+  /// max_iterations bounds all attempts together. Not converged: the iterate with the smallest
+  /// shift change, with the reason.
+  Outcome run(Index r, bool second_order) {
+    Outcome best;
+    bool have_best = false;
+    Index iterations = 0, reflected = 0, restarts = 0;
+    std::string reason;
+    for (Index attempt = 0; attempt <= m_options.restarts; ++attempt) {
+      Interpolation data = attempt == 0 ? start(r) : band_shifts(r, attempt);
+      std::vector<Interpolation> trail;
+      double best_change = std::numeric_limits<double>::infinity();
+      Index best_at = iterations;
+      bool restart = false, stalled = false;
+      while (iterations < m_options.max_iterations) {
+        ++iterations;
+        Built built;
+        Interpolation next;
+        try {
+          built = build(data, second_order);
+          next = next_shifts(built.poles, r, reflected);
+        } catch (const NumericalError& e) {
+          reason = fmt::format("breakdown at iteration {}: {}", iterations, e.what());
+          restart = true;
+          break;
+        }
+        const double change = data_change(data, next);
+        if (!have_best || change < best.shift_change) {
+          best.built = built;
+          best.data = data;
+          best.shift_change = change;
+          have_best = true;
+        }
+        if (change <= m_options.tolerance) {
+          best.built = std::move(built);
+          best.data = data;
+          best.shift_change = change;
+          best.converged = true;
+          best.reason = fmt::format("converged (change {:.2e} <= {:.1e})", change,
+                                    m_options.tolerance);
+          best.iterations = iterations;
+          best.restarts = restarts;
+          best.reflected = reflected;
+          return best;
+        }
+        for (std::size_t j = 2; j <= std::min<std::size_t>(10, trail.size() + 1); ++j) {
+          // Back (to a tenth of the step) where it was j iterations ago while still moving: a
+          // cycle. A sequence converging linearly never returns closer than it moves.
+          if (data_change(trail[trail.size() + 1 - j], next) <= 0.1 * change) {
+            reason = fmt::format("cycling with period {} at iteration {} (change {:.2e})", j,
+                                 iterations, change);
+            restart = true;
+            break;
+          }
+        }
+        if (!restart && change < 0.9 * best_change) {
+          best_change = change;
+          best_at = iterations;
+        } else if (iterations - best_at >= m_options.stagnation_window) {
+          reason = fmt::format(
+              "stagnation: no 10% smaller change in {} iterations (best {:.2e}, now {:.2e})",
+              m_options.stagnation_window, best_change, change);
+          restart = true;
+        }
+        if (restart) {
+          // Cycling or stagnating within 100 x tolerance of convergence is the rounding floor of
+          // the iteration (the poles of a two-sided projection carry its conditioning), not a bad
+          // start: a restart would throw the nearly converged iterate away.
+          if (change <= 1e2 * m_options.tolerance) {
+            stalled = true;
+            reason += fmt::format(", within 100 x tolerance: the rounding floor of this model's "
+                                  "iteration lies above tolerance = {:.1e}",
+                                  m_options.tolerance);
+          }
+          break;
+        }
+        trail.push_back(data);
+        data = std::move(next);
+      }
+      if (stalled) break;
+      if (!restart) {
+        reason = fmt::format("iteration budget max_iterations = {} used up", m_options.max_iterations);
+        break;
+      }
+      if (attempt < m_options.restarts) ++restarts;
+    }
+    if (!have_best) {
+      throw NumericalError(fmt::format("irka r = {}: no reduced model could be built: {}", r, reason));
+    }
+    best.converged = false;
+    best.reason = fmt::format("not converged: {}; smallest change {:.2e}", reason,
+                              best.shift_change);
+    best.iterations = iterations;
+    best.restarts = restarts;
+    best.reflected = reflected;
+    return best;
+  }
+
+  Options m_options;
+  std::optional<FullModelView> m_view;
+  Band m_band;
+  std::string m_stability;
+  std::map<Index, Interpolation> m_warm;  // final data per order, for warm starts
+};
+
+ReducerInfo irka_info() {
+  ReducerInfo info;
+  info.name = kName;
+  info.description =
+      "IRKA: H2-optimal interpolation at the mirror images of the reduced poles (tangential, "
+      "MIMO); first order, or second-order structure preserved; safeguarded iteration";
+  info.version = "0.1.0";
+  info.second_order = true;
+  info.descriptor = true;
+  info.uses_expansion_points = false;
+  info.parameters = {
+      {"structure", "string", "first_order",
+       "first_order: IRKA on the (first-order realisation of the) model, returns E, A, B, C of "
+       "order r (H2-optimal); second_order: returns Mr, Dr, Kr, Br, Cr of size r (2r states), "
+       "second-order models only"},
+      {"second_order_shifts", "string", "iterate",
+       "second_order only: iterate (SO-IRKA: the next shifts are the mirror images of r of the 2r "
+       "reduced poles, largest H2 weight first) or first_order (the converged shifts of "
+       "first-order IRKA at order r, then one second-order projection)"},
+      {"projection", "string", "two_sided",
+       "second_order only: two_sided (Hermite interpolation at the shifts) or one_sided (W = V; "
+       "keeps symmetric positive definite M, D, K so, hence stable)"},
+      {"initial_damping", "double", "0",
+       "starting shifts omega (zeta + i) at log-spaced band frequencies: zeta, in [0, 10]"},
+      {"max_iterations", "int", "50", "IRKA iterations per reduce(), all restarts together, >= 1"},
+      {"tolerance", "double", "1e-6",
+       "converged when the shifts change by at most this (relative, matched pairwise), in "
+       "[1e-14, 1e-1]"},
+      {"stagnation_window", "int", "10",
+       "restart when the shift change has not fallen 10% below its best within this many "
+       "iterations, >= 2"},
+      {"restarts", "int", "2",
+       "restarts from other band shifts after cycling, stagnation or a breakdown, >= 0"},
+      {"warm_start", "bool", "true",
+       "start order r from the final shifts of the largest smaller order run before (plus new "
+       "shifts in the widest frequency gaps); false: always from the band"},
+      {"check_stability", "bool", "true",
+       "refuse a model that is not asymptotically stable (symmetric definite matrices certify it; "
+       "otherwise dense eigenvalues up to dense_check_limit states)"},
+      {"dense_check_limit", "int", "2000",
+       "largest first-order state size whose poles are computed densely for the stability check"},
+  };
+  return info;
+}
+
+std::unique_ptr<Reducer> create_irka(const ParameterMap& params) {
+  Options o;
+  o.structure = params.get_string("structure", "first_order", {"first_order", "second_order"}) ==
+                        "second_order"
+                    ? Structure::SecondOrder
+                    : Structure::FirstOrder;
+  o.second_order_shifts =
+      params.get_string("second_order_shifts", "iterate", {"iterate", "first_order"}) ==
+              "first_order"
+          ? SecondOrderShifts::FromFirstOrder
+          : SecondOrderShifts::Iterate;
+  o.two_sided =
+      params.get_string("projection", "two_sided", {"two_sided", "one_sided"}) == "two_sided";
+  for (const char* key : {"second_order_shifts", "projection"}) {
+    if (params.has(key) && o.structure != Structure::SecondOrder) {
+      const std::string where = params.location(key);
+      throw ConfigError(fmt::format("{}{}: {}: applies to structure: second_order only",
+                                    where.empty() ? "" : where + ": ", params.owner(), key));
+    }
+  }
+  o.initial_damping = params.get_double("initial_damping", o.initial_damping, 0.0, 10.0);
+  o.max_iterations = params.get_int("max_iterations", o.max_iterations, 1, 100000);
+  o.tolerance = params.get_double("tolerance", o.tolerance, 1e-14, 1e-1);
+  o.stagnation_window = params.get_int("stagnation_window", o.stagnation_window, 2, 100000);
+  o.restarts = params.get_int("restarts", o.restarts, 0, 100);
+  o.warm_start = params.get_bool("warm_start", o.warm_start);
+  o.check_stability = params.get_bool("check_stability", o.check_stability);
+  o.dense_check_limit = params.get_int("dense_check_limit", o.dense_check_limit, 0, 20000);
+  return std::make_unique<IrkaReducer>(o);
+}
+
+void register_reducers(Registry& registry) { registry.add({irka_info(), create_irka}); }
+
+}  // namespace
+}  // namespace ecmor::irka
+
+ECMOR_PLUGIN(ecmor::irka::register_reducers)
