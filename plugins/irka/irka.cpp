@@ -72,10 +72,11 @@ std::string describe(Complex s) {
   return fmt::format("{:.6g}{:+.6g}i", s.real(), s.imag());
 }
 
-/// Orthonormal basis of the columns of X by Householder QR with column pivoting, the columns
-/// normalised first (resolvent norms differ by orders of magnitude across a band; the rank test
-/// is then on angles, not on norms).
-/// \throws NumericalError if X is rank deficient to 1e-12.
+/// Orthonormal basis of the columns of X (Householder QR), the columns normalised first (resolvent
+/// norms differ by orders of magnitude across a band). Numerically dependent columns (nearby
+/// shifts) still give an orthonormal basis of the right dimension, whose projection stays valid;
+/// only columns dependent to 1e-14 after normalisation (equal shifts and directions) are refused.
+/// \throws NumericalError for NaN/Inf or exactly dependent columns.
 Matrix orthonormal_basis(Matrix X, const char* side) {
   if (!X.allFinite()) {
     throw NumericalError(fmt::format("the {} basis contains NaN or Inf", side));
@@ -85,21 +86,23 @@ Matrix orthonormal_basis(Matrix X, const char* side) {
     if (norm > 0.0) X.col(j) /= norm;
   }
   Eigen::ColPivHouseholderQR<Matrix> qr(X);
-  qr.setThreshold(1e-12);
+  qr.setThreshold(1e-14);
   if (qr.rank() < X.cols()) {
     throw NumericalError(fmt::format(
         "the {} basis has rank {} < {}: two shifts (or directions) coincide to working precision",
         side, qr.rank(), X.cols()));
   }
-  Matrix Q = qr.householderQ() * Matrix::Identity(X.rows(), X.cols());
-  return Q;
+  return qr.householderQ() * Matrix::Identity(X.rows(), X.cols());
 }
 
-/// Poles with Re >= -1e-12 max |lambda| (not asymptotically stable to working precision).
+/// True for a pole with Re >= -1e-12 |lambda|: not asymptotically stable to working precision
+/// (relative to the pole itself, so that huge perturbed infinite eigenvalues of a singular E do
+/// not make the small stable poles look marginal).
+bool is_unstable(Complex p) { return p.real() >= -1e-12 * std::abs(p); }
+
 Index unstable_count(const ComplexVector& poles) {
-  const double scale = poles.size() > 0 ? poles.cwiseAbs().maxCoeff() : 0.0;
   Index count = 0;
-  for (const Complex& p : poles) count += p.real() >= -1e-12 * scale ? 1 : 0;
+  for (const Complex& p : poles) count += is_unstable(p) ? 1 : 0;
   return count;
 }
 
@@ -223,13 +226,20 @@ class IrkaReducer final : public Reducer {
       const ComplexVector p = dense_poles(model);
       const Index unstable = unstable_count(p);
       if (unstable > 0) {
+        // The unstable pole of least modulus is the most trustworthy (large ones of a singular E
+        // can be perturbed infinite eigenvalues); the largest real part shows the extent.
         double largest = -std::numeric_limits<double>::infinity();
-        for (const Complex& z : p) largest = std::max(largest, z.real());
+        Complex smallest(std::numeric_limits<double>::infinity(), 0.0);
+        for (const Complex& z : p) {
+          largest = std::max(largest, z.real());
+          if (is_unstable(z) && std::abs(z) < std::abs(smallest)) smallest = z;
+        }
         throw InputError(fmt::format(
             "irka: the model is not asymptotically stable: {} of its {} finite poles have Re >= 0 "
-            "(largest real part {:.3e}); its H2 norm does not exist and IRKA has no H2-optimal "
-            "model to converge to (set check_stability: false to try anyway)",
-            unstable, p.size(), largest));
+            "(the one of least modulus {}; largest real part {:.3e}); its H2 norm does not exist "
+            "and IRKA has no H2-optimal model to converge to (set check_stability: false to try "
+            "anyway)",
+            unstable, p.size(), describe(smallest), largest));
       }
       m_stability = "dense eigenvalues";
     }
