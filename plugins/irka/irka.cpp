@@ -219,6 +219,8 @@ class IrkaReducer final : public Reducer {
     }
     if (certified) {
       m_stability = "certified (symmetric definite)";
+      // E SPD and A symmetric: every pole is real, and so are the H2-optimal shifts.
+      m_real_poles = std::holds_alternative<DescriptorModel>(model);
       return;
     }
     const Index dim = m_view->state_size();
@@ -451,12 +453,22 @@ class IrkaReducer final : public Reducer {
   }
 
   /// Band-based starting shifts: floor(r/2) conjugate pairs omega (zeta + i) at log-spaced
-  /// frequencies of the band, one real shift at the band's geometric centre when r is odd.
+  /// frequencies of the band, one real shift at the band's geometric centre when r is odd; for a
+  /// model with certified real poles, r real shifts 2 pi f at log-spaced band frequencies.
   /// Restart a > 0 moves the frequencies by a fraction of their spacing and damps them more.
   Interpolation band_shifts(Index r, Index attempt) const {
     const Index pairs = r / 2;
     const double lo = std::log(m_band.f_min_hz), hi = std::log(m_band.f_max_hz);
     const double offset = std::fmod(0.5 + 0.381966 * static_cast<double>(attempt), 1.0);
+    if (m_real_poles) {
+      // Real shifts 2 pi f at r log-spaced band frequencies.
+      std::vector<Complex> real;
+      for (Index k = 0; k < r; ++k) {
+        const double t = (static_cast<double>(k) + offset) / static_cast<double>(r);
+        real.emplace_back(kTwoPi * std::exp(lo + t * (hi - lo)), 0.0);
+      }
+      return with_uniform_directions(real);
+    }
     const double zeta = attempt == 0 ? m_options.initial_damping
                                      : std::max(m_options.initial_damping,
                                                 1e-2 * std::pow(10.0, attempt - 1));
@@ -632,6 +644,7 @@ class IrkaReducer final : public Reducer {
   std::optional<FullModelView> m_view;
   Band m_band;
   std::string m_stability;
+  bool m_real_poles = false;  // certified real poles (E SPD, A symmetric): real starting shifts
   std::map<Index, Interpolation> m_warm;  // final data per order, for warm starts
 };
 
