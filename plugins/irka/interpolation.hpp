@@ -73,6 +73,35 @@ inline PoleResidues pole_residues(const Matrix& E, const Matrix& A, const Matrix
   return out;
 }
 
+/// The H2 inner product <Ga, Gb> = (1/2 pi) integral trace(Ga(i w)^H Gb(i w)) dw of two stable
+/// models in pole-residue form: -sum_ij (c_i^H d_j)(b_i^H e_j) / (conj(lambda_i) + mu_j).
+inline Complex h2_inner(const PoleResidues& a, const PoleResidues& b) {
+  const ComplexMatrix cc = a.c.adjoint() * b.c;  // c_i^H d_j
+  const ComplexMatrix bb = a.b.adjoint() * b.b;  // b_i^H e_j
+  Complex sum(0.0, 0.0);
+  for (Index i = 0; i < a.poles.size(); ++i) {
+    for (Index j = 0; j < b.poles.size(); ++j) {
+      sum -= cc(i, j) * bb(i, j) / (std::conj(a.poles(i)) + b.poles(j));
+    }
+  }
+  return sum;
+}
+
+/// ||Gb - Ga||_H2 / ||Gb||_H2 from the pole-residue forms, O(r^2 (m + p)); infinity when a pole
+/// of either model has Re >= 0 (no H2 norm). Computed as ||Ga||^2 + ||Gb||^2 - 2 Re <Ga, Gb>, so
+/// a change below about 1e-7 is rounding: fine for convergence tolerances of 1e-7 and above.
+inline double relative_h2_change(const PoleResidues& a, const PoleResidues& b) {
+  for (const auto* p : {&a, &b}) {
+    for (const Complex& z : p->poles) {
+      if (!(z.real() < 0.0)) return std::numeric_limits<double>::infinity();
+    }
+  }
+  const double aa = h2_inner(a, a).real(), bb = h2_inner(b, b).real();
+  const double ab = h2_inner(a, b).real();
+  if (!(bb > 0.0)) return std::numeric_limits<double>::infinity();
+  return std::sqrt(std::max(0.0, aa + bb - 2.0 * ab) / bb);
+}
+
 /// Orders the shifts as Interpolation requires (pairs (Im > 0, Im < 0) adjacent, sorted by |Im|,
 /// then real shifts ascending), permuting the direction columns alike. Imaginary parts below
 /// 1e-12 |sigma| are set to zero (a real shift) with real directions. The caller guarantees
@@ -143,7 +172,8 @@ inline double direction_angle(const ComplexVector& x, const ComplexVector& y) {
 /// the shifts, then the largest of |sigma_new - sigma_old| / |sigma_old| and the sines of the
 /// angles between matched directions b and c (so MIMO data converge only when the tangential
 /// directions do too). Infinity when the sizes differ.
-inline double data_change(const Interpolation& previous, const Interpolation& next) {
+inline double data_change(const Interpolation& previous, const Interpolation& next,
+                          bool with_directions = true) {
   if (previous.size() != next.size()) return std::numeric_limits<double>::infinity();
   const std::size_t r = previous.shifts.size();
   std::vector<bool> used(r, false);
@@ -163,11 +193,54 @@ inline double data_change(const Interpolation& previous, const Interpolation& ne
     used[best] = true;
     const double scale = std::max(std::abs(previous.shifts[best]), std::numeric_limits<double>::min());
     const auto ib = static_cast<Index>(i), jb = static_cast<Index>(best);
-    worst = std::max({worst, distance / scale,
-                      direction_angle(previous.b.col(jb), next.b.col(ib)),
-                      direction_angle(previous.c.col(jb), next.c.col(ib))});
+    worst = std::max(worst, distance / scale);
+    if (with_directions) {
+      worst = std::max({worst, direction_angle(previous.b.col(jb), next.b.col(ib)),
+                        direction_angle(previous.c.col(jb), next.c.col(ib))});
+    }
   }
   return worst;
+}
+
+/// A relaxed IRKA step: each new shift moves only the fraction alpha from its matched old shift
+/// towards its new value (the fixed points are those of the plain step, alpha = 1). Pairs are
+/// matched with pairs (their members with Im > 0) and real shifts with real shifts, greedily by
+/// distance, so the result stays closed under conjugation; directions are the new ones. When the
+/// numbers of pairs differ the plain step is returned. A 2-cycle of the plain iteration (an
+/// eigenvalue of its Jacobian near -1) becomes a contraction for alpha = 1/2.
+inline Interpolation relax(const Interpolation& previous, const Interpolation& next, double alpha) {
+  if (alpha >= 1.0 || previous.size() != next.size()) return next;
+  auto members = [](const Interpolation& d, bool pairs) {
+    std::vector<Index> out;
+    for (Index i = 0; i < d.size(); ++i) {
+      const Complex s = d.shifts[static_cast<std::size_t>(i)];
+      if (pairs ? s.imag() > 0.0 : s.imag() == 0.0) out.push_back(i);
+    }
+    return out;
+  };
+  std::vector<Complex> shifts = next.shifts;
+  for (const bool pairs : {true, false}) {
+    const std::vector<Index> old_set = members(previous, pairs), new_set = members(next, pairs);
+    if (old_set.size() != new_set.size()) return next;
+    std::vector<bool> used(old_set.size(), false);
+    for (const Index i : new_set) {
+      const Complex s = next.shifts[static_cast<std::size_t>(i)];
+      std::size_t best = 0;
+      double distance = std::numeric_limits<double>::infinity();
+      for (std::size_t j = 0; j < old_set.size(); ++j) {
+        const double d = std::abs(s - previous.shifts[static_cast<std::size_t>(old_set[j])]);
+        if (!used[j] && d < distance) {
+          distance = d;
+          best = j;
+        }
+      }
+      used[best] = true;
+      const Complex old = previous.shifts[static_cast<std::size_t>(old_set[best])];
+      shifts[static_cast<std::size_t>(i)] = old + alpha * (s - old);
+      if (pairs) shifts[static_cast<std::size_t>(i) + 1] = std::conj(shifts[static_cast<std::size_t>(i)]);
+    }
+  }
+  return canonical(shifts, next.b, next.c);
 }
 
 }  // namespace ecmor::irka

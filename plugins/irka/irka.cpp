@@ -18,6 +18,7 @@
 #include <Eigen/LU>
 #include <Eigen/QR>
 
+#include "ecmor/eigensolver.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
 #include "ecmor/plugin.hpp"
@@ -37,9 +38,12 @@ struct Options {
   Structure structure = Structure::FirstOrder;
   SecondOrderShifts second_order_shifts = SecondOrderShifts::Iterate;
   bool two_sided = true;  // second-order variant only; first-order IRKA is always two-sided
+  bool modal_start = false;  // initial_shifts: modal
   double initial_damping = 0.0;
+  double relaxation = 1.0;  // fraction of the step towards the mirrored poles (1: plain IRKA)
   Index max_iterations = 50;
   double tolerance = 1e-6;
+  double model_tolerance = 1e-6;  // on the relative H2 change of the reduced model; 0: off
   Index stagnation_window = 10;
   Index restarts = 2;
   bool warm_start = true;
@@ -65,6 +69,7 @@ struct Outcome {
   Index restarts = 0;
   Index reflected = 0;
   double shift_change = std::numeric_limits<double>::infinity();  // data_change() at the end
+  double model_change = std::numeric_limits<double>::infinity();  // relative H2 change
 };
 
 std::string describe(Complex s) {
@@ -138,6 +143,7 @@ class IrkaReducer final : public Reducer {
                                    context.solver->size(), size_of(*context.model)));
     }
     m_view.emplace(*context.model, *context.solver);
+    m_model = context.model;
     m_band = context.band;
     if (m_options.structure == Structure::SecondOrder && !m_view->second_order()) {
       throw ConfigError(
@@ -184,6 +190,7 @@ class IrkaReducer final : public Reducer {
     result.diagnostics["irka_restarts"] = static_cast<double>(out.restarts);
     result.diagnostics["irka_reflected_poles"] = static_cast<double>(out.reflected);
     result.diagnostics["irka_change"] = out.shift_change;
+    result.diagnostics["irka_model_change"] = out.model_change;
     result.diagnostics["eigenvector_rcond"] = out.built.poles.eigenvector_rcond;
     const Index unstable = unstable_count(out.built.poles.poles);
     result.diagnostics["unstable_poles"] = static_cast<double>(unstable);
@@ -491,13 +498,115 @@ class IrkaReducer final : public Reducer {
     return canonical(shifts, b, c);
   }
 
+  /// The starting data of a cold start: modal or band shifts.
+  Interpolation first_shifts(Index r) {
+    if (m_options.modal_start) return modal_shifts(r);
+    return band_shifts(r, 0);
+  }
+
+  /// Mirror images of approximate poles of the full model near the band (`initial_shifts: modal`).
+  /// Second order (symmetric K, M SPD): the floor(r/2) undamped modes K phi = w^2 M phi nearest
+  /// the band's geometric centre (shift-invert ARPACK, M-normalised phi), each giving the pole
+  /// pair -a +- i sqrt(w^2 - a^2) with a = phi' D phi / 2 (modal damping), directions B' phi and
+  /// (C + s Cv) phi; a real shift at the centre when r is odd. Descriptor: the r eigenvalues of
+  /// (A, E) nearest -2 pi f_centre (general shift-invert ARPACK), uniform directions.
+  Interpolation modal_shifts(Index r) {
+    FullModelView& view = *m_view;
+    const double wc = kTwoPi * std::sqrt(m_band.f_min_hz * m_band.f_max_hz);
+    std::vector<Complex> shifts;
+    if (const SecondOrderModel* so = view.so()) {
+      const Index pairs = r / 2;
+      if (pairs > 0) {
+        if (relative_asymmetry(so->K) > 1e-10 || !is_positive_definite(so->M)) {
+          throw InputError(
+              "irka: initial_shifts = modal needs symmetric K and a symmetric positive definite M "
+              "for a second-order model; use initial_shifts: band");
+        }
+        const double sigma = wc * wc;
+        const std::vector<Complex> w{Complex(1.0), Complex(0.0), Complex(-sigma)};
+        const auto F = view.solver().factorize_combination(w);
+        EigenOptions eo;
+        eo.nev = std::min<Index>(pairs, view.size() - 1);
+        const SymmetricEigenResult modes = symmetric_shift_invert(*F, so->M, sigma, eo);
+        ComplexMatrix b(view.inputs(), 2 * modes.eigenvalues.size());
+        ComplexMatrix c(view.outputs(), 2 * modes.eigenvalues.size());
+        Index k = 0;
+        for (Index j = 0; j < modes.eigenvalues.size(); ++j) {
+          const Vector phi = modes.eigenvectors.col(j);
+          const double w2 = std::max(modes.eigenvalues(j), 0.0);
+          const double a = 0.5 * phi.dot(so->D * phi);
+          // Poles: lambda^2 + 2 a lambda + w^2 = 0, lambda = -a -+ sqrt(a^2 - w^2); shifts -lambda.
+          const Complex root = std::sqrt(Complex(a * a - w2, 0.0));
+          if (std::abs(Complex(a, 0.0) - root) == 0.0) continue;  // rigid-body mode: a shift at 0
+          const ComplexVector bj = (so->B.transpose() * phi).cast<Complex>();
+          for (const Complex z : {Complex(a, 0.0) + root, Complex(a, 0.0) - root}) {
+            // Residue direction at the pole -z: (C + (-z) Cv) phi.
+            ComplexVector cj = (so->C * phi).cast<Complex>();
+            if (so->has_velocity_output()) cj -= z * (so->Cv * phi).cast<Complex>();
+            shifts.push_back(z);
+            b.col(k) = bj;
+            c.col(k) = cj;
+            ++k;
+          }
+        }
+        while (static_cast<Index>(shifts.size()) < 2 * pairs) {
+          // Too few usable modes: complete with band shifts.
+          const Interpolation band = band_shifts(2 * pairs - static_cast<Index>(shifts.size()), 0);
+          b.conservativeResize(Eigen::NoChange, k + band.size());
+          c.conservativeResize(Eigen::NoChange, k + band.size());
+          for (Index j = 0; j < band.size(); ++j, ++k) {
+            shifts.push_back(band.shifts[static_cast<std::size_t>(j)]);
+            b.col(k) = band.b.col(j);
+            c.col(k) = band.c.col(j);
+          }
+        }
+        if (r % 2 == 1) {
+          shifts.emplace_back(wc, 0.0);
+          b.conservativeResize(Eigen::NoChange, k + 1);
+          c.conservativeResize(Eigen::NoChange, k + 1);
+          b.col(k).setConstant(1.0);
+          c.col(k).setConstant(1.0);
+        }
+        for (Index j = 0; j < b.cols(); ++j) {
+          if (b.col(j).norm() > 0.0) b.col(j).normalize();
+          if (c.col(j).norm() > 0.0) c.col(j).normalize();
+        }
+        return canonical(shifts, b, c);
+      }
+      return band_shifts(r, 0);
+    }
+    const auto& ds = std::get<DescriptorModel>(*m_model);
+    const double sigma = -wc;
+    const std::vector<Complex> w{Complex(-1.0), Complex(-sigma)};  // -(-A) ... = A - sigma E
+    const auto F = view.solver().factorize_combination(w);
+    EigenOptions eo;
+    eo.nev = std::min<Index>(r, view.size() - 2);
+    const GeneralEigenResult eig = general_shift_invert(*F, ds.E, sigma, eo);
+    for (Index j = 0; j < eig.eigenvalues.size() && static_cast<Index>(shifts.size()) < r; ++j) {
+      const Complex z = eig.eigenvalues(j);
+      if (z.imag() < 0.0) continue;
+      const Complex mirror = z.real() < 0.0 ? -z : std::conj(z);
+      if (z.imag() == 0.0) {
+        shifts.push_back(mirror);
+      } else if (static_cast<Index>(shifts.size()) + 2 <= r) {
+        shifts.push_back(mirror);
+        shifts.push_back(std::conj(mirror));
+      }
+    }
+    if (static_cast<Index>(shifts.size()) < r) {
+      const Interpolation band = band_shifts(r - static_cast<Index>(shifts.size()), 0);
+      shifts.insert(shifts.end(), band.shifts.begin(), band.shifts.end());
+    }
+    return with_uniform_directions(shifts);
+  }
+
   /// Warm start for order r: the final data of the largest smaller order run before, completed by
   /// shifts in the widest gaps (in log f) of its frequencies; none: band_shifts.
-  Interpolation start(Index r) const {
-    if (!m_options.warm_start || m_warm.empty()) return band_shifts(r, 0);
+  Interpolation start(Index r) {
+    if (!m_options.warm_start || m_warm.empty()) return first_shifts(r);
     auto it = m_warm.lower_bound(r);
     if (it != m_warm.end() && it->first == r) return it->second;
-    if (it == m_warm.begin()) return band_shifts(r, 0);
+    if (it == m_warm.begin()) return first_shifts(r);
     --it;
     const Interpolation& previous = it->second;
     std::vector<Complex> shifts = previous.shifts;
@@ -551,8 +660,13 @@ class IrkaReducer final : public Reducer {
     Index iterations = 0, reflected = 0, restarts = 0;
     std::string reason;
     for (Index attempt = 0; attempt <= m_options.restarts; ++attempt) {
+      // Restarts start from other band shifts with a halved relaxation (a 2-cycle is an
+      // oscillation that damping can turn into convergence).
+      const double alpha = attempt == 0 ? m_options.relaxation
+                                        : std::max(0.25, m_options.relaxation * std::pow(0.5, attempt));
       Interpolation data = attempt == 0 ? start(r) : band_shifts(r, attempt);
       std::vector<Interpolation> trail;
+      std::optional<PoleResidues> previous;  // of the previous iterate of this attempt
       double best_change = std::numeric_limits<double>::infinity();
       Index best_at = iterations;
       bool restart = false, stalled = false;
@@ -569,19 +683,33 @@ class IrkaReducer final : public Reducer {
           break;
         }
         const double change = data_change(data, next);
+        // The model's relative H2 change since the previous iterate, scaled back by the
+        // relaxation (a step of alpha moves the model alpha times as far).
+        const double model_change =
+            previous ? relative_h2_change(*previous, built.poles) / alpha
+                     : std::numeric_limits<double>::infinity();
+        previous = built.poles;
         if (!have_best || change < best.shift_change) {
           best.built = built;
           best.data = data;
           best.shift_change = change;
+          best.model_change = model_change;
           have_best = true;
         }
-        if (change <= m_options.tolerance) {
+        if (change <= m_options.tolerance ||
+            (m_options.model_tolerance > 0.0 && model_change <= m_options.model_tolerance)) {
           best.built = std::move(built);
           best.data = data;
           best.shift_change = change;
+          best.model_change = model_change;
           best.converged = true;
-          best.reason = fmt::format("converged (change {:.2e} <= {:.1e})", change,
-                                    m_options.tolerance);
+          best.reason =
+              change <= m_options.tolerance
+                  ? fmt::format("converged (change of shifts and directions {:.2e} <= {:.1e})",
+                                change, m_options.tolerance)
+                  : fmt::format("converged (relative H2 change of the model {:.2e} <= {:.1e}; "
+                                "shifts and directions still change by {:.2e})",
+                                model_change, m_options.model_tolerance, change);
           best.iterations = iterations;
           best.restarts = restarts;
           best.reflected = reflected;
@@ -619,7 +747,7 @@ class IrkaReducer final : public Reducer {
           break;
         }
         trail.push_back(data);
-        data = std::move(next);
+        data = relax(data, next, alpha);
       }
       if (stalled) break;
       if (!restart) {
@@ -642,6 +770,7 @@ class IrkaReducer final : public Reducer {
 
   Options m_options;
   std::optional<FullModelView> m_view;
+  const Model* m_model = nullptr;
   Band m_band;
   std::string m_stability;
   bool m_real_poles = false;  // certified real poles (E SPD, A symmetric): real starting shifts
@@ -670,12 +799,23 @@ ReducerInfo irka_info() {
       {"projection", "string", "two_sided",
        "second_order only: two_sided (Hermite interpolation at the shifts) or one_sided (W = V; "
        "keeps symmetric positive definite M, D, K so, hence stable)"},
+      {"initial_shifts", "string", "band",
+       "band: log-spaced band frequencies (real ones for models with real poles); modal: mirror "
+       "images of the full model's poles nearest the band centre (second order: undamped modes "
+       "with modal damping; descriptor: shift-invert eigenvalues)"},
+      {"relaxation", "double", "1",
+       "fraction alpha in (0, 1] of each step from the old shifts to the mirrored poles (1: plain "
+       "IRKA); restarts halve it (down to 1/4)"},
       {"initial_damping", "double", "0",
        "starting shifts omega (zeta + i) at log-spaced band frequencies: zeta, in [0, 10]"},
       {"max_iterations", "int", "50", "IRKA iterations per reduce(), all restarts together, >= 1"},
       {"tolerance", "double", "1e-6",
        "converged when the shifts change by at most this (relative, matched pairwise), in "
        "[1e-14, 1e-1]"},
+      {"model_tolerance", "double", "1e-6",
+       "also converged when the reduced model changes by at most this in the relative H2 norm "
+       "between iterations (scaled by 1/relaxation); 0 = off; in [0, 1e-1]; computed from the "
+       "pole-residue forms, whose cancellation puts its floor near 1e-8"},
       {"stagnation_window", "int", "10",
        "restart when the shift change has not fallen 10% below its best within this many "
        "iterations, >= 2"},
@@ -713,9 +853,19 @@ std::unique_ptr<Reducer> create_irka(const ParameterMap& params) {
                                     where.empty() ? "" : where + ": ", params.owner(), key));
     }
   }
+  o.modal_start = params.get_string("initial_shifts", "band", {"band", "modal"}) == "modal";
+  o.relaxation = params.get_double("relaxation", o.relaxation, 1e-3, 1.0);
   o.initial_damping = params.get_double("initial_damping", o.initial_damping, 0.0, 10.0);
   o.max_iterations = params.get_int("max_iterations", o.max_iterations, 1, 100000);
   o.tolerance = params.get_double("tolerance", o.tolerance, 1e-14, 1e-1);
+  o.model_tolerance = params.get_double("model_tolerance", o.model_tolerance, 0.0, 1e-1);
+  if (o.model_tolerance > 0.0 && o.model_tolerance < 1e-7) {
+    const std::string where = params.location("model_tolerance");
+    throw ConfigError(fmt::format(
+        "{}{}: model_tolerance = {}: must be 0 (off) or >= 1e-7 (the relative H2 change is "
+        "computed from pole-residue forms and is rounding below about 1e-8)",
+        where.empty() ? "" : where + ": ", params.owner(), o.model_tolerance));
+  }
   o.stagnation_window = params.get_int("stagnation_window", o.stagnation_window, 2, 100000);
   o.restarts = params.get_int("restarts", o.restarts, 0, 100);
   o.warm_start = params.get_bool("warm_start", o.warm_start);

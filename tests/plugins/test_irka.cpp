@@ -205,7 +205,7 @@ Band band_of(double f_min, double f_max) {
 void expect_h2_optimal(const std::string& name, Index r, Band band,
                        std::initializer_list<std::pair<const char*, ParameterValue::Storage>> extra = {}) {
   SCOPED_TRACE(name + " r = " + std::to_string(r));
-  ParameterMap p = params({{"tolerance", 1e-7}, {"max_iterations", 200LL}});
+  ParameterMap p = params({{"tolerance", 1e-7}, {"model_tolerance", 0.0}, {"max_iterations", 200LL}});
   for (const auto& [k, v] : extra) p.set(k, ParameterValue{v, {}});
   auto f = make(load_model(shared(name)), p, band);
   const ReducerResult res = f->reducer->reduce(ReductionRequest{r, {}});
