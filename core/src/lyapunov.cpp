@@ -1,0 +1,432 @@
+// lyapunov.cpp: dense Lyapunov and Sylvester equations by Bartels-Stewart on the complex Schur
+// form, Gramians of small stable models, and the dense conversion of small full models.
+#include "ecmor/lyapunov.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <optional>
+#include <string>
+#include <variant>
+
+#include "ecmor/error.hpp"
+#include "ecmor/frequency_response.hpp"
+
+namespace ecmor {
+
+namespace {
+
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+
+std::string fmt_g(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", x);
+  return buf;
+}
+
+std::string fmt_c(Complex z) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.6g%+.6gi", z.real(), z.imag());
+  return buf;
+}
+
+std::string dims(const Matrix& X) {
+  return std::to_string(X.rows()) + " x " + std::to_string(X.cols());
+}
+
+/// Sizes (rows x cols, negative: not checked) and finiteness of one argument.
+void check_matrix(const Matrix& X, Index rows, Index cols, std::string_view origin,
+                  std::string_view name, std::string_view rule) {
+  if ((rows >= 0 && X.rows() != rows) || (cols >= 0 && X.cols() != cols))
+    throw InputError(std::string(origin) + ": " + std::string(name) + " is " + dims(X) +
+                     ": must be " + std::to_string(rows) + " x " + std::to_string(cols) + " " +
+                     std::string(rule));
+  for (Index j = 0; j < X.cols(); ++j)
+    for (Index i = 0; i < X.rows(); ++i)
+      if (!std::isfinite(X(i, j)))
+        throw InputError(std::string(origin) + ": " + std::string(name) +
+                         " has a non-finite value (" + fmt_g(X(i, j)) + ") at (" +
+                         std::to_string(i + 1) + ", " + std::to_string(j + 1) + ")");
+}
+
+void check_square(const Matrix& A, std::string_view origin, std::string_view name) {
+  if (A.rows() != A.cols() || A.rows() == 0)
+    throw InputError(std::string(origin) + ": " + std::string(name) + " is " + dims(A) +
+                     ": must be square and non-empty");
+  check_matrix(A, A.rows(), A.rows(), origin, name, "");
+}
+
+/// Reciprocal condition estimate of an LU, 0 for an exactly singular one (Eigen's estimator is
+/// meaningless when a pivot is exactly zero).
+double safe_rcond(const Eigen::PartialPivLU<Matrix>& lu) {
+  const auto d = lu.matrixLU().diagonal().cwiseAbs();
+  if (!(d.minCoeff() > 0.0) || !d.allFinite()) return 0.0;
+  const double rc = lu.rcond();
+  return std::isfinite(rc) ? rc : 0.0;
+}
+
+}  // namespace
+
+// The pencil in standard form F = S A T with S E T = I, and F = U T U^H.
+struct SchurPencil::Impl {
+  enum class Reduction { Identity, Cholesky, Lu };
+  Reduction reduction = Reduction::Identity;
+  Index n = 0;
+  std::string origin;
+  Eigen::LLT<Matrix> llt;             // E = L L'
+  Eigen::PartialPivLU<Matrix> lu;     // E = P^-1 L U
+  double e_rcond = 1.0;               // reciprocal condition of E (1 for identity)
+  bool symmetric = false;             // F symmetric: T = diag(d) real, U = Ur real orthogonal
+  Vector d;
+  Matrix Ur;
+  ComplexMatrix T, U;
+  ComplexVector eigenvalues;
+  double scale = 0.0;                 // max |lambda| (or ||F||), for the singularity test
+
+  /// S M: the left transformation applied to M.
+  Matrix left(const Matrix& M) const {
+    switch (reduction) {
+      case Reduction::Identity: return M;
+      case Reduction::Cholesky: return llt.matrixL().solve(M);
+      case Reduction::Lu: return lu.solve(M);
+    }
+    return M;
+  }
+  /// T Y: the right transformation (X = T Y T2').
+  Matrix back(const Matrix& Y) const {
+    if (reduction == Reduction::Cholesky) return llt.matrixU().solve(Y);
+    return Y;
+  }
+};
+
+SchurPencil::SchurPencil(const Matrix& A, const Matrix& E, std::string_view origin) {
+  auto impl = std::make_shared<Impl>();
+  impl->origin = std::string(origin);
+  check_square(A, origin, "A");
+  const Index n = A.rows();
+  impl->n = n;
+  if (E.size() > 0) check_matrix(E, n, n, origin, "E", "(the size of A) or empty (= I)");
+
+  Matrix F;
+  bool a_symmetric = (A - A.transpose()).cwiseAbs().maxCoeff() == 0.0;
+  if (E.size() == 0) {
+    impl->reduction = Impl::Reduction::Identity;
+    F = A;
+  } else {
+    // Cholesky first when E is symmetric: F = L^-1 A L^-T stays symmetric with A, and is as well
+    // conditioned as the pencil allows. Otherwise (or if E is indefinite) F = E^-1 A.
+    bool done = false;
+    if ((E - E.transpose()).cwiseAbs().maxCoeff() == 0.0) {
+      impl->llt.compute(E);
+      if (impl->llt.info() == Eigen::Success) {
+        const double rc = impl->llt.rcond();
+        if (std::isfinite(rc) && rc > static_cast<double>(n) * kEps) {
+          impl->reduction = Impl::Reduction::Cholesky;
+          impl->e_rcond = rc;
+          const Matrix LA = impl->llt.matrixL().solve(A);
+          F = impl->llt.matrixL().solve(Matrix(LA.transpose())).transpose();
+          if (a_symmetric) F = 0.5 * (F + F.transpose());
+          done = true;
+        }
+      }
+    }
+    if (!done) {
+      impl->reduction = Impl::Reduction::Lu;
+      a_symmetric = false;
+      impl->lu.compute(E);
+      impl->e_rcond = safe_rcond(impl->lu);
+      if (!(impl->e_rcond > static_cast<double>(n) * kEps))
+        throw InputError(std::string(origin) + ": E is numerically singular (reciprocal condition " +
+                         fmt_g(impl->e_rcond) + " <= n eps = " +
+                         fmt_g(static_cast<double>(n) * kEps) +
+                         "): descriptor models with singular E (DAEs) are not supported");
+      F = impl->lu.solve(A);
+    }
+  }
+
+  impl->symmetric = a_symmetric;
+  if (a_symmetric) {
+    Eigen::SelfAdjointEigenSolver<Matrix> es(F);
+    if (es.info() != Eigen::Success)
+      throw NumericalError(std::string(origin) +
+                           ": the symmetric eigenvalue iteration of A did not converge");
+    impl->d = es.eigenvalues();
+    impl->Ur = es.eigenvectors();
+    impl->eigenvalues = impl->d.cast<Complex>();
+  } else {
+    Eigen::ComplexSchur<ComplexMatrix> cs(F.cast<Complex>());
+    if (cs.info() != Eigen::Success)
+      throw NumericalError(std::string(origin) +
+                           ": the Schur iteration (QR) of A did not converge");
+    impl->T = cs.matrixT();
+    impl->U = cs.matrixU();
+    impl->eigenvalues = impl->T.diagonal();
+  }
+  impl->scale = impl->eigenvalues.size() > 0 ? impl->eigenvalues.cwiseAbs().maxCoeff() : 0.0;
+  m_impl = std::move(impl);
+}
+
+Index SchurPencil::size() const { return m_impl->n; }
+const ComplexVector& SchurPencil::eigenvalues() const { return m_impl->eigenvalues; }
+bool SchurPencil::symmetric() const { return m_impl->symmetric; }
+std::string SchurPencil::reduction() const {
+  switch (m_impl->reduction) {
+    case Impl::Reduction::Identity: return "identity";
+    case Impl::Reduction::Cholesky: return "cholesky";
+    case Impl::Reduction::Lu: return "lu";
+  }
+  return "?";
+}
+
+namespace {
+
+[[noreturn]] void throw_singular(const SchurPencil::Impl& l, const SchurPencil::Impl& r,
+                                 bool lyapunov, Complex li, Complex mj, double tol) {
+  const Complex sum = li + std::conj(mj);
+  std::string msg = l.origin + ": the equation is singular: ";
+  if (lyapunov) {
+    msg += "eigenvalues lambda_i = " + fmt_c(li) + " and lambda_j = " + fmt_c(mj) +
+           " of A (of the pencil (A, E)) give lambda_i + conj(lambda_j) = " + fmt_c(sum) +
+           ", zero to working precision (|.| <= " + fmt_g(tol) +
+           "): A is not stable enough (a stable A, all Re lambda < 0, always gives a unique "
+           "solution)";
+  } else {
+    msg += "eigenvalue lambda_i = " + fmt_c(li) + " of the left pencil and mu_j = " + fmt_c(mj) +
+           " of the right pencil give lambda_i + conj(mu_j) = " + fmt_c(sum) +
+           ", zero to working precision (|.| <= " + fmt_g(tol) +
+           "): both must be stable enough (all Re < 0 gives a unique solution)";
+  }
+  (void)r;
+  throw NumericalError(msg);
+}
+
+}  // namespace
+
+Matrix solve_sylvester(const SchurPencil& left, const SchurPencil& right, const Matrix& Q) {
+  const auto& l = left.impl();
+  const auto& r = right.impl();
+  const bool lyapunov = &l == &r;
+  const Index n = l.n, m = r.n;
+  check_matrix(Q, n, m, l.origin, "Q", "(rows: the left pencil's size, columns: the right one's)");
+  const double tol = 100.0 * static_cast<double>(std::max(n, m)) * kEps *
+                     std::max({l.scale, r.scale, std::numeric_limits<double>::min()});
+
+  // Q~ = S1 Q S2' = S1 (S2 Q')'.
+  const Matrix Qt = l.left(Matrix(r.left(Matrix(Q.transpose())).transpose()));
+  Matrix Y;  // F1 Y + Y F2' + Q~ = 0
+  if (l.symmetric && r.symmetric) {
+    // Diagonal Schur forms: Z_ij = -C_ij / (d1_i + d2_j), real arithmetic throughout.
+    Matrix C = l.Ur.transpose() * Qt * r.Ur;
+    for (Index j = 0; j < m; ++j)
+      for (Index i = 0; i < n; ++i) {
+        const double den = l.d(i) + r.d(j);
+        if (!(std::abs(den) > tol)) throw_singular(l, r, lyapunov, l.d(i), r.d(j), tol);
+        C(i, j) = -C(i, j) / den;
+      }
+    Y = l.Ur * C * r.Ur.transpose();
+  } else {
+    const ComplexMatrix U1 = l.symmetric ? ComplexMatrix(l.Ur.cast<Complex>()) : l.U;
+    const ComplexMatrix U2 = r.symmetric ? ComplexMatrix(r.Ur.cast<Complex>()) : r.U;
+    ComplexMatrix Z = U1.adjoint() * (Qt.cast<Complex>() * U2);  // C, overwritten by Z
+    // Columns from the last: (T1 + conj(T2_jj) I) z_j = -c_j - sum_{k>j} conj(T2_jk) z_k.
+    ComplexVector rhs(n);
+    for (Index j = m - 1; j >= 0; --j) {
+      rhs = -Z.col(j);
+      const Index tail = m - 1 - j;
+      if (!r.symmetric && tail > 0)
+        rhs.noalias() -= Z.rightCols(tail) * r.T.row(j).tail(tail).adjoint();
+      const Complex mj = r.symmetric ? Complex(r.d(j)) : r.T(j, j);
+      const Complex cmj = std::conj(mj);
+      // Back substitution, column oriented (T1 is column major).
+      for (Index i = n - 1; i >= 0; --i) {
+        const Complex li = l.symmetric ? Complex(l.d(i)) : l.T(i, i);
+        const Complex den = li + cmj;
+        if (!(std::abs(den) > tol)) throw_singular(l, r, lyapunov, li, mj, tol);
+        const Complex zi = rhs(i) / den;
+        rhs(i) = zi;
+        if (!l.symmetric && i > 0) rhs.head(i).noalias() -= l.T.col(i).head(i) * zi;
+      }
+      Z.col(j) = rhs;
+    }
+    Y = (U1 * Z * U2.adjoint()).real();
+  }
+  // X = T1 Y T2' = T1 (T2 Y')'.
+  Matrix X = l.back(Matrix(r.back(Matrix(Y.transpose())).transpose()));
+  if (!X.allFinite())
+    throw NumericalError(l.origin + ": the solution has non-finite entries (the equation is "
+                                    "singular or badly scaled)");
+  if (lyapunov) X = 0.5 * (X + X.transpose()).eval();
+  return X;
+}
+
+Matrix solve_lyapunov(const Matrix& A, const Matrix& Q) {
+  return solve_lyapunov(A, Matrix(), Q);
+}
+
+Matrix solve_lyapunov(const Matrix& A, const Matrix& E, const Matrix& Q) {
+  constexpr std::string_view origin = "solve_lyapunov";
+  check_square(A, origin, "A");
+  check_matrix(Q, A.rows(), A.rows(), origin, "Q", "(the size of A)");
+  const double qn = Q.norm();
+  if ((Q - Q.transpose()).norm() > 1e-10 * qn)
+    throw InputError(std::string(origin) + ": Q is not symmetric (relative asymmetry " +
+                     fmt_g((Q - Q.transpose()).norm() / qn) + " > 1e-10)");
+  const SchurPencil pencil(A, E, origin);
+  return solve_sylvester(pencil, pencil, Q);
+}
+
+Matrix solve_sylvester(const Matrix& A, const Matrix& B, const Matrix& Q) {
+  return solve_sylvester(A, Matrix(), B, Matrix(), Q);
+}
+
+Matrix solve_sylvester(const Matrix& A, const Matrix& E, const Matrix& B, const Matrix& F,
+                       const Matrix& Q) {
+  constexpr std::string_view origin = "solve_sylvester";
+  check_square(A, origin, "A");
+  check_square(B, origin, "B");
+  check_matrix(Q, A.rows(), B.rows(), origin, "Q", "(rows of A x rows of B)");
+  const SchurPencil left(A, E, origin);
+  SchurPencil right(B, F, origin);
+  return solve_sylvester(left, right, Q);
+}
+
+double lyapunov_residual(const Matrix& A, const Matrix& E, const Matrix& X, const Matrix& Q) {
+  constexpr std::string_view origin = "lyapunov_residual";
+  const Index n = A.rows();
+  if (A.cols() != n) throw InputError(std::string(origin) + ": A is " + dims(A) + ": must be square");
+  if (E.size() > 0 && (E.rows() != n || E.cols() != n))
+    throw InputError(std::string(origin) + ": E is " + dims(E) + ": must be " +
+                     std::to_string(n) + " x " + std::to_string(n) + " (the size of A) or empty");
+  if (X.rows() != n || X.cols() != n)
+    throw InputError(std::string(origin) + ": X is " + dims(X) + ": must be " +
+                     std::to_string(n) + " x " + std::to_string(n) + " (the size of A)");
+  if (Q.rows() != n || Q.cols() != n)
+    throw InputError(std::string(origin) + ": Q is " + dims(Q) + ": must be " +
+                     std::to_string(n) + " x " + std::to_string(n) + " (the size of A)");
+  Matrix R;
+  if (E.size() == 0) {
+    const Matrix AX = A * X;
+    R = AX + X * A.transpose() + Q;
+  } else {
+    const Matrix AXE = A * X * E.transpose();
+    R = AXE + E * X * A.transpose() + Q;
+  }
+  const double qn = Q.norm();
+  return qn > 0.0 ? R.norm() / qn : R.norm();
+}
+
+ReducedDescriptorModel first_order_realization(const ReducedModel& model) {
+  if (const auto* d = std::get_if<ReducedDescriptorModel>(&model)) return *d;
+  const auto& s = std::get<ReducedSecondOrderModel>(model);
+  const Index n = s.size(), m = s.inputs(), p = s.outputs();
+  ReducedDescriptorModel r;
+  r.E = Matrix::Zero(2 * n, 2 * n);
+  r.E.topLeftCorner(n, n).setIdentity();
+  r.E.bottomRightCorner(n, n) = s.M;
+  r.A = Matrix::Zero(2 * n, 2 * n);
+  r.A.topRightCorner(n, n).setIdentity();
+  r.A.bottomLeftCorner(n, n) = -s.K;
+  r.A.bottomRightCorner(n, n) = -s.D;
+  r.B = Matrix::Zero(2 * n, m);
+  r.B.bottomRows(n) = s.B;
+  r.C = Matrix::Zero(p, 2 * n);
+  r.C.leftCols(n) = s.C;
+  if (s.has_velocity_output()) r.C.rightCols(n) = s.Cv;
+  return r;
+}
+
+ReducedModel densify(const Model& model) {
+  const Index states = kind_of(model) == ModelKind::SecondOrder ? 2 * size_of(model)
+                                                                : size_of(model);
+  if (states > kMaxDenseStates)
+    throw InputError("densify: the model has " + std::to_string(states) +
+                     " first-order states: at most kMaxDenseStates = " +
+                     std::to_string(kMaxDenseStates) +
+                     " are converted to dense matrices (use h2_error_quadrature for large models)");
+  if (const auto* s = std::get_if<SecondOrderModel>(&model)) {
+    ReducedSecondOrderModel r;
+    r.M = Matrix(s->M);
+    r.D = Matrix(s->D);
+    r.K = Matrix(s->K);
+    r.B = s->B;
+    r.C = s->C;
+    r.Cv = s->Cv;
+    return r;
+  }
+  const auto& d = std::get<DescriptorModel>(model);
+  ReducedDescriptorModel r;
+  r.E = Matrix(d.E);
+  r.A = Matrix(d.A);
+  r.B = d.B;
+  r.C = d.C;
+  return r;
+}
+
+namespace {
+
+[[noreturn]] void throw_unstable(const ComplexVector& eig) {
+  Index count = 0;
+  double largest = -std::numeric_limits<double>::infinity();
+  for (const Complex& z : eig) {
+    if (!(z.real() < 0.0)) ++count;
+    if (std::isnan(z.real()) || z.real() > largest) largest = z.real();
+  }
+  throw InputError("H2 norm / Gramians undefined: the model has " + std::to_string(count) +
+                   " poles with Re >= 0 (largest real part " + fmt_g(largest) +
+                   "); an H2 norm and Gramians need an asymptotically stable model");
+}
+
+bool all_stable(const ComplexVector& eig) {
+  for (const Complex& z : eig)
+    if (!(z.real() < 0.0)) return false;
+  return true;
+}
+
+}  // namespace
+
+SchurPencil stable_pencil(const ReducedModel& model, std::string_view origin) {
+  validate(model, origin);
+  const ReducedDescriptorModel r = first_order_realization(model);
+  std::optional<SchurPencil> pencil;
+  try {
+    pencil.emplace(r.A, r.E, origin);
+  } catch (const InputError&) {
+    // A singular E: say first whether the finite poles are stable (an unstable model is the more
+    // fundamental problem), then refuse the descriptor model.
+    const ComplexVector p = poles(model);
+    if (!all_stable(p)) throw_unstable(p);
+    throw;
+  }
+  if (!all_stable(pencil->eigenvalues())) throw_unstable(pencil->eigenvalues());
+  return *pencil;
+}
+
+Matrix controllability_gramian(const ReducedModel& model) {
+  const SchurPencil pencil = stable_pencil(model, "gramians");
+  const ReducedDescriptorModel r = first_order_realization(model);
+  return solve_sylvester(pencil, pencil, Matrix(r.B * r.B.transpose()));
+}
+
+Gramians gramians(const ReducedModel& model) {
+  const SchurPencil pencil = stable_pencil(model, "gramians");
+  const ReducedDescriptorModel r = first_order_realization(model);
+  Gramians g;
+  g.P = solve_sylvester(pencil, pencil, Matrix(r.B * r.B.transpose()));
+  // A' Q E + E' Q A + C'C = 0 is the Lyapunov equation of the transposed pencil (A', E'); a
+  // symmetric pencil is its own transpose.
+  const Matrix CtC = r.C.transpose() * r.C;
+  if (pencil.symmetric()) {
+    g.Q = solve_sylvester(pencil, pencil, CtC);
+  } else {
+    const SchurPencil transposed(Matrix(r.A.transpose()),
+                                 Matrix(r.E.transpose()), "gramians");
+    g.Q = solve_sylvester(transposed, transposed, CtC);
+  }
+  return g;
+}
+
+}  // namespace ecmor
