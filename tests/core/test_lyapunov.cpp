@@ -48,8 +48,7 @@ Matrix kronecker_lyapunov(const Matrix& A, const Matrix& E, const Matrix& Q) {
   const Index n = A.rows();
   Matrix L(n * n, n * n);
   for (Index j = 0; j < n; ++j)
-    for (Index i = 0; i < n; ++i)
-      L.block(i * n, j * n, n, n) = E(i, j) * A + A(i, j) * E;
+    for (Index i = 0; i < n; ++i) L.block(i * n, j * n, n, n) = E(i, j) * A + A(i, j) * E;
   const Vector x = L.partialPivLu().solve(-Eigen::Map<const Vector>(Q.data(), n * n));
   return Eigen::Map<const Matrix>(x.data(), n, n);
 }
@@ -165,25 +164,28 @@ TEST(Lyapunov, SingularEquationNamesTheEigenvalues) {
   // A stable A with an eigenvalue at 0 (lambda + conj(lambda) = 0) is singular as well.
   Matrix A0 = Matrix::Zero(2, 2);
   A0(1, 1) = -1.0;
-  EXPECT_NE(message_of<NumericalError>([&] { solve_lyapunov(A0, Matrix::Identity(2, 2)); })
-                .find("lambda_i = 0+0i"),
+  EXPECT_NE(message_of<NumericalError>([&] {
+              solve_lyapunov(A0, Matrix::Identity(2, 2));
+            }).find("lambda_i = 0+0i"),
             std::string::npos);
 }
 
 TEST(Lyapunov, BadSizesAreNamed) {
   const Matrix A = random_stable(4, 1);
   const Matrix Q = Matrix::Identity(4, 4);
-  EXPECT_NE(message_of<InputError>([&] { solve_lyapunov(A, Matrix::Identity(3, 3)); })
-                .find("solve_lyapunov: Q is 3 x 3: must be 4 x 4"),
+  EXPECT_NE(message_of<InputError>([&] {
+              solve_lyapunov(A, Matrix::Identity(3, 3));
+            }).find("solve_lyapunov: Q is 3 x 3: must be 4 x 4"),
             std::string::npos);
-  EXPECT_NE(message_of<InputError>([&] { solve_lyapunov(Matrix(Matrix::Zero(4, 3)), Q); })
-                .find("A is 4 x 3: must be square"),
+  EXPECT_NE(message_of<InputError>([&] {
+              solve_lyapunov(Matrix(Matrix::Zero(4, 3)), Q);
+            }).find("A is 4 x 3: must be square"),
             std::string::npos);
-  EXPECT_NE(message_of<InputError>([&] { solve_lyapunov(Matrix(), Matrix()); })
-                .find("A is 0 x 0"),
+  EXPECT_NE(message_of<InputError>([&] { solve_lyapunov(Matrix(), Matrix()); }).find("A is 0 x 0"),
             std::string::npos);
-  EXPECT_NE(message_of<InputError>([&] { solve_lyapunov(A, Matrix::Identity(5, 5), Q); })
-                .find("E is 5 x 5: must be 4 x 4"),
+  EXPECT_NE(message_of<InputError>([&] {
+              solve_lyapunov(A, Matrix::Identity(5, 5), Q);
+            }).find("E is 5 x 5: must be 4 x 4"),
             std::string::npos);
   Matrix Qn = Q;
   Qn(0, 1) = 0.5;
@@ -203,18 +205,21 @@ TEST(Lyapunov, NonFiniteValuesAreNamed) {
   const Matrix Q = Matrix::Identity(4, 4);
   Matrix A = random_stable(4, 1);
   A(1, 2) = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_NE(message_of<InputError>([&] { solve_lyapunov(A, Q); })
-                .find("A has a non-finite value (nan) at (2, 3)"),
+  EXPECT_NE(message_of<InputError>([&] {
+              solve_lyapunov(A, Q);
+            }).find("A has a non-finite value (nan) at (2, 3)"),
             std::string::npos);
   Matrix Qi = Q;
   Qi(3, 3) = std::numeric_limits<double>::infinity();
-  EXPECT_NE(message_of<InputError>([&] { solve_lyapunov(random_stable(4, 1), Qi); })
-                .find("Q has a non-finite value (inf) at (4, 4)"),
+  EXPECT_NE(message_of<InputError>([&] {
+              solve_lyapunov(random_stable(4, 1), Qi);
+            }).find("Q has a non-finite value (inf) at (4, 4)"),
             std::string::npos);
   Matrix E = Matrix::Identity(4, 4);
   E(0, 0) = -std::numeric_limits<double>::infinity();
-  EXPECT_NE(message_of<InputError>([&] { solve_lyapunov(random_stable(4, 1), E, Q); })
-                .find("E has a non-finite value (-inf) at (1, 1)"),
+  EXPECT_NE(message_of<InputError>([&] {
+              solve_lyapunov(random_stable(4, 1), E, Q);
+            }).find("E has a non-finite value (-inf) at (1, 1)"),
             std::string::npos);
 }
 

@@ -9,10 +9,13 @@
 ///  * E symmetric positive definite:       F = L^-1 A L^-T with E = L L' (Cholesky), which keeps
 ///                                         F symmetric when A is (rail models);
 ///  * otherwise (E nonsingular):           F = E^-1 A (LU with partial pivoting);
-/// then F = U T U^H (complex Schur form, T upper triangular; for a symmetric F the symmetric
+/// then F = U T U^H (complex Schur form, T upper triangular, obtained from the real Schur form by
+/// one complex rotation per 2 x 2 block; for a symmetric F the symmetric
 /// eigendecomposition, T diagonal and U real orthogonal), and the triangular equation
 /// T Y + Y T2^H + U^H Q U2 = 0 is solved column by column, O(n^3) in total.
-/// Cost: one Schur form per pencil, about 25 n^3 flops; n = 600 takes about a second.
+/// Cost: one Schur form per pencil, about 25 n^3 flops; n = 600 takes about a second, a
+/// symmetric n = 1357 (rail) under 2 s. Residuals measured on random stable A (n = 5, 50, 300):
+/// 1e-15..1e-14 relative.
 
 #include <memory>
 #include <string>
@@ -49,8 +52,8 @@ ECMOR_API Matrix solve_sylvester(const Matrix& A, const Matrix& B, const Matrix&
 /// Solves the generalized Sylvester equation  A X F' + E X B' + Q = 0  (E, F nonsingular; empty
 /// means identity), e.g. the cross Gramian A_a X E_b' + E_a X A_b' + B_a B_b' = 0 of two models.
 /// Condition: lambda_i(A, E) + conj(mu_j(B, F)) != 0.
-ECMOR_API Matrix solve_sylvester(const Matrix& A, const Matrix& E, const Matrix& B,
-                                 const Matrix& F, const Matrix& Q);
+ECMOR_API Matrix solve_sylvester(const Matrix& A, const Matrix& E, const Matrix& B, const Matrix& F,
+                                 const Matrix& Q);
 
 /// A pencil (A, E) brought once to its standard form F and the Schur form of F (see the file
 /// comment), for repeated Lyapunov and Sylvester solves with the same matrices (e.g. two Gramians
@@ -88,6 +91,17 @@ class ECMOR_API SchurPencil {
 ///         when lambda_i(left) + conj(mu_j(right)) is zero to working precision.
 ECMOR_API Matrix solve_sylvester(const SchurPencil& left, const SchurPencil& right,
                                  const Matrix& Q);
+
+/// trace(Cl X Cr') for the solution X of  A1 X F2' + E1 X A2' + Bl Br' = 0  (left = (A1, E1),
+/// right = (A2, F2)) without forming X or the n1 x n2 right-hand side: the low-rank factors are
+/// carried into Schur coordinates (O(n^2 (m + p))), so only the triangular solve is O(n^3), and
+/// with two symmetric pencils it is O(n1 n2). This is the H2 inner product <G1, G2> of
+/// G1 = Cl (s E1 - A1)^-1 Bl and G2 = Cr (s F2 - A2)^-1 Br (h2_norm.hpp).
+/// \throws InputError when Bl is not n1 x m, Br not n2 x m, Cl not p x n1, Cr not p x n2 or a
+///         value is not finite; NumericalError as solve_sylvester.
+ECMOR_API double sylvester_trace(const SchurPencil& left, const SchurPencil& right,
+                                 const Matrix& Bl, const Matrix& Br, const Matrix& Cl,
+                                 const Matrix& Cr);
 
 /// Relative residual ||A X E' + E X A' + Q||_F / ||Q||_F of a (generalized) Lyapunov solution;
 /// E empty means E = I. ||Q||_F = 0 gives the absolute residual.
