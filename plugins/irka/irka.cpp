@@ -17,10 +17,12 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <Eigen/QR>
+#include <Eigen/SVD>
 
 #include "ecmor/eigensolver.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
+#include "ecmor/lyapunov.hpp"
 #include "ecmor/plugin.hpp"
 #include "ecmor/projection.hpp"
 #include "full_model_view.hpp"
@@ -38,12 +40,13 @@ struct Options {
   Structure structure = Structure::FirstOrder;
   SecondOrderShifts second_order_shifts = SecondOrderShifts::Iterate;
   bool two_sided = true;  // second-order variant only; first-order IRKA is always two-sided
-  bool modal_start = false;  // initial_shifts: modal
+  enum class Start { Band, Modal, Balanced, Best };
+  Start start = Start::Band;  // initial_shifts
   double initial_damping = 0.0;
   double relaxation = 1.0;  // fraction of the step towards the mirrored poles (1: plain IRKA)
   Index max_iterations = 50;
   double tolerance = 1e-6;
-  double model_tolerance = 1e-6;  // on the relative H2 change of the reduced model; 0: off
+  double model_tolerance = 0.0;  // on the relative H2 change of the reduced model; 0: off
   Index stagnation_window = 10;
   Index restarts = 2;
   bool warm_start = true;
@@ -171,13 +174,13 @@ class IrkaReducer final : public Reducer {
     if (second_order_variant() &&
         m_options.second_order_shifts == SecondOrderShifts::FromFirstOrder) {
       // First-order IRKA finds the shifts; one second-order projection uses them.
-      Outcome first = run(r, false);
+      Outcome first = run_from_starts(r, false, prefix);
       Built so = build(first.data, true);
       out = std::move(first);
       out.built = std::move(so);
-      prefix = "second-order projection at the shifts of first-order IRKA; ";
+      prefix = "second-order projection at the shifts of first-order IRKA; " + prefix;
     } else {
-      out = run(r, second_order_variant());
+      out = run_from_starts(r, second_order_variant(), prefix);
     }
     m_warm[r] = out.data;
 
@@ -498,10 +501,105 @@ class IrkaReducer final : public Reducer {
     return canonical(shifts, b, c);
   }
 
-  /// The starting data of a cold start: modal or band shifts.
+  /// IRKA from the configured start, or with `initial_shifts: best` from each available start
+  /// (band or warm, modal, balanced when dense Gramians are affordable), keeping the converged
+  /// result with the largest ||Gr||_H2: at a stationary point <G - Gr, Gr> = 0, so
+  /// ||G - Gr||^2 = ||G||^2 - ||Gr||^2 and the largest reduced norm is the smallest error, known
+  /// without the full model's norm. Unstable or unconverged candidates count only when no
+  /// candidate converged. `note` receives which start won.
+  Outcome run_from_starts(Index r, bool second_order, std::string& note) {
+    if (m_options.start != Options::Start::Best) return run(r, second_order, start(r));
+    std::vector<std::pair<std::string, Interpolation>> starts;
+    starts.emplace_back(m_options.warm_start && !m_warm.empty() ? "warm/band" : "band", start(r));
+    try {
+      starts.emplace_back("modal", modal_shifts(r));
+    } catch (const Error&) {
+      // No modal start for this model (e.g. an unsymmetric K): the others remain.
+    }
+    if (m_view->state_size() <= m_options.dense_check_limit) {
+      starts.emplace_back("balanced", balanced_shifts(r));
+    }
+    std::optional<Outcome> chosen;
+    std::string winner;
+    double chosen_norm = -1.0;
+    std::string tally;
+    for (const auto& [name, data] : starts) {
+      Outcome o;
+      try {
+        o = run(r, second_order, data);
+      } catch (const NumericalError& e) {
+        tally += fmt::format("{}{}: failed", tally.empty() ? "" : ", ", name);
+        continue;
+      }
+      const bool stable = unstable_count(o.built.poles.poles) == 0;
+      const double norm2 = stable ? h2_inner(o.built.poles, o.built.poles).real() : -1.0;
+      tally += fmt::format("{}{}: {}{}", tally.empty() ? "" : ", ", name,
+                           o.converged ? "converged" : "not converged",
+                           stable ? fmt::format(" |Gr| {:.6e}", std::sqrt(norm2)) : ", unstable");
+      const bool better =
+          !chosen || (o.converged && stable && !(chosen->converged && chosen_norm >= 0.0)) ||
+          (o.converged == chosen->converged && stable && norm2 > chosen_norm);
+      if (better) {
+        chosen = std::move(o);
+        chosen_norm = norm2;
+        winner = name;
+      }
+    }
+    if (!chosen) {
+      throw NumericalError(fmt::format("irka r = {}: every start failed ({})", r, tally));
+    }
+    note = fmt::format("best of {} starts: {} ({}); ", starts.size(), winner, tally);
+    return std::move(*chosen);
+  }
+
+  /// The starting data of a cold start: modal, balanced or band shifts.
   Interpolation first_shifts(Index r) {
-    if (m_options.modal_start) return modal_shifts(r);
+    if (m_options.start == Options::Start::Modal) return modal_shifts(r);
+    if (m_options.start == Options::Start::Balanced) return balanced_shifts(r);
     return band_shifts(r, 0);
+  }
+
+  /// Mirror images of the poles (and residue directions) of the dense square-root balanced
+  /// truncation of order r (`initial_shifts: balanced`, models of at most dense_check_limit
+  /// first-order states): Gramians by the core's dense Lyapunov solver, factors by clipped
+  /// symmetric eigendecompositions, SVD of Lq' E Lp.
+  Interpolation balanced_shifts(Index r) {
+    const Index dim = m_view->state_size();
+    if (dim > m_options.dense_check_limit) {
+      throw ConfigError(fmt::format(
+          "reducer 'irka': initial_shifts = balanced needs dense Gramians: the first-order state "
+          "has {} > dense_check_limit = {} entries; use band or modal",
+          dim, m_options.dense_check_limit));
+    }
+    if (!m_balanced) {
+      // Once per setup: every order's balanced truncation is a prefix of the same SVD.
+      const ReducedModel dense = densify(*m_model);
+      Balanced b;
+      b.fo = first_order_realization(dense);
+      const Gramians g = gramians(dense);
+      auto factor = [](const Matrix& X) {
+        const Eigen::SelfAdjointEigenSolver<Matrix> es(0.5 * (X + X.transpose()));
+        return Matrix(es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal());
+      };
+      b.Lp = factor(g.P);
+      b.Lq = factor(g.Q);
+      const Eigen::BDCSVD<Matrix> svd(b.Lq.transpose() * b.fo.E * b.Lp,
+                                         Eigen::ComputeThinU | Eigen::ComputeThinV);
+      b.U = svd.matrixU();
+      b.V = svd.matrixV();
+      b.hankel = svd.singularValues();
+      m_balanced = std::move(b);
+    }
+    const Balanced& b = *m_balanced;
+    const ReducedDescriptorModel& fo = b.fo;
+    const Index k = std::min<Index>(r, b.hankel.size());
+    const Vector s = b.hankel.head(k).cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
+    const Matrix V = b.Lp * b.V.leftCols(k) * s.asDiagonal();
+    const Matrix W = b.Lq * b.U.leftCols(k) * s.asDiagonal();
+    const PoleResidues pr = pole_residues(W.transpose() * fo.E * V, W.transpose() * fo.A * V,
+                                          W.transpose() * fo.B, fo.C * V);
+    Index reflected = 0;
+    return next_shifts(pr, r, reflected);
   }
 
   /// Mirror images of approximate poles of the full model near the band (`initial_shifts: modal`).
@@ -575,29 +673,45 @@ class IrkaReducer final : public Reducer {
       }
       return band_shifts(r, 0);
     }
+    // Descriptor: dominant poles. 3r eigenvalues nearest -w_c with right (A x = l E x) and left
+    // (y' A = l y' E) eigenvectors give the residues c b' with c = C x, b = B' y / (y' E x); the
+    // r of largest H2 weight are mirrored (as IRKA mirrors its reduced poles, next_shifts()).
     const auto& ds = std::get<DescriptorModel>(*m_model);
     const double sigma = -wc;
-    const std::vector<Complex> w{Complex(-1.0), Complex(-sigma)};  // -(-A) ... = A - sigma E
+    const std::vector<Complex> w{Complex(-1.0), Complex(-sigma)};  // A - sigma E
     const auto F = view.solver().factorize_combination(w);
     EigenOptions eo;
-    eo.nev = std::min<Index>(r, view.size() - 2);
-    const GeneralEigenResult eig = general_shift_invert(*F, ds.E, sigma, eo);
-    for (Index j = 0; j < eig.eigenvalues.size() && static_cast<Index>(shifts.size()) < r; ++j) {
-      const Complex z = eig.eigenvalues(j);
-      if (z.imag() < 0.0) continue;
-      const Complex mirror = z.real() < 0.0 ? -z : std::conj(z);
-      if (z.imag() == 0.0) {
-        shifts.push_back(mirror);
-      } else if (static_cast<Index>(shifts.size()) + 2 <= r) {
-        shifts.push_back(mirror);
-        shifts.push_back(std::conj(mirror));
+    eo.nev = std::max<Index>(1, std::min<Index>(3 * r, view.size() - 3));
+    const GeneralEigenResult right = general_shift_invert(*F, ds.E, sigma, eo, false);
+    const GeneralEigenResult left = general_shift_invert(*F, ds.E, sigma, eo, true);
+    const Index k = right.eigenvalues.size();
+    PoleResidues pr;
+    pr.poles = right.eigenvalues;
+    pr.b.resize(view.inputs(), k);
+    pr.c.resize(view.outputs(), k);
+    const ComplexMatrix EX = ds.E.cast<Complex>() * right.eigenvectors;
+    for (Index i = 0; i < k; ++i) {
+      Index j = 0;
+      double nearest = std::numeric_limits<double>::infinity();
+      for (Index l = 0; l < left.eigenvalues.size(); ++l) {
+        const double d = std::abs(left.eigenvalues(l) - right.eigenvalues(i));
+        if (d < nearest) {
+          nearest = d;
+          j = l;
+        }
       }
+      const ComplexVector y = left.eigenvectors.col(j);
+      const Complex scale = y.transpose() * EX.col(i);
+      pr.c.col(i) = ds.C.cast<Complex>() * right.eigenvectors.col(i);
+      pr.b.col(i) = ds.B.transpose().cast<Complex>() * y / scale;
     }
-    if (static_cast<Index>(shifts.size()) < r) {
-      const Interpolation band = band_shifts(r - static_cast<Index>(shifts.size()), 0);
-      shifts.insert(shifts.end(), band.shifts.begin(), band.shifts.end());
+    if (k < r) {
+      throw NumericalError(fmt::format(
+          "irka: initial_shifts = modal found {} eigenvalues near the band, fewer than r = {}", k,
+          r));
     }
-    return with_uniform_directions(shifts);
+    Index reflected = 0;
+    return next_shifts(pr, r, reflected);
   }
 
   /// Warm start for order r: the final data of the largest smaller order run before, completed by
@@ -654,7 +768,7 @@ class IrkaReducer final : public Reducer {
   /// iterations) and breakdowns restart from other band shifts while restarts remain;
   /// max_iterations bounds all attempts together. Not converged: the iterate with the smallest
   /// shift change, with the reason.
-  Outcome run(Index r, bool second_order) {
+  Outcome run(Index r, bool second_order, const Interpolation& initial) {
     Outcome best;
     bool have_best = false;
     Index iterations = 0, reflected = 0, restarts = 0;
@@ -664,7 +778,7 @@ class IrkaReducer final : public Reducer {
       // oscillation that damping can turn into convergence).
       const double alpha = attempt == 0 ? m_options.relaxation
                                         : std::max(0.25, m_options.relaxation * std::pow(0.5, attempt));
-      Interpolation data = attempt == 0 ? start(r) : band_shifts(r, attempt);
+      Interpolation data = attempt == 0 ? initial : band_shifts(r, attempt);
       std::vector<Interpolation> trail;
       std::optional<PoleResidues> previous;  // of the previous iterate of this attempt
       double best_change = std::numeric_limits<double>::infinity();
@@ -696,8 +810,19 @@ class IrkaReducer final : public Reducer {
           best.model_change = model_change;
           have_best = true;
         }
-        if (change <= m_options.tolerance ||
-            (m_options.model_tolerance > 0.0 && model_change <= m_options.model_tolerance)) {
+        const bool settled =
+            change <= m_options.tolerance ||
+            (m_options.model_tolerance > 0.0 && model_change <= m_options.model_tolerance);
+        const Index unstable_now = settled ? unstable_count(built.poles.poles) : 0;
+        if (settled && unstable_now > 0) {
+          // A fixed point whose model has poles with Re >= 0 (reached through reflected shifts)
+          // is not an H2-optimal model: restart rather than report it as converged.
+          reason = fmt::format("settled at iteration {} on a model with {} poles of Re >= 0",
+                               iterations, unstable_now);
+          restart = true;
+          break;
+        }
+        if (settled) {
           best.built = std::move(built);
           best.data = data;
           best.shift_change = change;
@@ -775,6 +900,13 @@ class IrkaReducer final : public Reducer {
   std::string m_stability;
   bool m_real_poles = false;  // certified real poles (E SPD, A symmetric): real starting shifts
   std::map<Index, Interpolation> m_warm;  // final data per order, for warm starts
+  /// The dense square-root balancing of the model (initial_shifts: balanced/best), computed once.
+  struct Balanced {
+    ReducedDescriptorModel fo;
+    Matrix Lp, Lq, U, V;
+    Vector hankel;
+  };
+  std::optional<Balanced> m_balanced;
 };
 
 ReducerInfo irka_info() {
@@ -801,8 +933,10 @@ ReducerInfo irka_info() {
        "keeps symmetric positive definite M, D, K so, hence stable)"},
       {"initial_shifts", "string", "band",
        "band: log-spaced band frequencies (real ones for models with real poles); modal: mirror "
-       "images of the full model's poles nearest the band centre (second order: undamped modes "
-       "with modal damping; descriptor: shift-invert eigenvalues)"},
+       "images of dominant poles near the band centre (second order: undamped modes with modal "
+       "damping; descriptor: the r of largest H2 weight among 3r shift-invert eigenvalues); "
+       "balanced: poles of the dense balanced truncation (at most dense_check_limit states); "
+       "best: each of these, keeping the converged model of largest H2 norm (smallest error)"},
       {"relaxation", "double", "1",
        "fraction alpha in (0, 1] of each step from the old shifts to the mirrored poles (1: plain "
        "IRKA); restarts halve it (down to 1/4)"},
@@ -812,7 +946,7 @@ ReducerInfo irka_info() {
       {"tolerance", "double", "1e-6",
        "converged when the shifts change by at most this (relative, matched pairwise), in "
        "[1e-14, 1e-1]"},
-      {"model_tolerance", "double", "1e-6",
+      {"model_tolerance", "double", "0",
        "also converged when the reduced model changes by at most this in the relative H2 norm "
        "between iterations (scaled by 1/relaxation); 0 = off; in [0, 1e-1]; computed from the "
        "pole-residue forms, whose cancellation puts its floor near 1e-8"},
@@ -853,7 +987,12 @@ std::unique_ptr<Reducer> create_irka(const ParameterMap& params) {
                                     where.empty() ? "" : where + ": ", params.owner(), key));
     }
   }
-  o.modal_start = params.get_string("initial_shifts", "band", {"band", "modal"}) == "modal";
+  const std::string start =
+      params.get_string("initial_shifts", "band", {"band", "modal", "balanced", "best"});
+  o.start = start == "modal"      ? Options::Start::Modal
+            : start == "balanced" ? Options::Start::Balanced
+            : start == "best"     ? Options::Start::Best
+                                  : Options::Start::Band;
   o.relaxation = params.get_double("relaxation", o.relaxation, 1e-3, 1.0);
   o.initial_damping = params.get_double("initial_damping", o.initial_damping, 0.0, 10.0);
   o.max_iterations = params.get_int("max_iterations", o.max_iterations, 1, 100000);

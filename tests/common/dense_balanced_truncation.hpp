@@ -35,7 +35,7 @@ inline BalancedTruncation dense_balanced_truncation(const ReducedModel& model, I
   const ReducedDescriptorModel fo = first_order_realization(model);
   const Gramians g = gramians(model);
   const Matrix Lp = psd_factor(g.P), Lq = psd_factor(g.Q);
-  const Eigen::JacobiSVD<Matrix> svd(Lq.transpose() * fo.E * Lp,
+  const Eigen::BDCSVD<Matrix> svd(Lq.transpose() * fo.E * Lp,
                                      Eigen::ComputeThinU | Eigen::ComputeThinV);
   BalancedTruncation bt;
   bt.hankel = svd.singularValues();
