@@ -218,8 +218,29 @@ class IrkaReducer final : public Reducer {
   /// Refuses models IRKA cannot treat: unstable ones (no H2 norm, IRKA's fixed point undefined)
   /// and descriptor models with singular E (the polynomial part of a DAE is not handled).
   void check_model(const Model& model) {
+    // A descriptor model with singular E (a DAE) is refused whatever check_stability says.
+    std::string singular_e;
+    if (const auto* ds = std::get_if<DescriptorModel>(&model)) {
+      if (!is_positive_definite(ds->E)) {
+        const std::vector<Complex> e_only{Complex(0.0), Complex(1.0)};
+        try {
+          (void)m_view->solver().factorize_combination(e_only);
+        } catch (const NumericalError& e) {
+          singular_e = e.what();
+        }
+      }
+    }
+    auto refuse_dae = [&](const std::string& poles) {
+      throw InputError(fmt::format(
+          "irka: E is singular ({}): the model is a DAE, whose polynomial part IRKA does not "
+          "handle{}; reduce it with krylov or modal, or give an ODE realisation",
+          singular_e, poles));
+    };
     m_stability = "not verified";
-    if (!m_options.check_stability) return;
+    if (!m_options.check_stability) {
+      if (!singular_e.empty()) refuse_dae("");
+      return;
+    }
     bool certified = false;
     if (const auto* ds = std::get_if<DescriptorModel>(&model)) {
       // E SPD and A symmetric negative definite: every pole is real and negative.
@@ -238,37 +259,39 @@ class IrkaReducer final : public Reducer {
       return;
     }
     const Index dim = m_view->state_size();
+    std::string unstable_text;
     if (dim <= m_options.dense_check_limit) {
       const ComplexVector p = dense_poles(model);
       const Index unstable = unstable_count(p);
       if (unstable > 0) {
-        // The unstable pole of least modulus is the most trustworthy (large ones of a singular E
-        // can be perturbed infinite eigenvalues); the largest real part shows the extent.
+        // The unstable pole of least modulus is the most trustworthy; the largest real part
+        // shows the extent.
         double largest = -std::numeric_limits<double>::infinity();
         Complex smallest(std::numeric_limits<double>::infinity(), 0.0);
         for (const Complex& z : p) {
           largest = std::max(largest, z.real());
           if (is_unstable(z) && std::abs(z) < std::abs(smallest)) smallest = z;
         }
-        throw InputError(fmt::format(
-            "irka: the model is not asymptotically stable: {} of its {} finite poles have Re >= 0 "
-            "(the one of least modulus {}; largest real part {:.3e}); its H2 norm does not exist "
-            "and IRKA has no H2-optimal model to converge to (set check_stability: false to try "
-            "anyway)",
-            unstable, p.size(), describe(smallest), largest));
+        unstable_text = fmt::format(
+            "{} of its {} computed finite poles have Re >= 0 (the one of least modulus {}; "
+            "largest real part {:.3e})",
+            unstable, p.size(), describe(smallest), largest);
       }
       m_stability = "dense eigenvalues";
     }
-    if (std::holds_alternative<DescriptorModel>(model)) {
-      const std::vector<Complex> e_only{Complex(0.0), Complex(1.0)};
-      try {
-        (void)m_view->solver().factorize_combination(e_only);
-      } catch (const NumericalError& e) {
-        throw InputError(fmt::format(
-            "irka: E is singular ({}): the model is a DAE, whose polynomial part IRKA does not "
-            "handle; reduce it with krylov or modal, or give an ODE realisation",
-            e.what()));
-      }
+    if (!singular_e.empty()) {
+      // Perturbed infinite eigenvalues of a singular E (of index k, of size eps^(-1/k)) look
+      // like large finite poles of either sign: say so rather than call the model unstable.
+      refuse_dae(unstable_text.empty()
+                     ? std::string()
+                     : "; besides, " + unstable_text +
+                           ", which for a singular E may be perturbed infinite eigenvalues");
+    }
+    if (!unstable_text.empty()) {
+      throw InputError(fmt::format(
+          "irka: the model is not asymptotically stable: {}; its H2 norm does not exist and IRKA "
+          "has no H2-optimal model to converge to (set check_stability: false to try anyway)",
+          unstable_text));
     }
   }
 
