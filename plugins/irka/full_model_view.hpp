@@ -11,7 +11,8 @@
 // whose solves reduce to P(s) = s^2 M + s D + K:
 //
 //     (s E - A) [x1; x2] = [0; B b]       <=>  P(s) x1 = B b,  x2 = s x1
-//     (s E - A)^T [y1; y2] = [C' c; Cv' c] <=> P(s)^T y2 = (C + s Cv)' c,  y1 = (s M' + D') y2 - Cv' c
+//     (s E - A)^T [y1; y2] = [C' c; Cv' c] <=> P(s)^T y2 = (C + s Cv)' c,  y1 = (s M' + D') y2 -
+//     Cv' c
 //
 // and whose projections W' E V, W' A V need only products with M, D, K. The same solves serve the
 // structure-preserving variant: P(s)^-1 B b and P(s)^-T (C + s Cv)' c are the second-order

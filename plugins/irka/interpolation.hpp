@@ -4,13 +4,12 @@
 // convergence, cycling and stagnation tests use. Private to the irka plugin (see README.md).
 #include <fmt/format.h>
 
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
-
-#include <Eigen/Eigenvalues>
-#include <Eigen/LU>
 
 #include "ecmor/error.hpp"
 #include "ecmor/model.hpp"
@@ -65,7 +64,8 @@ inline PoleResidues pole_residues(const Matrix& E, const Matrix& A, const Matrix
   if (!(out.eigenvector_rcond > 1e3 * std::numeric_limits<double>::epsilon())) {
     throw NumericalError(fmt::format(
         "the reduced model is not diagonalisable to working precision (eigenvector matrix "
-        "reciprocal condition {:.2e}): its poles and residues, hence the next shifts, are undefined",
+        "reciprocal condition {:.2e}): its poles and residues, hence the next shifts, are "
+        "undefined",
         out.eigenvector_rcond));
   }
   out.c = C.cast<Complex>() * X;
@@ -123,9 +123,10 @@ inline Interpolation canonical(const std::vector<Complex>& shifts, const Complex
     }
   }
   if (upper.size() != lower.size()) {
-    throw NumericalError(fmt::format("{} shifts with Im > 0 but {} with Im < 0: the shift set is not "
-                                     "closed under conjugation",
-                                     upper.size(), lower.size()));
+    throw NumericalError(
+        fmt::format("{} shifts with Im > 0 but {} with Im < 0: the shift set is not "
+                    "closed under conjugation",
+                    upper.size(), lower.size()));
   }
   std::sort(upper.begin(), upper.end(), [&](Index x, Index y) {
     return s[x].imag() != s[y].imag() ? s[x].imag() < s[y].imag() : s[x].real() < s[y].real();
@@ -191,7 +192,8 @@ inline double data_change(const Interpolation& previous, const Interpolation& ne
       }
     }
     used[best] = true;
-    const double scale = std::max(std::abs(previous.shifts[best]), std::numeric_limits<double>::min());
+    const double scale =
+        std::max(std::abs(previous.shifts[best]), std::numeric_limits<double>::min());
     const auto ib = static_cast<Index>(i), jb = static_cast<Index>(best);
     worst = std::max(worst, distance / scale);
     if (with_directions) {
@@ -237,7 +239,8 @@ inline Interpolation relax(const Interpolation& previous, const Interpolation& n
       used[best] = true;
       const Complex old = previous.shifts[static_cast<std::size_t>(old_set[best])];
       shifts[static_cast<std::size_t>(i)] = old + alpha * (s - old);
-      if (pairs) shifts[static_cast<std::size_t>(i) + 1] = std::conj(shifts[static_cast<std::size_t>(i)]);
+      if (pairs)
+        shifts[static_cast<std::size_t>(i) + 1] = std::conj(shifts[static_cast<std::size_t>(i)]);
     }
   }
   return canonical(shifts, next.b, next.c);

@@ -5,6 +5,10 @@
 // restarts, reflected poles) reported in the history. See README.md.
 #include <fmt/format.h>
 
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <Eigen/QR>
+#include <Eigen/SVD>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -14,11 +18,6 @@
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <Eigen/Eigenvalues>
-#include <Eigen/LU>
-#include <Eigen/QR>
-#include <Eigen/SVD>
 
 #include "ecmor/eigensolver.hpp"
 #include "ecmor/error.hpp"
@@ -201,8 +200,9 @@ class IrkaReducer final : public Reducer {
     result.diagnostics["eigenvector_rcond"] = out.built.poles.eigenvector_rcond;
     const Index unstable = unstable_count(out.built.poles.poles);
     result.diagnostics["unstable_poles"] = static_cast<double>(unstable);
-    result.note = fmt::format("irka r = {}: {}{} after {} iterations, {} restarts, {} poles reflected",
-                              r, prefix, out.reason, out.iterations, out.restarts, out.reflected);
+    result.note =
+        fmt::format("irka r = {}: {}{} after {} iterations, {} restarts, {} poles reflected", r,
+                    prefix, out.reason, out.iterations, out.restarts, out.reflected);
     if (unstable > 0) result.note += fmt::format("; {} reduced poles with Re >= 0", unstable);
     return result;
   }
@@ -249,8 +249,8 @@ class IrkaReducer final : public Reducer {
     } else {
       const auto& so = std::get<SecondOrderModel>(model);
       // M, D, K SPD: for an eigenvector x, x^H (s^2 M + s D + K) x = 0 has roots with Re < 0.
-      certified = is_positive_definite(so.M) && is_positive_definite(so.D) &&
-                  is_positive_definite(so.K);
+      certified =
+          is_positive_definite(so.M) && is_positive_definite(so.D) && is_positive_definite(so.K);
     }
     if (certified) {
       m_stability = "certified (symmetric definite)";
@@ -350,8 +350,8 @@ class IrkaReducer final : public Reducer {
       try {
         p = view.solver().factorize(s);
       } catch (const NumericalError& e) {
-        throw NumericalError(fmt::format("factorisation at the shift {} failed: {}", describe(s),
-                                         e.what()));
+        throw NumericalError(
+            fmt::format("factorisation at the shift {} failed: {}", describe(s), e.what()));
       }
       const ComplexMatrix b = data.b.col(i), c = data.c.col(i);
       ComplexMatrix v = second_order ? view.right_second_order(*p, b) : view.right(*p, s, b);
@@ -431,8 +431,9 @@ class IrkaReducer final : public Reducer {
       }
     }
     if (static_cast<Index>(shifts.size()) < r) {
-      throw NumericalError(fmt::format("only {} of the {} next shifts could be chosen from {} reduced poles",
-                                       shifts.size(), r, n));
+      throw NumericalError(
+          fmt::format("only {} of the {} next shifts could be chosen from {} reduced poles",
+                      shifts.size(), r, n));
     }
     return canonical(shifts, b, c);
   }
@@ -506,9 +507,9 @@ class IrkaReducer final : public Reducer {
       }
       return with_uniform_directions(real);
     }
-    const double zeta = attempt == 0 ? m_options.initial_damping
-                                     : std::max(m_options.initial_damping,
-                                                1e-2 * std::pow(10.0, attempt - 1));
+    const double zeta =
+        attempt == 0 ? m_options.initial_damping
+                     : std::max(m_options.initial_damping, 1e-2 * std::pow(10.0, attempt - 1));
     std::vector<Complex> shifts;
     for (Index k = 0; k < pairs; ++k) {
       const double t = (static_cast<double>(k) + offset) / static_cast<double>(pairs);
@@ -563,9 +564,9 @@ class IrkaReducer final : public Reducer {
       tally += fmt::format("{}{}: {}{}", tally.empty() ? "" : ", ", name,
                            o.converged ? "converged" : "not converged",
                            stable ? fmt::format(" |Gr| {:.6e}", std::sqrt(norm2)) : ", unstable");
-      const bool better =
-          !chosen || (o.converged && stable && !(chosen->converged && chosen_norm >= 0.0)) ||
-          (o.converged == chosen->converged && stable && norm2 > chosen_norm);
+      const bool better = !chosen ||
+                          (o.converged && stable && !(chosen->converged && chosen_norm >= 0.0)) ||
+                          (o.converged == chosen->converged && stable && norm2 > chosen_norm);
       if (better) {
         chosen = std::move(o);
         chosen_norm = norm2;
@@ -626,7 +627,7 @@ class IrkaReducer final : public Reducer {
       b.Lp = factor(g.P);
       b.Lq = factor(g.Q);
       const Eigen::BDCSVD<Matrix> svd(b.Lq.transpose() * b.fo.E * b.Lp,
-                                         Eigen::ComputeThinU | Eigen::ComputeThinV);
+                                      Eigen::ComputeThinU | Eigen::ComputeThinV);
       b.U = svd.matrixU();
       b.V = svd.matrixV();
       b.hankel = svd.singularValues();
@@ -806,10 +807,10 @@ class IrkaReducer final : public Reducer {
 
   /// IRKA at order r with the safeguards: converged when the shifts change by at most
   /// `tolerance` (relative); cycling (the data return to within a tenth of the current step to
-  /// those of 2..10 iterations before) and stagnation (no 10 % smaller change within stagnation_window
-  /// iterations) and breakdowns restart from other band shifts while restarts remain;
-  /// max_iterations bounds all attempts together. Not converged: the iterate with the smallest
-  /// shift change, with the reason.
+  /// those of 2..10 iterations before) and stagnation (no 10 % smaller change within
+  /// stagnation_window iterations) and breakdowns restart from other band shifts while restarts
+  /// remain; max_iterations bounds all attempts together. Not converged: the iterate with the
+  /// smallest shift change, with the reason.
   Outcome run(Index r, bool second_order, const Interpolation& initial) {
     Outcome best;
     bool have_best = false;
@@ -818,8 +819,9 @@ class IrkaReducer final : public Reducer {
     for (Index attempt = 0; attempt <= m_options.restarts; ++attempt) {
       // Restarts start from other band shifts with a halved relaxation (a 2-cycle is an
       // oscillation that damping can turn into convergence).
-      const double alpha = attempt == 0 ? m_options.relaxation
-                                        : std::max(0.25, m_options.relaxation * std::pow(0.5, attempt));
+      const double alpha = attempt == 0
+                               ? m_options.relaxation
+                               : std::max(0.25, m_options.relaxation * std::pow(0.5, attempt));
       Interpolation data = attempt == 0 ? initial : restart_shifts(r, attempt);
       std::vector<Interpolation> trail;
       std::optional<PoleResidues> previous;  // of the previous iterate of this attempt
@@ -841,9 +843,8 @@ class IrkaReducer final : public Reducer {
         const double change = data_change(data, next);
         // The model's relative H2 change since the previous iterate, scaled back by the
         // relaxation (a step of alpha moves the model alpha times as far).
-        const double model_change =
-            previous ? relative_h2_change(*previous, built.poles) / alpha
-                     : std::numeric_limits<double>::infinity();
+        const double model_change = previous ? relative_h2_change(*previous, built.poles) / alpha
+                                             : std::numeric_limits<double>::infinity();
         previous = built.poles;
         if (!have_best || change < best.shift_change) {
           best.built = built;
@@ -874,9 +875,10 @@ class IrkaReducer final : public Reducer {
               change <= m_options.tolerance
                   ? fmt::format("converged (change of shifts and directions {:.2e} <= {:.1e})",
                                 change, m_options.tolerance)
-                  : fmt::format("converged (relative H2 change of the model {:.2e} <= {:.1e}; "
-                                "shifts and directions still change by {:.2e})",
-                                model_change, m_options.model_tolerance, change);
+                  : fmt::format(
+                        "converged (relative H2 change of the model {:.2e} <= {:.1e}; "
+                        "shifts and directions still change by {:.2e})",
+                        model_change, m_options.model_tolerance, change);
           best.iterations = iterations;
           best.restarts = restarts;
           best.reflected = reflected;
@@ -907,9 +909,10 @@ class IrkaReducer final : public Reducer {
           // start: a restart would throw the nearly converged iterate away.
           if (change <= 1e2 * m_options.tolerance) {
             stalled = true;
-            reason += fmt::format(", within 100 x tolerance: the rounding floor of this model's "
-                                  "iteration lies above tolerance = {:.1e}",
-                                  m_options.tolerance);
+            reason += fmt::format(
+                ", within 100 x tolerance: the rounding floor of this model's "
+                "iteration lies above tolerance = {:.1e}",
+                m_options.tolerance);
           }
           break;
         }
@@ -918,17 +921,19 @@ class IrkaReducer final : public Reducer {
       }
       if (stalled) break;
       if (!restart) {
-        reason = fmt::format("iteration budget max_iterations = {} used up", m_options.max_iterations);
+        reason =
+            fmt::format("iteration budget max_iterations = {} used up", m_options.max_iterations);
         break;
       }
       if (attempt < m_options.restarts) ++restarts;
     }
     if (!have_best) {
-      throw NumericalError(fmt::format("irka r = {}: no reduced model could be built: {}", r, reason));
+      throw NumericalError(
+          fmt::format("irka r = {}: no reduced model could be built: {}", r, reason));
     }
     best.converged = false;
-    best.reason = fmt::format("not converged: {}; smallest change {:.2e}", reason,
-                              best.shift_change);
+    best.reason =
+        fmt::format("not converged: {}; smallest change {:.2e}", reason, best.shift_change);
     best.iterations = iterations;
     best.restarts = restarts;
     best.reflected = reflected;
@@ -1015,11 +1020,10 @@ std::unique_ptr<Reducer> create_irka(const ParameterMap& params) {
                         "second_order"
                     ? Structure::SecondOrder
                     : Structure::FirstOrder;
-  o.second_order_shifts =
-      params.get_string("second_order_shifts", "iterate", {"iterate", "first_order"}) ==
-              "first_order"
-          ? SecondOrderShifts::FromFirstOrder
-          : SecondOrderShifts::Iterate;
+  o.second_order_shifts = params.get_string("second_order_shifts", "iterate",
+                                            {"iterate", "first_order"}) == "first_order"
+                              ? SecondOrderShifts::FromFirstOrder
+                              : SecondOrderShifts::Iterate;
   o.two_sided =
       params.get_string("projection", "two_sided", {"two_sided", "one_sided"}) == "two_sided";
   for (const char* key : {"second_order_shifts", "projection"}) {

@@ -5,6 +5,8 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -13,9 +15,6 @@
 #include <string>
 #include <variant>
 #include <vector>
-
-#include <Eigen/Eigenvalues>
-#include <Eigen/LU>
 
 #include "common/test_support.hpp"
 #include "ecmor/error.hpp"
@@ -92,7 +91,8 @@ struct DenseFull {
   }
   /// P(s) and P'(s).
   ComplexMatrix P(Complex s) const {
-    if (second_order) return (s * s) * M.cast<Complex>() + s * D.cast<Complex>() + K.cast<Complex>();
+    if (second_order)
+      return (s * s) * M.cast<Complex>() + s * D.cast<Complex>() + K.cast<Complex>();
     return s * M.cast<Complex>() + K.cast<Complex>();
   }
   ComplexMatrix dP(Complex s) const {
@@ -202,10 +202,12 @@ Band band_of(double f_min, double f_max) {
 // is at most about tolerance times the relative slope |s H'(s)| / |H(s)| near the shifts, which is
 // below 10 on these models away from resonances: 1e-6 = 10 x tolerance. (1e-7 is near the
 // rounding floor of the iteration on build and build_so: changes of 3e-8 to 1e-7 repeat there.)
-void expect_h2_optimal(const std::string& name, Index r, Band band,
-                       std::initializer_list<std::pair<const char*, ParameterValue::Storage>> extra = {}) {
+void expect_h2_optimal(
+    const std::string& name, Index r, Band band,
+    std::initializer_list<std::pair<const char*, ParameterValue::Storage>> extra = {}) {
   SCOPED_TRACE(name + " r = " + std::to_string(r));
-  ParameterMap p = params({{"tolerance", 1e-7}, {"model_tolerance", 0.0}, {"max_iterations", 200LL}});
+  ParameterMap p =
+      params({{"tolerance", 1e-7}, {"model_tolerance", 0.0}, {"max_iterations", 200LL}});
   for (const auto& [k, v] : extra) p.set(k, ParameterValue{v, {}});
   auto f = make(load_model(shared(name)), p, band);
   const ReducerResult res = f->reducer->reduce(ReductionRequest{r, {}});
@@ -217,9 +219,10 @@ void expect_h2_optimal(const std::string& name, Index r, Band band,
   EXPECT_LT(m.right, 1e-6);
   EXPECT_LT(m.left, 1e-6);
   EXPECT_LT(m.derivative, 1e-6);
-  std::cout << fmt::format("[ irka ] {} r = {}: {}; mismatch right {:.1e} left {:.1e} derivative "
-                           "{:.1e}\n",
-                           name, r, res.note, m.right, m.left, m.derivative);
+  std::cout << fmt::format(
+      "[ irka ] {} r = {}: {}; mismatch right {:.1e} left {:.1e} derivative "
+      "{:.1e}\n",
+      name, r, res.note, m.right, m.left, m.derivative);
 }
 
 TEST(Irka, SisoBuildIsH2OptimalAtConvergence) {
@@ -390,9 +393,8 @@ TEST(Irka, PeecIsRefusedAsADaeWithItsUnstableLookingPolesNamed) {
   // README: up to +1.7e12). Whether those are genuine or perturbed infinite eigenvalues cannot be
   // told in double precision; the message gives both facts, and the model is refused either way,
   // never reduced to a NaN model.
-  const std::string msg = message_of<InputError>([&] {
-    make(load_model(shared("peec")), params({}), band_of(0.1 / kTwoPi, 1e5 / kTwoPi));
-  });
+  const std::string msg = message_of<InputError>(
+      [&] { make(load_model(shared("peec")), params({}), band_of(0.1 / kTwoPi, 1e5 / kTwoPi)); });
   EXPECT_NE(msg.find("E is singular"), std::string::npos) << msg;
   EXPECT_NE(msg.find("computed finite poles have Re >= 0"), std::string::npos) << msg;
   // check_stability: false skips the poles, not the DAE refusal.
@@ -405,8 +407,9 @@ TEST(Irka, PeecIsRefusedAsADaeWithItsUnstableLookingPolesNamed) {
 
 TEST(Irka, ExpansionPointsAndWrongStructureAreRefused) {
   auto f = make(load_model(shared("build")), params({}), band_of(0.1, 10.0));
-  std::string msg = message_of<ConfigError>(
-      [&] { f->reducer->reduce(ReductionRequest{4, {point_at_hz(1.0)}}); });
+  std::string msg = message_of<ConfigError>([&] {
+    f->reducer->reduce(ReductionRequest{4, {point_at_hz(1.0)}});
+  });
   EXPECT_NE(msg.find("chooses its own interpolation points"), std::string::npos) << msg;
   msg = message_of<InputError>([&] { f->reducer->reduce(ReductionRequest{49, {}}); });
   EXPECT_NE(msg.find("order = 49: must be in [1, 48]"), std::string::npos) << msg;
@@ -415,23 +418,27 @@ TEST(Irka, ExpansionPointsAndWrongStructureAreRefused) {
          band_of(0.1, 10.0));
   });
   EXPECT_NE(msg.find("needs a second-order model"), std::string::npos) << msg;
-  msg = message_of<ConfigError>(
-      [&] { registry().create("irka", params({{"projection", std::string("one_sided")}})); });
+  msg = message_of<ConfigError>([&] {
+    registry().create("irka", params({{"projection", std::string("one_sided")}}));
+  });
   EXPECT_NE(msg.find("projection: applies to structure: second_order only"), std::string::npos)
       << msg;
   msg = message_of<ConfigError>([&] { registry().create("irka", params({{"tolerance", 0.5}})); });
   EXPECT_NE(msg.find("tolerance"), std::string::npos) << msg;
-  msg = message_of<ConfigError>(
-      [&] { registry().create("irka", params({{"model_tolerance", 1e-9}})); });
+  msg = message_of<ConfigError>([&] {
+    registry().create("irka", params({{"model_tolerance", 1e-9}}));
+  });
   EXPECT_NE(msg.find("model_tolerance = 1e-09: must be 0 (off) or >= 1e-7"), std::string::npos)
       << msg;
-  msg = message_of<ConfigError>(
-      [&] { registry().create("irka", params({{"initial_shifts", std::string("dense")}})); });
+  msg = message_of<ConfigError>([&] {
+    registry().create("irka", params({{"initial_shifts", std::string("dense")}}));
+  });
   EXPECT_NE(msg.find("initial_shifts"), std::string::npos) << msg;
   // A balanced start needs dense Gramians: refused above dense_check_limit states.
-  auto big = make(load_model(shared("build")),
-                  params({{"initial_shifts", std::string("balanced")}, {"dense_check_limit", 40LL}}),
-                  band_of(0.1, 10.0));
+  auto big =
+      make(load_model(shared("build")),
+           params({{"initial_shifts", std::string("balanced")}, {"dense_check_limit", 40LL}}),
+           band_of(0.1, 10.0));
   msg = message_of<ConfigError>([&] { big->reducer->reduce(ReductionRequest{4, {}}); });
   EXPECT_NE(msg.find("initial_shifts = balanced needs dense Gramians: the first-order state has 48 "
                      "> dense_check_limit = 40"),

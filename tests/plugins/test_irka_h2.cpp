@@ -81,9 +81,9 @@ TEST_P(IrkaVersusBalancedTruncation, H2ErrorIsNoWorseAtOrders10And20) {
   // Balanced truncation of order 10 is the prefix of order 20's square-root bases (the SVD's
   // leading singular triplets): one Gramian computation serves both orders.
   const auto bt20 = test::dense_balanced_truncation(dense, 20);
-  std::cout << fmt::format("[ irka-h2 ] {}: dense reference (Schur form, Gramians) {:.1f} s\n",
-                           c.model,
-                           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  std::cout << fmt::format(
+      "[ irka-h2 ] {}: dense reference (Schur form, Gramians) {:.1f} s\n", c.model,
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   for (const Index r : {10, 20}) {
     SCOPED_TRACE(fmt::format("{} r = {}", c.model, r));
     const Matrix V = bt20.V.leftCols(r), W = bt20.W.leftCols(r);
@@ -95,22 +95,24 @@ TEST_P(IrkaVersusBalancedTruncation, H2ErrorIsNoWorseAtOrders10And20) {
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const double e_irka = error_of(res.model);
-    std::cout << fmt::format("[ irka-h2 ] {} r = {}: relative H2 error irka {:.4e}, balanced "
-                             "truncation {:.4e} (ratio {:.3f}); irka {:.1f} s; {}\n",
-                             c.model, r, e_irka / norm, e_bt / norm, e_irka / e_bt, seconds,
-                             res.note);
+    std::cout << fmt::format(
+        "[ irka-h2 ] {} r = {}: relative H2 error irka {:.4e}, balanced "
+        "truncation {:.4e} (ratio {:.3f}); irka {:.1f} s; {}\n",
+        c.model, r, e_irka / norm, e_bt / norm, e_irka / e_bt, seconds, res.note);
     // A relative margin of 1e-6 for the rounding of the two dense error norms (each accurate to
     // about 1e-8 relative at these error levels, see h2_norm.hpp).
     EXPECT_LE(e_irka, e_bt * (1.0 + 1e-6));
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    SharedFirstOrderModels, IrkaVersusBalancedTruncation,
-    ::testing::Values(Case{"build", 0.016, 16.0}, Case{"cdplayer", 0.16, 16000.0},
-                      Case{"iss", 0.016, 16.0}, Case{"fom", 0.016, 16000.0},
-                      Case{"rail_1357", 1e-4, 1.0}),
-    [](const ::testing::TestParamInfo<Case>& p) { return std::string(p.param.model); });
+INSTANTIATE_TEST_SUITE_P(SharedFirstOrderModels, IrkaVersusBalancedTruncation,
+                         ::testing::Values(Case{"build", 0.016, 16.0},
+                                           Case{"cdplayer", 0.16, 16000.0},
+                                           Case{"iss", 0.016, 16.0}, Case{"fom", 0.016, 16000.0},
+                                           Case{"rail_1357", 1e-4, 1.0}),
+                         [](const ::testing::TestParamInfo<Case>& p) {
+                           return std::string(p.param.model);
+                         });
 
 }  // namespace
 }  // namespace ecmor
