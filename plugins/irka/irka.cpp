@@ -805,15 +805,16 @@ class IrkaReducer final : public Reducer {
     return canonical(shifts, b, c);
   }
 
-  /// IRKA at order r with the safeguards: converged when the shifts change by at most
-  /// `tolerance` (relative); cycling (the data return to within a tenth of the current step to
-  /// those of 2..10 iterations before) and stagnation (no 10 % smaller change within
-  /// stagnation_window iterations) and breakdowns restart from other band shifts while restarts
-  /// remain; max_iterations bounds all attempts together. Not converged: the iterate with the
-  /// smallest shift change, with the reason.
+  /// IRKA at order r with the safeguards: converged when the shifts and directions change by at
+  /// most `tolerance` (relative) on a stable model; cycling (the data return to within a tenth of
+  /// the current step to those of 2..10 iterations before), stagnation (no 10 % smaller change
+  /// within stagnation_window iterations), an unstable fixed point and breakdowns restart (modal,
+  /// then other band shifts) while restarts remain; max_iterations bounds all attempts together.
+  /// Not converged: the stable iterate with the smallest change (the iterate with the smallest
+  /// change when none was stable), with the reason.
   Outcome run(Index r, bool second_order, const Interpolation& initial) {
     Outcome best;
-    bool have_best = false;
+    bool have_best = false, best_stable = false;
     Index iterations = 0, reflected = 0, restarts = 0;
     std::string reason;
     for (Index attempt = 0; attempt <= m_options.restarts; ++attempt) {
@@ -846,11 +847,16 @@ class IrkaReducer final : public Reducer {
         const double model_change = previous ? relative_h2_change(*previous, built.poles) / alpha
                                              : std::numeric_limits<double>::infinity();
         previous = built.poles;
-        if (!have_best || change < best.shift_change) {
+        // The fallback iterate of a run that does not converge: a stable one before any
+        // unstable one (strategies reject unstable models), then the smallest change.
+        const bool stable_now = unstable_count(built.poles.poles) == 0;
+        if (!have_best || (stable_now && !best_stable) ||
+            (stable_now == best_stable && change < best.shift_change)) {
           best.built = built;
           best.data = data;
           best.shift_change = change;
           best.model_change = model_change;
+          best_stable = stable_now;
           have_best = true;
         }
         const bool settled =
