@@ -19,22 +19,11 @@
 #include <type_traits>
 
 #include "ecmor/error.hpp"
+#include "number_text.hpp"
 
 namespace ecmor {
 
 namespace {
-
-std::string fmt_g(double x) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", x);
-  return buf;
-}
-
-std::string fmt_s(Complex s) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.6g%+.6gi", s.real(), s.imag());
-  return buf;
-}
 
 /// Output matrix at s as a complex p x N matrix: C + s Cv (second order) or C.
 template <class Sys>
@@ -107,7 +96,7 @@ void check_frequencies(const std::vector<double>& f_hz) {
   for (std::size_t i = 0; i < f_hz.size(); ++i)
     if (!std::isfinite(f_hz[i]))
       throw NumericalError("frequency_response: frequency " + std::to_string(i) + " is " +
-                           fmt_g(f_hz[i]) + " Hz: must be finite");
+                           detail::number_text(f_hz[i]) + " Hz: must be finite");
 }
 
 /// Reciprocal condition estimate of an LU, 0 for an exactly singular one (Eigen's estimator
@@ -164,10 +153,11 @@ ComplexVector pencil_eigenvalues(const Matrix& A, const Matrix& E) {
 std::vector<double> log_grid(double f_min_hz, double f_max_hz, Index n) {
   if (n < 2) throw ConfigError("log_grid: n = " + std::to_string(n) + ": must be >= 2");
   if (!std::isfinite(f_min_hz) || !(f_min_hz > 0.0))
-    throw ConfigError("log_grid: f_min_hz = " + fmt_g(f_min_hz) + ": must be finite and > 0");
+    throw ConfigError("log_grid: f_min_hz = " + detail::number_text(f_min_hz) +
+                      ": must be finite and > 0");
   if (!std::isfinite(f_max_hz) || !(f_max_hz > f_min_hz))
-    throw ConfigError("log_grid: f_max_hz = " + fmt_g(f_max_hz) +
-                      ": must be finite and > f_min_hz = " + fmt_g(f_min_hz));
+    throw ConfigError("log_grid: f_max_hz = " + detail::number_text(f_max_hz) +
+                      ": must be finite and > f_min_hz = " + detail::number_text(f_min_hz));
   std::vector<double> f(static_cast<std::size_t>(n));
   const double a = std::log10(f_min_hz), b = std::log10(f_max_hz);
   for (Index i = 0; i < n; ++i)
@@ -209,13 +199,14 @@ ComplexMatrix transfer_function(const ReducedModel& model, Complex s) {
         const double rc = safe_rcond(lu);
         // Condition below machine precision: the solution has no correct digit; s is (at) a pole.
         if (!(rc >= std::numeric_limits<double>::epsilon()))
-          throw NumericalError("reduced P_r(s) is singular at s = " + fmt_s(s) + " (rcond " +
-                               fmt_g(rc) + "): s is a pole of the reduced model?");
+          throw NumericalError("reduced P_r(s) is singular at s = " + detail::number_text(s) +
+                               " (rcond " + detail::number_text(rc) +
+                               "): s is a pole of the reduced model?");
         ComplexMatrix X = lu.solve(r.asDiagonal() * sys.B.template cast<Complex>());
         ComplexMatrix H = output_matrix(sys, s) * X;
         if (!H.allFinite())
-          throw NumericalError("reduced P_r(s) is singular at s = " + fmt_s(s) +
-                               " (non-finite solution, rcond " + fmt_g(rc) + ")");
+          throw NumericalError("reduced P_r(s) is singular at s = " + detail::number_text(s) +
+                               " (non-finite solution, rcond " + detail::number_text(rc) + ")");
         return H;
       },
       model);
@@ -261,7 +252,8 @@ std::pair<Matrix, Matrix> pole_pencil(const ReducedModel& model) {
 
 // The matrices the poles depend on: (M, D, K) or (A, E).
 std::vector<const Matrix*> pole_key(const ReducedModel& model) {
-  if (const auto* so = std::get_if<ReducedSecondOrderModel>(&model)) return {&so->M, &so->D, &so->K};
+  if (const auto* so = std::get_if<ReducedSecondOrderModel>(&model))
+    return {&so->M, &so->D, &so->K};
   const auto& ds = std::get<ReducedDescriptorModel>(model);
   return {&ds.A, &ds.E};
 }

@@ -15,16 +15,11 @@
 #include "ecmor/frequency_response.hpp"
 #include "ecmor/lyapunov.hpp"
 #include "ecmor/reduced_response.hpp"
+#include "number_text.hpp"
 
 namespace ecmor {
 
 namespace {
-
-std::string fmt_g(double x) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", x);
-  return buf;
-}
 
 void require_same_io(const ReducedModel& a, const ReducedModel& b, std::string_view origin) {
   if (inputs_of(a) != inputs_of(b) || outputs_of(a) != outputs_of(b))
@@ -184,7 +179,8 @@ double h2_inner_product(const ReducedModel& a, const ReducedModel& b) {
 
 void H2QuadratureOptions::validate() const {
   const auto bad = [](const std::string& field, double value, const std::string& rule) {
-    throw ConfigError("H2QuadratureOptions::" + field + " = " + fmt_g(value) + ": " + rule);
+    throw ConfigError("H2QuadratureOptions::" + field + " = " + detail::number_text(value) + ": " +
+                      rule);
   };
   if (!(relative_tolerance > 0.0 && relative_tolerance < 1.0))
     bad("relative_tolerance", relative_tolerance, "must be in (0, 1)");
@@ -330,8 +326,8 @@ H2Result h2_error_quadrature(const Model& full, ShiftedSolver& solver, const Red
   result.error_estimate = result.value > 0.0 ? result.integral_error / (2.0 * result.value)
                                              : std::sqrt(result.integral_error);
   result.method =
-      "adaptive Gauss-Kronrod 7/15 on omega = w0 tan(theta), w0 = " + fmt_g(w0) + " rad/s, " +
-      std::to_string(unique_cuts.size() - 1) + " initial intervals (" +
+      "adaptive Gauss-Kronrod 7/15 on omega = w0 tan(theta), w0 = " + detail::number_text(w0) +
+      " rad/s, " + std::to_string(unique_cuts.size() - 1) + " initial intervals (" +
       std::to_string(
           reduced ? std::min<std::size_t>(pole_omegas.size(), static_cast<std::size_t>(pole_room))
                   : 0) +

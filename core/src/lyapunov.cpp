@@ -17,24 +17,13 @@
 
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
+#include "number_text.hpp"
 
 namespace ecmor {
 
 namespace {
 
 constexpr double kEps = std::numeric_limits<double>::epsilon();
-
-std::string fmt_g(double x) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", x);
-  return buf;
-}
-
-std::string fmt_c(Complex z) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.6g%+.6gi", z.real(), z.imag());
-  return buf;
-}
 
 std::string dims(const Matrix& X) {
   return std::to_string(X.rows()) + " x " + std::to_string(X.cols());
@@ -51,7 +40,7 @@ void check_matrix(const Matrix& X, Index rows, Index cols, std::string_view orig
     for (Index i = 0; i < X.rows(); ++i)
       if (!std::isfinite(X(i, j)))
         throw InputError(std::string(origin) + ": " + std::string(name) +
-                         " has a non-finite value (" + fmt_g(X(i, j)) + ") at (" +
+                         " has a non-finite value (" + detail::number_text(X(i, j)) + ") at (" +
                          std::to_string(i + 1) + ", " + std::to_string(j + 1) + ")");
 }
 
@@ -195,10 +184,11 @@ SchurPencil::SchurPencil(const Matrix& A, const Matrix& E, std::string_view orig
       impl->lu.compute(E);
       impl->e_rcond = safe_rcond(impl->lu);
       if (!(impl->e_rcond > static_cast<double>(n) * kEps))
-        throw InputError(
-            std::string(origin) + ": E is numerically singular (reciprocal condition " +
-            fmt_g(impl->e_rcond) + " <= n eps = " + fmt_g(static_cast<double>(n) * kEps) +
-            "): descriptor models with singular E (DAEs) are not supported");
+        throw InputError(std::string(origin) +
+                         ": E is numerically singular (reciprocal condition " +
+                         detail::number_text(impl->e_rcond) +
+                         " <= n eps = " + detail::number_text(static_cast<double>(n) * kEps) +
+                         "): descriptor models with singular E (DAEs) are not supported");
       F = impl->lu.solve(A);
     }
   }
@@ -250,15 +240,18 @@ namespace {
   const Complex sum = li + std::conj(mj);
   std::string msg = l.origin + ": the equation is singular: ";
   if (lyapunov) {
-    msg += "eigenvalues lambda_i = " + fmt_c(li) + " and lambda_j = " + fmt_c(mj) +
-           " of A (of the pencil (A, E)) give lambda_i + conj(lambda_j) = " + fmt_c(sum) +
-           ", zero to working precision (|.| <= " + fmt_g(tol) +
+    msg += "eigenvalues lambda_i = " + detail::number_text(li) +
+           " and lambda_j = " + detail::number_text(mj) +
+           " of A (of the pencil (A, E)) give lambda_i + conj(lambda_j) = " +
+           detail::number_text(sum) +
+           ", zero to working precision (|.| <= " + detail::number_text(tol) +
            "): A is not stable enough (a stable A, all Re lambda < 0, always gives a unique "
            "solution)";
   } else {
-    msg += "eigenvalue lambda_i = " + fmt_c(li) + " of the left pencil and mu_j = " + fmt_c(mj) +
-           " of the right pencil give lambda_i + conj(mu_j) = " + fmt_c(sum) +
-           ", zero to working precision (|.| <= " + fmt_g(tol) +
+    msg += "eigenvalue lambda_i = " + detail::number_text(li) +
+           " of the left pencil and mu_j = " + detail::number_text(mj) +
+           " of the right pencil give lambda_i + conj(mu_j) = " + detail::number_text(sum) +
+           ", zero to working precision (|.| <= " + detail::number_text(tol) +
            "): both must be stable enough (all Re < 0 gives a unique solution)";
   }
   (void)r;
@@ -387,7 +380,7 @@ Matrix solve_lyapunov(const Matrix& A, const Matrix& E, const Matrix& Q) {
   const double qn = Q.norm();
   if ((Q - Q.transpose()).norm() > 1e-10 * qn)
     throw InputError(std::string(origin) + ": Q is not symmetric (relative asymmetry " +
-                     fmt_g((Q - Q.transpose()).norm() / qn) + " > 1e-10)");
+                     detail::number_text((Q - Q.transpose()).norm() / qn) + " > 1e-10)");
   const SchurPencil pencil(A, E, origin);
   return solve_sylvester(pencil, pencil, Q);
 }
@@ -490,7 +483,7 @@ namespace {
     if (std::isnan(z.real()) || z.real() > largest) largest = z.real();
   }
   throw InputError("H2 norm / Gramians undefined: the model has " + std::to_string(count) +
-                   " poles with Re >= 0 (largest real part " + fmt_g(largest) +
+                   " poles with Re >= 0 (largest real part " + detail::number_text(largest) +
                    "); an H2 norm and Gramians need an asymptotically stable model");
 }
 

@@ -114,25 +114,6 @@ Index unstable_count(const ComplexVector& poles) {
   return count;
 }
 
-/// The first-order realisation x = [q; q'] of a reduced second-order model.
-ReducedDescriptorModel realisation(const ReducedSecondOrderModel& so) {
-  const Index n = so.size();
-  ReducedDescriptorModel r;
-  r.E = Matrix::Zero(2 * n, 2 * n);
-  r.E.topLeftCorner(n, n).setIdentity();
-  r.E.bottomRightCorner(n, n) = so.M;
-  r.A = Matrix::Zero(2 * n, 2 * n);
-  r.A.topRightCorner(n, n).setIdentity();
-  r.A.bottomLeftCorner(n, n) = -so.K;
-  r.A.bottomRightCorner(n, n) = -so.D;
-  r.B = Matrix::Zero(2 * n, so.inputs());
-  r.B.bottomRows(n) = so.B;
-  r.C = Matrix::Zero(so.outputs(), 2 * n);
-  r.C.leftCols(n) = so.C;
-  if (so.has_velocity_output()) r.C.rightCols(n) = so.Cv;
-  return r;
-}
-
 class IrkaReducer final : public Reducer {
  public:
   explicit IrkaReducer(Options options) : m_options(options) {}
@@ -374,7 +355,7 @@ class IrkaReducer final : public Reducer {
     out.W = two_sided ? orthonormal_basis(W, "left") : out.V;
     if (second_order) {
       const auto so = project(*view.so(), out.V, out.W);
-      const ReducedDescriptorModel fo = realisation(so);
+      const ReducedDescriptorModel fo = first_order_realization(ReducedModel(so));
       out.poles = pole_residues(fo.E, fo.A, fo.B, fo.C);
       out.model = so;
     } else {
