@@ -20,12 +20,12 @@
 #include <vector>
 
 #include "ecmor/eigensolver.hpp"
+#include "ecmor/first_order_view.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
 #include "ecmor/lyapunov.hpp"
 #include "ecmor/plugin.hpp"
 #include "ecmor/projection.hpp"
-#include "full_model_view.hpp"
 #include "interpolation.hpp"
 
 namespace ecmor::irka {
@@ -318,7 +318,7 @@ class IrkaReducer final : public Reducer {
 
   /// The reduced model interpolating at `data`: first-order (of the realisation) or second-order.
   Built build(const Interpolation& data, bool second_order) {
-    FullModelView& view = *m_view;
+    FirstOrderView& view = *m_view;
     const Index r = data.size();
     const Index rows = second_order ? view.size() : view.state_size();
     Matrix V(rows, r), W(rows, r);
@@ -633,7 +633,7 @@ class IrkaReducer final : public Reducer {
   /// (C + s Cv) phi; a real shift at the centre when r is odd. Descriptor: the r eigenvalues of
   /// (A, E) nearest -2 pi f_centre (general shift-invert ARPACK), uniform directions.
   Interpolation modal_shifts(Index r) {
-    FullModelView& view = *m_view;
+    FirstOrderView& view = *m_view;
     const double wc = kTwoPi * std::sqrt(m_band.f_min_hz * m_band.f_max_hz);
     std::vector<Complex> shifts;
     if (const SecondOrderModel* so = view.so()) {
@@ -928,7 +928,7 @@ class IrkaReducer final : public Reducer {
   }
 
   Options m_options;
-  std::optional<FullModelView> m_view;
+  std::optional<FirstOrderView> m_view;
   const Model* m_model = nullptr;
   Band m_band;
   std::string m_stability;

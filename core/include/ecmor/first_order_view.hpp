@@ -1,6 +1,7 @@
 #pragma once
-// full_model_view.hpp: what IRKA needs of the full model, for both kinds, without assembling any
-// 2N x 2N matrix. Private to the irka plugin (see README.md).
+/// \file first_order_view.hpp
+/// A first-order view of any full model, for methods defined on E x' = A x + B u (IRKA, low-rank
+/// ADI, balanced truncation), without assembling any 2N x 2N matrix.
 //
 // A descriptor model is used as it is: E x' = A x + B u, y = C x, P(s) = s E - A.
 // A second-order model M q'' + D q' + K q = B u, y = C q + Cv q' is seen through its first-order
@@ -16,7 +17,10 @@
 //
 // and whose projections W' E V, W' A V need only products with M, D, K. The same solves serve the
 // structure-preserving variant: P(s)^-1 B b and P(s)^-T (C + s Cv)' c are the second-order
-// interpolation vectors.
+// interpolation vectors. General right-hand sides [f; g] reduce the same way:
+//
+//     (s E - A) [x1; x2] = [f; g]     <=>  P(s) x1 = g + (s M + D) f,   x2 = s x1 - f
+//     (s E - A)^T [y1; y2] = [f; g]   <=>  P(s)^T y2 = f + s g,  y1 = (s M' + D') y2 - g
 #include <fmt/format.h>
 
 #include <variant>
@@ -26,11 +30,13 @@
 #include "ecmor/projection.hpp"
 #include "ecmor/shifted_solver.hpp"
 
-namespace ecmor::irka {
+namespace ecmor {
 
-class FullModelView {
+/// The first-order realisation of a model, applied through its shifted solver. The model and the
+/// solver must outlive the view.
+class FirstOrderView {
  public:
-  FullModelView(const Model& model, ShiftedSolver& solver) : m_model(model), m_solver(solver) {
+  FirstOrderView(const Model& model, ShiftedSolver& solver) : m_model(model), m_solver(solver) {
     m_so = std::get_if<SecondOrderModel>(&model);
     m_ds = std::get_if<DescriptorModel>(&model);
     m_n = size_of(model);
@@ -90,11 +96,73 @@ class FullModelView {
     return p.solve_transposed(output_transposed(s, directions));
   }
 
+  /// (s E - A)^-1 R for a first-order right-hand side R (state_size() x k); `p` factorises P(s).
+  ComplexMatrix solve(const Factorization& p, Complex s, const ComplexMatrix& R) const {
+    check_state_rows(R, "solve");
+    if (m_ds != nullptr) return p.solve(R);
+    const Index n = m_n;
+    const auto f = R.topRows(n), g = R.bottomRows(n);
+    const ComplexMatrix rhs = g + s * (m_so->M * f) + m_so->D * f;
+    const ComplexMatrix x1 = p.solve(rhs);
+    ComplexMatrix out(2 * n, R.cols());
+    out.topRows(n) = x1;
+    out.bottomRows(n) = s * x1 - f;
+    return out;
+  }
+
+  /// (s E - A)^-T R for a first-order right-hand side R (state_size() x k).
+  ComplexMatrix solve_transposed(const Factorization& p, Complex s, const ComplexMatrix& R) const {
+    check_state_rows(R, "solve_transposed");
+    if (m_ds != nullptr) return p.solve_transposed(R);
+    const Index n = m_n;
+    const auto f = R.topRows(n), g = R.bottomRows(n);
+    const ComplexMatrix y2 = p.solve_transposed(ComplexMatrix(f + s * g));
+    ComplexMatrix out(2 * n, R.cols());
+    out.topRows(n) = s * (m_so->M.transpose() * y2) + m_so->D.transpose() * y2 - g;
+    out.bottomRows(n) = y2;
+    return out;
+  }
+
+  /// E X for a first-order block X (state_size() x k).
+  Matrix apply_e(const Matrix& X) const {
+    check_state_rows(X, "apply_e");
+    if (m_ds != nullptr) return m_ds->E * X;
+    Matrix out(2 * m_n, X.cols());
+    out.topRows(m_n) = X.topRows(m_n);
+    out.bottomRows(m_n) = m_so->M * X.bottomRows(m_n);
+    return out;
+  }
+
+  /// E' X for a first-order block X (state_size() x k).
+  Matrix apply_e_transposed(const Matrix& X) const {
+    check_state_rows(X, "apply_e_transposed");
+    if (m_ds != nullptr) return m_ds->E.transpose() * X;
+    Matrix out(2 * m_n, X.cols());
+    out.topRows(m_n) = X.topRows(m_n);
+    out.bottomRows(m_n) = m_so->M.transpose() * X.bottomRows(m_n);
+    return out;
+  }
+
+  /// The first-order input matrix B (state_size() x m) and output matrix C (p x state_size()).
+  Matrix input_matrix() const {
+    if (m_ds != nullptr) return m_ds->B;
+    Matrix out = Matrix::Zero(2 * m_n, m_so->B.cols());
+    out.bottomRows(m_n) = m_so->B;
+    return out;
+  }
+  Matrix output_matrix() const {
+    if (m_ds != nullptr) return m_ds->C;
+    Matrix out = Matrix::Zero(m_so->C.rows(), 2 * m_n);
+    out.leftCols(m_n) = m_so->C;
+    if (m_so->has_velocity_output()) out.rightCols(m_n) = m_so->Cv;
+    return out;
+  }
+
   /// Er = W' E V, Ar = W' A V, Br = W' B, Cr = C V of the first-order (realisation of the) model;
   /// V, W are state_size() x r.
   ReducedDescriptorModel project_first_order(const Matrix& V, const Matrix& W) const {
     if (V.rows() != state_size() || W.rows() != state_size() || V.cols() != W.cols()) {
-      throw InputError(fmt::format("irka: bases of {} x {} and {} x {} for a state of size {}",
+      throw InputError(fmt::format("first-order projection: bases of {} x {} and {} x {} for a state of size {}",
                                    V.rows(), V.cols(), W.rows(), W.cols(), state_size()));
     }
     if (m_ds != nullptr) return project(*m_ds, V, W);
@@ -113,6 +181,13 @@ class FullModelView {
   }
 
  private:
+  template <typename Block>
+  void check_state_rows(const Block& X, const char* what) const {
+    if (X.rows() != state_size()) {
+      throw InputError(fmt::format("first-order view: {} of a block with {} rows; the state has {}",
+                                   what, X.rows(), state_size()));
+    }
+  }
   const Matrix& input() const { return m_so != nullptr ? m_so->B : m_ds->B; }
 
   const Model& m_model;
@@ -122,4 +197,4 @@ class FullModelView {
   Index m_n = 0;
 };
 
-}  // namespace ecmor::irka
+}  // namespace ecmor
