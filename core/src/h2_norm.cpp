@@ -15,9 +15,14 @@
 #include "ecmor/frequency_response.hpp"
 #include "ecmor/lyapunov.hpp"
 #include "ecmor/reduced_response.hpp"
+#include "gauss_kronrod.hpp"
 #include "number_text.hpp"
 
 namespace ecmor {
+using detail::kNodes;
+using detail::nodes_of;
+using detail::Piece;
+using detail::rule;
 
 namespace {
 
@@ -48,67 +53,6 @@ H2Parts h2_parts(const ReducedModel& a, const ReducedModel& b, std::string_view 
     parts.nb = sylvester_trace(pb, pb, rb.B, rb.B, rb.C, rb.C);
   }
   return parts;
-}
-
-// Gauss-Kronrod 7/15 on [-1, 1] (Kronrod nodes; the odd-indexed ones, 1, 3, 5, and the centre 7,
-// are the Gauss nodes). Piessens et al., QUADPACK (1983), routine qk15.
-constexpr double kXgk[8] = {
-    0.991455371120812639206854697526329, 0.949107912342758524526189684047851,
-    0.864864423359769072789712788640926, 0.741531185599394439863864773280788,
-    0.586087235467691130294144845693013, 0.405845151377397166906606412076961,
-    0.207784955007898467600689403773245, 0.000000000000000000000000000000000};
-constexpr double kWgk[8] = {
-    0.022935322010529224963732008058970, 0.063092092629978553290700663189204,
-    0.104790010322250183839876322541518, 0.140653259715525918745189590510238,
-    0.169004726639267902826583426598550, 0.190350578064785409913256402421014,
-    0.204432940075298892414161999234649, 0.209482141084727828012999174891714};
-constexpr double kWg[4] = {0.129484966168869693270611432679082, 0.279705391489276667901467771423780,
-                           0.381830050505118944950369775488975,
-                           0.417959183673469387755102040816327};
-constexpr int kNodes = 15;
-
-/// The 15 nodes of [a, b] in the order: centre, then +-x_k for k = 0..6.
-void nodes_of(double a, double b, double* out) {
-  const double c = 0.5 * (a + b), h = 0.5 * (b - a);
-  out[0] = c;
-  for (int k = 0; k < 7; ++k) {
-    out[1 + 2 * k] = c - h * kXgk[k];
-    out[2 + 2 * k] = c + h * kXgk[k];
-  }
-}
-
-struct Piece {
-  double a = 0.0, b = 0.0;
-  double kronrod = 0.0, gauss = 0.0, error = 0.0;
-  bool splittable = true;
-};
-
-/// Kronrod and Gauss sums of one interval from the integrand at nodes_of(a, b), and the error
-/// estimate of QUADPACK's qk15: |K - G| scaled by (200 |K - G| / resasc)^1.5 (resasc: the
-/// integral of |f - mean f|), since K15 is far more accurate than G7 once the interval resolves
-/// the integrand; never below 50 eps |K|.
-void rule(Piece& p, const double* f) {
-  const double h = 0.5 * (p.b - p.a);
-  double k = kWgk[7] * f[0], g = kWg[3] * f[0], k_abs = kWgk[7] * std::abs(f[0]);
-  for (int j = 0; j < 7; ++j) {
-    const double pair = f[1 + 2 * j] + f[2 + 2 * j];
-    k += kWgk[j] * pair;
-    k_abs += kWgk[j] * (std::abs(f[1 + 2 * j]) + std::abs(f[2 + 2 * j]));
-    if (j % 2 == 1) g += kWg[j / 2] * pair;
-  }
-  const double mean = 0.5 * k;
-  double asc = kWgk[7] * std::abs(f[0] - mean);
-  for (int j = 0; j < 7; ++j)
-    asc += kWgk[j] * (std::abs(f[1 + 2 * j] - mean) + std::abs(f[2 + 2 * j] - mean));
-  p.kronrod = h * k;
-  p.gauss = h * g;
-  const double resasc = h * asc, resabs = h * k_abs;
-  double err = std::abs(p.kronrod - p.gauss);
-  if (resasc != 0.0 && err != 0.0)
-    err = resasc * std::min(1.0, std::pow(200.0 * err / resasc, 1.5));
-  p.error = std::max(50.0 * std::numeric_limits<double>::epsilon() * resabs, err);
-  // An interval this narrow cannot be bisected into distinct nodes any more.
-  p.splittable = (p.b - p.a) > 64.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, p.b);
 }
 
 /// Geometric mean of the positive finite values (0 if none).
@@ -196,6 +140,7 @@ void H2QuadratureOptions::validate() const {
   for (double w : breakpoints_rad_s)
     if (!(w > 0.0 && std::isfinite(w)))
       bad("breakpoints_rad_s", w, "every breakpoint must be finite and > 0");
+  if (band) band->validate();
 }
 
 H2Result h2_error_quadrature(const Model& full, ShiftedSolver& solver, const ReducedModel* reduced,
@@ -230,21 +175,28 @@ H2Result h2_error_quadrature(const Model& full, ShiftedSolver& solver, const Red
 
   // Initial partition of theta: equal pieces, then breakpoints at the images of the poles (least
   // damped first, as long as they leave half the budget to refinement) and the user's.
+  // A band restricts theta to the images of its ends.
+  const double theta_lo = options.band ? std::atan(kTwoPi * options.band->f_min_hz / w0) : 0.0;
+  const double theta_hi = options.band ? std::atan(kTwoPi * options.band->f_max_hz / w0) : kHalfPi;
   std::vector<double> cuts;
   for (Index i = 0; i <= options.initial_intervals; ++i)
-    cuts.push_back(kHalfPi * static_cast<double>(i) /
-                   static_cast<double>(options.initial_intervals));
-  cuts.back() = kHalfPi;
-  for (double w : options.breakpoints_rad_s) cuts.push_back(std::atan(w / w0));
+    cuts.push_back(theta_lo + (theta_hi - theta_lo) * static_cast<double>(i) /
+                                  static_cast<double>(options.initial_intervals));
+  cuts.back() = theta_hi;
+  const auto add_cut = [&](double w) {
+    const double theta = std::atan(w / w0);
+    if (theta > theta_lo && theta < theta_hi) cuts.push_back(theta);
+  };
+  for (double w : options.breakpoints_rad_s) add_cut(w);
   const Index pole_room =
       std::max<Index>(0, options.max_evaluations / (2 * kNodes) - static_cast<Index>(cuts.size()));
   for (std::size_t i = 0; i < pole_omegas.size() && static_cast<Index>(i) < pole_room; ++i)
-    cuts.push_back(std::atan(pole_omegas[i] / w0));
+    add_cut(pole_omegas[i]);
   std::sort(cuts.begin(), cuts.end());
   std::vector<double> unique_cuts;
   for (double c : cuts)
     if (unique_cuts.empty() || c - unique_cuts.back() > 1e-12) unique_cuts.push_back(c);
-  unique_cuts.back() = kHalfPi;
+  unique_cuts.back() = theta_hi;
 
   H2Result result;
   result.scale_rad_s = w0;
@@ -326,6 +278,7 @@ H2Result h2_error_quadrature(const Model& full, ShiftedSolver& solver, const Red
   result.error_estimate = result.value > 0.0 ? result.integral_error / (2.0 * result.value)
                                              : std::sqrt(result.integral_error);
   result.method =
+      std::string(options.band ? "band " : "") +
       "adaptive Gauss-Kronrod 7/15 on omega = w0 tan(theta), w0 = " + detail::number_text(w0) +
       " rad/s, " + std::to_string(unique_cuts.size() - 1) + " initial intervals (" +
       std::to_string(

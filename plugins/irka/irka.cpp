@@ -26,6 +26,7 @@
 #include "ecmor/lyapunov.hpp"
 #include "ecmor/plugin.hpp"
 #include "ecmor/projection.hpp"
+#include "ecmor/quadrature.hpp"
 #include "interpolation.hpp"
 
 namespace ecmor::irka {
@@ -52,6 +53,8 @@ struct Options {
   bool warm_start = true;
   bool check_stability = true;
   Index dense_check_limit = 2000;
+  bool frequency_limited = false;  // band-limited H2 objective (FL-IRKA)
+  double band_quadrature_tolerance = 1e-8;
 };
 
 /// A reduced model built from one interpolation data set, with its bases and the pole-residue
@@ -73,6 +76,8 @@ struct Outcome {
   Index reflected = 0;
   double shift_change = std::numeric_limits<double>::infinity();  // data_change() at the end
   double model_change = std::numeric_limits<double>::infinity();  // relative H2 change
+  // Frequency-limited IRKA: ||G - Gr||^2 over the band (band_h2_squared_error); NaN otherwise.
+  double band_objective = std::numeric_limits<double>::quiet_NaN();
 };
 
 std::string describe(Complex s) {
@@ -135,6 +140,23 @@ class IrkaReducer final : public Reducer {
           "model is first order (E, A): use structure: first_order");
     }
     check_model(*context.model);
+    if (m_options.frequency_limited) {
+      if (m_options.start == Options::Start::Best) {
+        throw ConfigError(
+            "reducer 'irka': initial_shifts = best chooses among starts by the H2 norm of the "
+            "result, which does not rank frequency-limited models: use band, modal or balanced "
+            "with frequency_limited: true");
+      }
+      AdaptiveQuadratureOptions q;
+      q.relative_tolerance = m_options.band_quadrature_tolerance;
+      const auto started = std::chrono::steady_clock::now();
+      m_band_integrals = band_resolvent_integrals(*m_view, m_band, q);
+      m_band_norm_squared = band_h2_squared_error(*m_band_integrals, nullptr);
+      m_input = m_view->input_matrix().cast<Complex>();
+      m_output_t = m_view->output_matrix().transpose().cast<Complex>();
+      m_band_seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    }
   }
 
   ReducerResult reduce(const ReductionRequest& request) override {
@@ -179,6 +201,21 @@ class IrkaReducer final : public Reducer {
     result.diagnostics["irka_change"] = out.shift_change;
     result.diagnostics["irka_model_change"] = out.model_change;
     result.diagnostics["eigenvector_rcond"] = out.built.poles.eigenvector_rcond;
+    if (m_band_integrals) {
+      const MatrixQuadrature& q = m_band_integrals->quadrature;
+      result.diagnostics["band_integral_evaluations"] = static_cast<double>(q.evaluations);
+      result.diagnostics["band_integral_error"] =
+          q.integral.norm() > 0.0 ? q.error_estimate / q.integral.norm() : q.error_estimate;
+      result.diagnostics["band_integral_seconds"] = m_band_seconds;
+      // The band H2 error relative to ||G|| over the band, by the integrals' quadrature rule.
+      result.diagnostics["band_h2_error"] =
+          std::sqrt(std::max(0.0, out.band_objective) / m_band_norm_squared);
+      if (!q.converged) {
+        prefix += fmt::format("band integrals NOT converged ({:.1e} relative after {} nodes); ",
+                              result.diagnostics["band_integral_error"], q.evaluations);
+      }
+      prefix = "frequency-limited, " + prefix;
+    }
     const Index unstable = unstable_count(out.built.poles.poles);
     result.diagnostics["unstable_poles"] = static_cast<double>(unstable);
     result.note =
@@ -194,6 +231,14 @@ class IrkaReducer final : public Reducer {
   }
 
  private:
+  /// The damping zeta of starting shifts omega (zeta + i). Frequency-limited IRKA needs Re s > 0:
+  /// its interpolation vectors integrate 1 / (s - i w) over the band, singular for s on the axis.
+  double start_damping() const {
+    return m_options.frequency_limited ? std::max(m_options.initial_damping, kFlMinimumDamping)
+                                       : m_options.initial_damping;
+  }
+  static constexpr double kFlMinimumDamping = 1e-2;
+
   bool second_order_variant() const { return m_options.structure == Structure::SecondOrder; }
 
   /// Refuses models IRKA cannot treat: unstable ones (no H2 norm, IRKA's fixed point undefined)
@@ -335,10 +380,28 @@ class IrkaReducer final : public Reducer {
             fmt::format("factorisation at the shift {} failed: {}", describe(s), e.what()));
       }
       const ComplexMatrix b = data.b.col(i), c = data.c.col(i);
-      ComplexMatrix v = second_order ? view.right_second_order(*p, b) : view.right(*p, s, b);
-      ComplexMatrix w;
-      if (two_sided) {
-        w = second_order ? view.left_second_order(*p, s, c) : view.left(*p, s, c);
+      ComplexMatrix v, w;
+      if (m_band_integrals) {
+        // Frequency-limited: the columns of the band-limited cross Gramians (quadrature.hpp),
+        // (s E - A)^-1 (B beta(s) + E L_B) b and (s E - A)^-T (C' beta(s) + E' L_C) c; the
+        // position rows (right) and the P(s)^-T rows (left) serve the second-order variant.
+        const Complex beta = band_pole_integral(s, m_band);
+        const ComplexMatrix rb = beta * (m_input * b) +
+                                 view.apply_e(m_band_integrals->input).cast<Complex>() * b;
+        v = view.solve(*p, s, rb);
+        if (second_order) v = v.topRows(view.size()).eval();
+        if (two_sided) {
+          const ComplexMatrix rc =
+              beta * (m_output_t * c) +
+              view.apply_e_transposed(m_band_integrals->output).cast<Complex>() * c;
+          w = view.solve_transposed(*p, s, rc);
+          if (second_order) w = w.bottomRows(view.size()).eval();
+        }
+      } else {
+        v = second_order ? view.right_second_order(*p, b) : view.right(*p, s, b);
+        if (two_sided) {
+          w = second_order ? view.left_second_order(*p, s, c) : view.left(*p, s, c);
+        }
       }
       V.col(k) = v.col(0).real();
       if (two_sided) W.col(k) = w.col(0).real();
@@ -488,9 +551,8 @@ class IrkaReducer final : public Reducer {
       }
       return with_uniform_directions(real);
     }
-    const double zeta =
-        attempt == 0 ? m_options.initial_damping
-                     : std::max(m_options.initial_damping, 1e-2 * std::pow(10.0, attempt - 1));
+    const double zeta = attempt == 0 ? start_damping()
+                                     : std::max(start_damping(), 1e-2 * std::pow(10.0, attempt - 1));
     std::vector<Complex> shifts;
     for (Index k = 0; k < pairs; ++k) {
       const double t = (static_cast<double>(k) + offset) / static_cast<double>(pairs);
@@ -771,8 +833,8 @@ class IrkaReducer final : public Reducer {
     std::vector<Complex> added;
     for (Index k = 0; k + 1 < add; k += 2) {
       const double w = widest_gap_midpoint();
-      added.emplace_back(m_options.initial_damping * w, w);
-      added.emplace_back(m_options.initial_damping * w, -w);
+      added.emplace_back(start_damping() * w, w);
+      added.emplace_back(start_damping() * w, -w);
     }
     if (add % 2 == 1) added.emplace_back(widest_gap_midpoint(), 0.0);
     const Index old = previous.size();
@@ -830,13 +892,20 @@ class IrkaReducer final : public Reducer {
         previous = built.poles;
         // The fallback iterate of a run that does not converge: a stable one before any
         // unstable one (strategies reject unstable models), then the smallest change.
+        // Frequency-limited: among iterates of equal stability, the smallest band H2 error
+        // (the objective itself) rather than the smallest change.
         const bool stable_now = unstable_count(built.poles.poles) == 0;
-        if (!have_best || (stable_now && !best_stable) ||
-            (stable_now == best_stable && change < best.shift_change)) {
+        const double objective = m_band_integrals
+                                     ? band_h2_squared_error(*m_band_integrals, &built.model)
+                                     : std::numeric_limits<double>::quiet_NaN();
+        const bool better = m_band_integrals ? objective < best.band_objective
+                                             : change < best.shift_change;
+        if (!have_best || (stable_now && !best_stable) || (stable_now == best_stable && better)) {
           best.built = built;
           best.data = data;
           best.shift_change = change;
           best.model_change = model_change;
+          best.band_objective = objective;
           best_stable = stable_now;
           have_best = true;
         }
@@ -857,6 +926,7 @@ class IrkaReducer final : public Reducer {
           best.data = data;
           best.shift_change = change;
           best.model_change = model_change;
+          best.band_objective = objective;
           best.converged = true;
           best.reason =
               change <= m_options.tolerance
@@ -929,6 +999,11 @@ class IrkaReducer final : public Reducer {
 
   Options m_options;
   std::optional<FirstOrderView> m_view;
+  // Frequency-limited IRKA: the band integrals L_B, L_C, and B, C' of the first-order state.
+  std::optional<BandResolventIntegrals> m_band_integrals;
+  double m_band_seconds = 0.0;
+  double m_band_norm_squared = 0.0;  // ||G||^2 over the band
+  ComplexMatrix m_input, m_output_t;
   const Model* m_model = nullptr;
   Band m_band;
   std::string m_stability;
@@ -975,7 +1050,8 @@ ReducerInfo irka_info() {
        "fraction alpha in (0, 1] of each step from the old shifts to the mirrored poles (1: plain "
        "IRKA); restarts halve it (down to 1/4)"},
       {"initial_damping", "double", "0",
-       "starting shifts omega (zeta + i) at log-spaced band frequencies: zeta, in [0, 10]"},
+       "starting shifts omega (zeta + i) at log-spaced band frequencies: zeta, in [0, 10] (at "
+       "least 0.01 with frequency_limited, whose vectors need Re s > 0)"},
       {"max_iterations", "int", "50", "IRKA iterations per reduce(), all restarts together, >= 1"},
       {"tolerance", "double", "1e-6",
        "converged when the shifts change by at most this (relative, matched pairwise), in "
@@ -997,6 +1073,13 @@ ReducerInfo irka_info() {
        "otherwise dense eigenvalues up to dense_check_limit states)"},
       {"dense_check_limit", "int", "2000",
        "largest first-order state size whose poles are computed densely for the stability check"},
+      {"frequency_limited", "bool", "false",
+       "true: the band-limited H2 objective (FL-IRKA): interpolation vectors are the columns of "
+       "the band-limited cross Gramians, (sE - A)^-1 (B beta(s) + E L_B) b with L_B the band "
+       "integral of the resolvent (computed once in setup by adaptive quadrature; see README)"},
+      {"band_quadrature_tolerance", "double", "1e-8",
+       "frequency_limited only: relative tolerance of the band integrals L_B, L_C, in "
+       "[1e-12, 1e-2]"},
   };
   return info;
 }
@@ -1043,6 +1126,15 @@ std::unique_ptr<Reducer> create_irka(const ParameterMap& params) {
   o.warm_start = params.get_bool("warm_start", o.warm_start);
   o.check_stability = params.get_bool("check_stability", o.check_stability);
   o.dense_check_limit = params.get_int("dense_check_limit", o.dense_check_limit, 0, 20000);
+  o.frequency_limited = params.get_bool("frequency_limited", o.frequency_limited);
+  o.band_quadrature_tolerance = params.get_double(
+      "band_quadrature_tolerance", o.band_quadrature_tolerance, 1e-12, 1e-2);
+  if (params.has("band_quadrature_tolerance") && !o.frequency_limited) {
+    const std::string where = params.location("band_quadrature_tolerance");
+    throw ConfigError(fmt::format(
+        "{}{}: band_quadrature_tolerance: applies to frequency_limited: true only",
+        where.empty() ? "" : where + ": ", params.owner()));
+  }
   return std::make_unique<IrkaReducer>(o);
 }
 

@@ -12,8 +12,10 @@
 /// descriptor models with singular E (DAEs) are refused with an InputError.
 
 #include <string>
+#include <optional>
 #include <vector>
 
+#include "ecmor/band_error.hpp"
 #include "ecmor/export.hpp"
 #include "ecmor/model.hpp"
 #include "ecmor/shifted_solver.hpp"
@@ -70,6 +72,11 @@ struct ECMOR_API H2QuadratureOptions {
   Index initial_intervals = 8;
   /// Extra breakpoints in omega [rad/s] (e.g. known resonances of the full model), each > 0.
   std::vector<double> breakpoints_rad_s;
+  /// When set, the band (frequency-limited) H2 norm: the integral below over omega in
+  /// [2 pi f_min, 2 pi f_max] only (and its mirror image), i.e.
+  ///     ||G - Gr||_{H2,band}^2 = (1/pi) integral_{w1}^{w2} ||G(i w) - Gr(i w)||_F^2 dw.
+  /// Gawronski and Juang (1990); Petersson (2013). The band must satisfy Band::validate().
+  std::optional<Band> band;
   /// \throws ConfigError naming the field, the value and the rule.
   void validate() const;
 };

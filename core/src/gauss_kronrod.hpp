@@ -1,0 +1,71 @@
+#pragma once
+// gauss_kronrod.hpp: the Gauss-Kronrod 7/15 rule shared by the core's adaptive quadratures
+// (h2_norm.cpp for scalar integrands, quadrature.cpp for matrix-valued ones). Private to core.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace ecmor::detail {
+
+// Gauss-Kronrod 7/15 on [-1, 1] (Kronrod nodes; the odd-indexed ones, 1, 3, 5, and the centre 7,
+// are the Gauss nodes). Piessens et al., QUADPACK (1983), routine qk15.
+inline constexpr double kXgk[8] = {
+    0.991455371120812639206854697526329, 0.949107912342758524526189684047851,
+    0.864864423359769072789712788640926, 0.741531185599394439863864773280788,
+    0.586087235467691130294144845693013, 0.405845151377397166906606412076961,
+    0.207784955007898467600689403773245, 0.000000000000000000000000000000000};
+inline constexpr double kWgk[8] = {
+    0.022935322010529224963732008058970, 0.063092092629978553290700663189204,
+    0.104790010322250183839876322541518, 0.140653259715525918745189590510238,
+    0.169004726639267902826583426598550, 0.190350578064785409913256402421014,
+    0.204432940075298892414161999234649, 0.209482141084727828012999174891714};
+inline constexpr double kWg[4] = {0.129484966168869693270611432679082, 0.279705391489276667901467771423780,
+                           0.381830050505118944950369775488975,
+                           0.417959183673469387755102040816327};
+inline constexpr int kNodes = 15;
+
+/// The 15 nodes of [a, b] in the order: centre, then +-x_k for k = 0..6.
+inline void nodes_of(double a, double b, double* out) {
+  const double c = 0.5 * (a + b), h = 0.5 * (b - a);
+  out[0] = c;
+  for (int k = 0; k < 7; ++k) {
+    out[1 + 2 * k] = c - h * kXgk[k];
+    out[2 + 2 * k] = c + h * kXgk[k];
+  }
+}
+
+struct Piece {
+  double a = 0.0, b = 0.0;
+  double kronrod = 0.0, gauss = 0.0, error = 0.0;
+  bool splittable = true;
+};
+
+/// Kronrod and Gauss sums of one interval from the integrand at nodes_of(a, b), and the error
+/// estimate of QUADPACK's qk15: |K - G| scaled by (200 |K - G| / resasc)^1.5 (resasc: the
+/// integral of |f - mean f|), since K15 is far more accurate than G7 once the interval resolves
+/// the integrand; never below 50 eps |K|.
+inline void rule(Piece& p, const double* f) {
+  const double h = 0.5 * (p.b - p.a);
+  double k = kWgk[7] * f[0], g = kWg[3] * f[0], k_abs = kWgk[7] * std::abs(f[0]);
+  for (int j = 0; j < 7; ++j) {
+    const double pair = f[1 + 2 * j] + f[2 + 2 * j];
+    k += kWgk[j] * pair;
+    k_abs += kWgk[j] * (std::abs(f[1 + 2 * j]) + std::abs(f[2 + 2 * j]));
+    if (j % 2 == 1) g += kWg[j / 2] * pair;
+  }
+  const double mean = 0.5 * k;
+  double asc = kWgk[7] * std::abs(f[0] - mean);
+  for (int j = 0; j < 7; ++j)
+    asc += kWgk[j] * (std::abs(f[1 + 2 * j] - mean) + std::abs(f[2 + 2 * j] - mean));
+  p.kronrod = h * k;
+  p.gauss = h * g;
+  const double resasc = h * asc, resabs = h * k_abs;
+  double err = std::abs(p.kronrod - p.gauss);
+  if (resasc != 0.0 && err != 0.0)
+    err = resasc * std::min(1.0, std::pow(200.0 * err / resasc, 1.5));
+  p.error = std::max(50.0 * std::numeric_limits<double>::epsilon() * resabs, err);
+  // An interval this narrow cannot be bisected into distinct nodes any more.
+  p.splittable = (p.b - p.a) > 64.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, p.b);
+}
+
+}  // namespace ecmor::detail
