@@ -10,6 +10,7 @@
 #include <iostream>
 #include <string>
 
+#include "ecmor/error.hpp"
 #include "ecmor/h2_norm.hpp"
 #include "ecmor/model_io.hpp"
 #include "ecmor/registry.hpp"
@@ -32,6 +33,7 @@ struct Case {
   const char* model;
   double f_min_hz, f_max_hz;
   Index order;
+  bool second_order = false;  // structure: second_order (both runs)
 };
 
 struct IrkaRun {
@@ -39,11 +41,13 @@ struct IrkaRun {
   double band_error = 0.0;  // relative band H2 error
 };
 
-IrkaRun reduce(const Model& model, const Band& band, Index r, bool frequency_limited) {
+IrkaRun reduce(const Model& model, const Band& band, Index r, bool frequency_limited,
+               bool second_order) {
   auto solver = make_shifted_solver(model);
   ParameterMap p("reducer 'irka'");
   p.set("max_iterations", 100LL);
   p.set("frequency_limited", frequency_limited);
+  if (second_order) p.set("structure", std::string("second_order"));
   auto reducer = registry().create("irka", p);
   ReductionContext ctx;
   ctx.model = &model;
@@ -73,8 +77,8 @@ TEST_P(FrequencyLimitedIrka, SmallerBandH2ErrorThanPlainIrka) {
     EXPECT_TRUE(e.converged) << e.method;
     return e.value / norm.value;
   };
-  IrkaRun plain = reduce(model, band, c.order, false);
-  IrkaRun limited = reduce(model, band, c.order, true);
+  IrkaRun plain = reduce(model, band, c.order, false, c.second_order);
+  IrkaRun limited = reduce(model, band, c.order, true, c.second_order);
   plain.band_error = band_error(plain.result.model);
   limited.band_error = band_error(limited.result.model);
   std::cout << fmt::format(
@@ -103,11 +107,44 @@ INSTANTIATE_TEST_SUITE_P(SharedModels, FrequencyLimitedIrka,
                                            Case{"iss", 0.1, 1.0, 10}, Case{"iss", 0.1, 1.0, 20},
                                            Case{"fom", 1.0, 10.0, 6}, Case{"fom", 1.0, 10.0, 10},
                                            Case{"rail_1357", 1e-3, 1e-2, 6},
-                                           Case{"triplechain_cmess_n301", 0.01, 0.1, 10}),
+                                           Case{"triplechain_cmess_n301", 0.01, 0.1, 10},
+                                           Case{"iss_so", 0.1, 1.0, 10, true},
+                                           Case{"triplechain_cmess_n301", 0.01, 0.1, 6, true}),
                          [](const ::testing::TestParamInfo<Case>& p) {
-                           return std::string(p.param.model) + "_r" +
+                           return std::string(p.param.model) +
+                                  (p.param.second_order ? "_so" : "") + "_r" +
                                   std::to_string(p.param.order) + "_" + std::to_string(p.index);
                          });
+
+TEST(FrequencyLimitedIrkaInput, RefusesTheBestStartAndAStrayQuadratureTolerance) {
+  const Model model = load_model("../shared/models/build");
+  auto solver = make_shifted_solver(model);
+  ParameterMap p("reducer 'irka'");
+  p.set("frequency_limited", true);
+  p.set("initial_shifts", std::string("best"));
+  auto reducer = registry().create("irka", p);
+  ReductionContext ctx;
+  ctx.model = &model;
+  ctx.solver = solver.get();
+  ctx.band = Band{0.5, 2.0};
+  try {
+    reducer->setup(ctx);
+    FAIL() << "no error for initial_shifts = best with frequency_limited";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("initial_shifts = best"), std::string::npos) << e.what();
+  }
+  ParameterMap q("reducer 'irka'");
+  q.set("band_quadrature_tolerance", 1e-6);
+  try {
+    registry().create("irka", q);
+    FAIL() << "no error for band_quadrature_tolerance without frequency_limited";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("band_quadrature_tolerance: applies to "
+                                         "frequency_limited: true only"),
+              std::string::npos)
+        << e.what();
+  }
+}
 
 }  // namespace
 }  // namespace ecmor
