@@ -20,6 +20,7 @@
 
 #include "ecmor/error.hpp"
 #include "number_text.hpp"
+#include "parallel_for.hpp"
 
 namespace ecmor {
 
@@ -60,36 +61,6 @@ ComplexMatrix full_transfer(const Sys& sys, const Factorization& P, Complex s) {
   }
   ComplexMatrix X = P.solve(ComplexMatrix(sys.B.template cast<Complex>()));
   return output_matrix(sys, s) * X;
-}
-
-/// Runs body(i) for i in [0, n) in parallel (OpenMP, dynamic schedule). An exception thrown by an
-/// iteration never leaves the parallel region: the first one is captured, the remaining iterations
-/// are skipped, and it is rethrown after the region.
-template <class Body>
-void parallel_for(Index n, int threads, Body&& body) {
-  // A parallel region for one or two frequencies costs more (thread wake-up) than it saves.
-  const int nt = static_cast<int>(
-      std::min<Index>(threads > 0 ? threads : omp_get_max_threads(), std::max<Index>(n / 2, 1)));
-  if (nt <= 1) {
-    for (Index i = 0; i < n; ++i) body(i);
-    return;
-  }
-  std::exception_ptr error;
-  std::atomic<bool> failed{false};
-#pragma omp parallel for schedule(dynamic) num_threads(nt)
-  for (Index i = 0; i < n; ++i) {
-    if (failed.load(std::memory_order_relaxed)) continue;
-    try {
-      body(i);
-    } catch (...) {
-#pragma omp critical(ecmor_frequency_response_error)
-      {
-        if (!error) error = std::current_exception();
-      }
-      failed.store(true, std::memory_order_relaxed);
-    }
-  }
-  if (error) std::rethrow_exception(error);
 }
 
 void check_frequencies(const std::vector<double>& f_hz) {
@@ -216,7 +187,7 @@ std::vector<ComplexMatrix> frequency_response(const Model& model, ShiftedSolver&
                                               const std::vector<double>& f_hz, int threads) {
   check_frequencies(f_hz);
   std::vector<ComplexMatrix> H(f_hz.size());
-  parallel_for(static_cast<Index>(f_hz.size()), threads, [&](Index i) {
+  detail::parallel_for(static_cast<Index>(f_hz.size()), threads, [&](Index i) {
     const auto k = static_cast<std::size_t>(i);
     H[k] = transfer_function(model, solver, s_from_hz(f_hz[k]));
   });

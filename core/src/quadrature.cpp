@@ -15,6 +15,7 @@
 #include "ecmor/reduced_response.hpp"
 #include "gauss_kronrod.hpp"
 #include "number_text.hpp"
+#include "parallel_for.hpp"
 
 namespace ecmor {
 namespace {
@@ -193,7 +194,9 @@ BandResolventIntegrals band_resolvent_integrals(FirstOrderView& view, const Band
   // the complex conjugate of the same value (real matrices).
   const MatrixIntegrand integrand = [&](const std::vector<double>& t) {
     std::vector<Matrix> out(t.size());
-    for (std::size_t k = 0; k < t.size(); ++k) {
+    std::vector<ComplexMatrix> g(t.size());
+    // Nodes in parallel, as frequency_response does (factorisations are independent).
+    detail::parallel_for(static_cast<Index>(t.size()), 0, [&](Index k) {
       const double w = logarithmic ? std::exp(t[k]) : t[k];
       const double jacobian = logarithmic ? w : 1.0;
       const Complex s(0.0, w);
@@ -208,11 +211,12 @@ BandResolventIntegrals band_resolvent_integrals(FirstOrderView& view, const Band
       }
       Matrix value(n, m + p);
       const ComplexMatrix x = view.right(*factor, s, eye_m);
-      response[t[k]] = output * x;
+      g[k] = output * x;
       value.leftCols(m) = (2.0 * jacobian) * x.real();
       value.rightCols(p) = (2.0 * jacobian) * view.left(*factor, s, eye_p).real();
       out[k] = std::move(value);
-    }
+    });
+    for (std::size_t k = 0; k < t.size(); ++k) response[t[k]] = std::move(g[k]);
     return out;
   };
   BandResolventIntegrals result;

@@ -55,6 +55,7 @@ struct Options {
   Index dense_check_limit = 2000;
   bool frequency_limited = false;  // band-limited H2 objective (FL-IRKA)
   double band_quadrature_tolerance = 1e-8;
+  Index band_quadrature_budget = 20000;
 };
 
 /// A reduced model built from one interpolation data set, with its bases and the pole-residue
@@ -149,6 +150,7 @@ class IrkaReducer final : public Reducer {
       }
       AdaptiveQuadratureOptions q;
       q.relative_tolerance = m_options.band_quadrature_tolerance;
+      q.max_evaluations = m_options.band_quadrature_budget;
       const auto started = std::chrono::steady_clock::now();
       m_band_integrals = band_resolvent_integrals(*m_view, m_band, q);
       m_band_norm_squared = band_h2_squared_error(*m_band_integrals, nullptr);
@@ -1080,6 +1082,9 @@ ReducerInfo irka_info() {
       {"band_quadrature_tolerance", "double", "1e-8",
        "frequency_limited only: relative tolerance of the band integrals L_B, L_C, in "
        "[1e-12, 1e-2]"},
+      {"band_quadrature_budget", "int", "20000",
+       "frequency_limited only: largest number of quadrature nodes (one factorisation each) for "
+       "L_B, L_C, >= 15"},
   };
   return info;
 }
@@ -1129,11 +1134,14 @@ std::unique_ptr<Reducer> create_irka(const ParameterMap& params) {
   o.frequency_limited = params.get_bool("frequency_limited", o.frequency_limited);
   o.band_quadrature_tolerance = params.get_double(
       "band_quadrature_tolerance", o.band_quadrature_tolerance, 1e-12, 1e-2);
-  if (params.has("band_quadrature_tolerance") && !o.frequency_limited) {
-    const std::string where = params.location("band_quadrature_tolerance");
-    throw ConfigError(fmt::format(
-        "{}{}: band_quadrature_tolerance: applies to frequency_limited: true only",
-        where.empty() ? "" : where + ": ", params.owner()));
+  o.band_quadrature_budget =
+      params.get_int("band_quadrature_budget", o.band_quadrature_budget, 15, 100000000);
+  for (const char* key : {"band_quadrature_tolerance", "band_quadrature_budget"}) {
+    if (params.has(key) && !o.frequency_limited) {
+      const std::string where = params.location(key);
+      throw ConfigError(fmt::format("{}{}: {}: applies to frequency_limited: true only",
+                                    where.empty() ? "" : where + ": ", params.owner(), key));
+    }
   }
   return std::make_unique<IrkaReducer>(o);
 }
