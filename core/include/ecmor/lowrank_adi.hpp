@@ -90,9 +90,9 @@ struct ECMOR_API AdiOptions {
   /// with Re >= 0 and a larger residual are projection artefacts of a non-normal pencil and are
   /// mirrored to the left half-plane (-Re + i Im). In [0, 1), default 1e-6.
   double unstable_ritz_residual = 1e-6;
-  /// Compress Z at the end by a thin QR and an SVD of R, dropping singular values below
-  /// compression_tolerance * sigma_max(Z) (the Gramian changes by at most that squared,
-  /// relatively). Default true.
+  /// Compress Z at the end to its dominant singular directions (from the eigen-decomposition of
+  /// Z' Z), dropping singular values below compression_tolerance * sigma_max(Z): the Gramian
+  /// changes by at most that squared, relatively (plus eps). Default true.
   bool compress = true;
   /// Relative singular-value tolerance of the compression, in [0, 1), default 1e-8: the dropped
   /// part of Z Z' is below 1e-16 ||Z Z'||, machine precision of the Gramian.
