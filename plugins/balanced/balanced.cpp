@@ -78,8 +78,8 @@ Balancing balance(const Matrix& Zl, const Matrix& Zr, Index n) {
   b.U = svd.matrixU();
   b.V = svd.matrixV();
   b.s = svd.singularValues();
-  const double floor = std::sqrt(static_cast<double>(n) * kEps * Zl.squaredNorm() *
-                                 Zr.squaredNorm());
+  const double floor =
+      std::sqrt(static_cast<double>(n) * kEps * Zl.squaredNorm() * Zr.squaredNorm());
   while (b.rank < b.s.size() && b.s(b.rank) > floor) ++b.rank;
   return b;
 }
@@ -116,9 +116,8 @@ class BalancedReducer final : public Reducer {
     if (m_options.band_limited) m_band.validate();
     // The one place the Gramian factors are computed (dense now; low-rank ADI for large models
     // later): everything below uses only m_factors.
-    m_factors = dense_gramian_factors(*context.model,
-                                      m_options.band_limited ? std::optional<Band>(m_band)
-                                                             : std::nullopt);
+    m_factors = dense_gramian_factors(
+        *context.model, m_options.band_limited ? std::optional<Band>(m_band) : std::nullopt);
     prepare_balancing();
   }
 
@@ -163,12 +162,12 @@ class BalancedReducer final : public Reducer {
                            ? "first-order"
                            : fmt::format("second-order {}", to_string(m_options.variant));
     if (m_options.band_limited) what = "frequency-limited " + what;
-    result.note = fmt::format(
-        "{} BT ({}) r = {}: hsv s_1 = {:.3e}, s_r = {:.3e}, s_r+1 = {:.3e}; {}", what,
-        m_options.method == Method::SquareRoot ? "square root" : "balancing-free", r,
-        s.size() > 0 ? s(0) : 0.0, s(r - 1), next,
-        bound ? fmt::format("bound 2 sum(tail) = {:.3e}", 2.0 * tail)
-              : std::string("no a-priori bound"));
+    result.note =
+        fmt::format("{} BT ({}) r = {}: hsv s_1 = {:.3e}, s_r = {:.3e}, s_r+1 = {:.3e}; {}", what,
+                    m_options.method == Method::SquareRoot ? "square root" : "balancing-free", r,
+                    s.size() > 0 ? s(0) : 0.0, s(r - 1), next,
+                    bound ? fmt::format("bound 2 sum(tail) = {:.3e}", 2.0 * tail)
+                          : std::string("no a-priori bound"));
     if (r < request.order) {
       result.note += fmt::format("; order {} capped at {} ({})", request.order, r,
                                  r == m_hsv_cap ? "hsv_tolerance" : "numerical rank of the hsv");
@@ -201,21 +200,21 @@ class BalancedReducer final : public Reducer {
       // dominant left singular directions of Zo2' Zc2 mapped back through M^-T, i.e. Zq2 U_v.
       switch (m_options.variant) {
         case Variant::P:
-          m_main = balance(Zo1, Zc1, n);       // Pp with Qp: V from Zc1
-          m_left = balance(Zo2, Zc2, n);       // Pv with Qv: W from Zq2
+          m_main = balance(Zo1, Zc1, n);  // Pp with Qp: V from Zc1
+          m_left = balance(Zo2, Zc2, n);  // Pv with Qv: W from Zq2
           break;
         case Variant::V:
-          m_main = balance(Zo2, Zc2, n);       // Pv with Qv: V from Zc2, W from Zq2
+          m_main = balance(Zo2, Zc2, n);  // Pv with Qv: V from Zc2, W from Zq2
           break;
         case Variant::PV:
-          m_main = balance(Zo2, Zc1, n);       // Pp with Qv: V from Zc1, W from Zq2
+          m_main = balance(Zo2, Zc1, n);  // Pp with Qv: V from Zc1, W from Zq2
           break;
         case Variant::VP:
-          m_main = balance(Zo1, Zc2, n);       // Pv with Qp: V from Zc2
-          m_left = balance(Zo2, Zc2, n);       // Pv with Qv: W from Zq2
+          m_main = balance(Zo1, Zc2, n);  // Pv with Qp: V from Zc2
+          m_left = balance(Zo2, Zc2, n);  // Pv with Qv: W from Zq2
           break;
         case Variant::FV:
-          m_main = balance(Zo1, Zc1, n);       // Pp with Qp: V = W from Zc1 (one-sided)
+          m_main = balance(Zo1, Zc1, n);  // Pp with Qp: V = W from Zc1 (one-sided)
           break;
       }
       m_rank = std::min(m_main.rank, n);

@@ -54,14 +54,14 @@ namespace ecmor::balanced {
 
 /// The factors and how they were obtained.
 struct GramianFactors {
-  Matrix Zc;  ///< P ~ Zc Zc' (state x kc)
-  Matrix Zq;  ///< Q ~ Zq Zq' (state x ko)
-  Matrix Zo;  ///< E'QE ~ Zo Zo', Zo = E' Zq
-  double seconds = 0.0;      ///< wall time of the Gramians and factors
-  double residual_c = 0.0;   ///< ||A P E' + E P A' + R_c||_F / ||R_c||_F with P = Zc Zc'
-  double residual_o = 0.0;   ///< same for Q = Zq Zq' (R_c = B B', R_o = C'C, or the band's)
+  Matrix Zc;                ///< P ~ Zc Zc' (state x kc)
+  Matrix Zq;                ///< Q ~ Zq Zq' (state x ko)
+  Matrix Zo;                ///< E'QE ~ Zo Zo', Zo = E' Zq
+  double seconds = 0.0;     ///< wall time of the Gramians and factors
+  double residual_c = 0.0;  ///< ||A P E' + E P A' + R_c||_F / ||R_c||_F with P = Zc Zc'
+  double residual_o = 0.0;  ///< same for Q = Zq Zq' (R_c = B B', R_o = C'C, or the band's)
   bool band_limited = false;
-  Index states = 0;          ///< size of the first-order state (N or 2N)
+  Index states = 0;  ///< size of the first-order state (N or 2N)
 };
 
 /// A factor Z (n x k, k <= n) with Z Z' ~ X for a symmetric positive semidefinite X: Cholesky with
@@ -126,10 +126,11 @@ inline Matrix band_filter(const Matrix& F, double w1, double w2) {
   const Matrix S1 = Matrix(F / w1).matrixFunction(detail::band_stem);
   Matrix S = S2 - S1;
   if (!S.allFinite()) {
-    throw NumericalError(fmt::format(
-        "balanced: the band filter S(F) of the frequency-limited Gramians on [{:.6g}, {:.6g}] rad/s "
-        "is not finite (a pole on the imaginary axis at a band edge?)",
-        w1, w2));
+    throw NumericalError(
+        fmt::format("balanced: the band filter S(F) of the frequency-limited Gramians on [{:.6g}, "
+                    "{:.6g}] rad/s "
+                    "is not finite (a pole on the imaginary axis at a band edge?)",
+                    w1, w2));
   }
   return S;
 }
@@ -250,8 +251,8 @@ inline GramianFactors dense_gramian_factors(const Model& model,
     const Eigen::PartialPivLU<Matrix> lu(fo.E);
     const Matrix F = lu.solve(fo.A);
     const Matrix Bt = lu.solve(fo.B);
-    const BandFilterProducts bf = band_filter_products(F, Bt, fo.C, kTwoPi * band->f_min_hz,
-                                                       kTwoPi * band->f_max_hz);
+    const BandFilterProducts bf =
+        band_filter_products(F, Bt, fo.C, kTwoPi * band->f_min_hz, kTwoPi * band->f_max_hz);
     const Matrix SB = fo.E * bf.SB;
     Rc = SB * fo.B.transpose();
     Rc = (Rc + Rc.transpose()).eval();
@@ -281,8 +282,7 @@ inline GramianFactors dense_gramian_factors(const Model& model,
   out.residual_c = lyapunov_residual(fo.A, fo.E, Matrix(out.Zc * out.Zc.transpose()), Rc);
   out.residual_o = lyapunov_residual(Matrix(fo.A.transpose()), Matrix(fo.E.transpose()),
                                      Matrix(out.Zq * out.Zq.transpose()), Ro);
-  out.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return out;
 }
 

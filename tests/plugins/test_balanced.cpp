@@ -160,8 +160,9 @@ TEST(Balanced, HankelSingularValuesAgreeWithTheMatrixSignFunction) {
       EXPECT_LE(diff, allowed) << name << " s_" << i + 1 << " = " << reference(i);
       if (reference(i) >= 1e-3 * reference(0)) worst = std::max(worst, diff);
       if (reference(i) < 1e-3 * reference(0)) {
-        std::cout << fmt::format("  {} s_{} = {:.3e} s_1: relative difference {:.1e} (allowed {:.1e})\n",
-                                 name, i + 1, reference(i) / reference(0), diff, allowed);
+        std::cout << fmt::format(
+            "  {} s_{} = {:.3e} s_1: relative difference {:.1e} (allowed {:.1e})\n", name, i + 1,
+            reference(i) / reference(0), diff, allowed);
       }
     }
     // Normwise backward errors of the factored Gramians: residual / (2 ||A|| ||E|| ||X|| + ||R||).
@@ -169,11 +170,11 @@ TEST(Balanced, HankelSingularValuesAgreeWithTheMatrixSignFunction) {
     const double rc = (d.B * d.B.transpose()).norm(), ro = (d.C.transpose() * d.C).norm();
     const double back_c = g.residual_c * rc / (2.0 * d.A.norm() * d.E.norm() * P.norm() + rc);
     const double back_o = g.residual_o * ro / (2.0 * d.A.norm() * d.E.norm() * Q.norm() + ro);
-    std::cout << fmt::format("{}: s_1 = {:.6e}, s_10 = {:.6e}, worst relative difference of the "
-                             "HSVs >= 1e-3 s_1 among the leading ten {:.2e}; residuals {:.1e}, "
-                             "{:.1e} (backward errors {:.1e}, {:.1e}); {:.2f} s\n",
-                             name, ours(0), ours(9), worst, g.residual_c, g.residual_o, back_c,
-                             back_o, g.seconds);
+    std::cout << fmt::format(
+        "{}: s_1 = {:.6e}, s_10 = {:.6e}, worst relative difference of the "
+        "HSVs >= 1e-3 s_1 among the leading ten {:.2e}; residuals {:.1e}, "
+        "{:.1e} (backward errors {:.1e}, {:.1e}); {:.2f} s\n",
+        name, ours(0), ours(9), worst, g.residual_c, g.residual_o, back_c, back_o, g.seconds);
     EXPECT_LT(worst, 1e-8) << name;
     // A backward-stable solver and a factor truncated at eps max X_ii: backward errors of a
     // small multiple of n eps.
@@ -339,8 +340,8 @@ std::pair<Matrix, Matrix> quadrature_gramians(const Dense& d, double w1, double 
       const Eigen::PartialPivLU<ComplexMatrix> lu(Pw);
       const ComplexMatrix X = lu.solve(d.B.cast<Complex>());
       const Eigen::PartialPivLU<ComplexMatrix> lua(Pw.adjoint());
-      const ComplexMatrix Z =
-          d.E.transpose().cast<Complex>() * lua.solve(ComplexMatrix(d.C.transpose().cast<Complex>()));
+      const ComplexMatrix Z = d.E.transpose().cast<Complex>() *
+                              lua.solve(ComplexMatrix(d.C.transpose().cast<Complex>()));
       P += weight * (X * X.adjoint()).real();
       Y += weight * (Z * Z.adjoint()).real();
     }
@@ -356,14 +357,14 @@ TEST(Balanced, FrequencyLimitedGramiansMatchTheirDefiningIntegral) {
        {std::tuple{"build", 0.5, 5.0, 400}, std::tuple{"cdplayer", 10.0, 1000.0, 100}}) {
     const Model model = load_model(shared(name));
     const Dense d = dense_of(model);
-    const balanced::GramianFactors g =
-        balanced::dense_gramian_factors(model, band_of(f1, f2));
+    const balanced::GramianFactors g = balanced::dense_gramian_factors(model, band_of(f1, f2));
     const auto [P, Y] = quadrature_gramians(d, kTwoPi * f1, kTwoPi * f2, panels);
     const Matrix Pf = g.Zc * g.Zc.transpose(), Yf = g.Zo * g.Zo.transpose();
     const double ep = (Pf - P).norm() / P.norm(), ey = (Yf - Y).norm() / Y.norm();
-    std::cout << fmt::format("{} band [{}, {}] Hz: relative difference to quadrature P {:.2e}, "
-                             "E'QE {:.2e}; residuals {:.1e}, {:.1e}\n",
-                             name, f1, f2, ep, ey, g.residual_c, g.residual_o);
+    std::cout << fmt::format(
+        "{} band [{}, {}] Hz: relative difference to quadrature P {:.2e}, "
+        "E'QE {:.2e}; residuals {:.1e}, {:.1e}\n",
+        name, f1, f2, ep, ey, g.residual_c, g.residual_o);
     // 16-point Gauss-Legendre on these panels converges to far below 1e-8 (measured 1e-12).
     EXPECT_LT(ep, 1e-8) << name;
     EXPECT_LT(ey, 1e-8) << name;
@@ -393,17 +394,19 @@ TEST(Balanced, FrequencyLimitedBtHasTheSmallerBandError) {
   // Measured with the CLI first (README): FL-BT wins by orders of magnitude on heat_cont and
   // random200, and on build in [0.5, 3] Hz; on iss it lowers the absolute band error but not the
   // relative one (README), so iss is not a case here.
-  for (const Case& c : {Case{"heat_cont", band_of(1e-3, 0.1), 4},
-                        Case{"random200", band_of(0.1, 10.0), 6}, Case{"build", band_of(0.5, 3.0), 6}}) {
+  for (const Case& c :
+       {Case{"heat_cont", band_of(1e-3, 0.1), 4}, Case{"random200", band_of(0.1, 10.0), 6},
+        Case{"build", band_of(0.5, 3.0), 6}}) {
     const Model model = load_model(shared(c.name));
     auto plain = make(model, params({}), c.band);
     auto fl = make(model, params({{"band_limited", true}}), c.band);
     const ReducerResult a = plain->reducer->reduce({c.r, {}});
     const ReducerResult b = fl->reducer->reduce({c.r, {}});
     const double ea = band_error(model, a.model, c.band), eb = band_error(model, b.model, c.band);
-    std::cout << fmt::format("{} r = {} on [{}, {}] Hz: band error plain BT {:.3e}, "
-                             "frequency-limited {:.3e}\n",
-                             c.name, c.r, c.band.f_min_hz, c.band.f_max_hz, ea, eb);
+    std::cout << fmt::format(
+        "{} r = {} on [{}, {}] Hz: band error plain BT {:.3e}, "
+        "frequency-limited {:.3e}\n",
+        c.name, c.r, c.band.f_min_hz, c.band.f_max_hz, ea, eb);
     EXPECT_LT(eb, ea) << c.name;
     EXPECT_EQ(b.diagnostics.count("error_bound"), 0u) << "FL-BT has no a-priori bound";
   }
@@ -415,8 +418,8 @@ TEST(Balanced, SecondOrderVariantsReturnSecondOrderModels) {
   const Model model = load_model(shared("triplechain_cmess_n301"));
   const Band band = band_of(1.6e-5, 0.05);
   for (const std::string v : {"p", "v", "pv", "vp", "fv"}) {
-    auto f = make(model, params({{"structure", std::string("second_order")}, {"variant", v}}),
-                  band);
+    auto f =
+        make(model, params({{"structure", std::string("second_order")}, {"variant", v}}), band);
     // This heavily damped chain has few HSVs above the rounding floor (max_order() 7..8).
     const Index r = std::min<Index>(6, f->reducer->max_order());
     const ReducerResult res = f->reducer->reduce({r, {}});
@@ -424,9 +427,10 @@ TEST(Balanced, SecondOrderVariantsReturnSecondOrderModels) {
     ASSERT_NE(so, nullptr) << v;
     EXPECT_EQ(so->size(), r) << v;
     const double e = band_error(model, res.model, band);
-    std::cout << fmt::format("triplechain_cmess_n301 variant {:2} r = {}: band error {:.3e}, "
-                             "unstable poles {}\n",
-                             v, r, e, res.diagnostics.at("unstable_poles"));
+    std::cout << fmt::format(
+        "triplechain_cmess_n301 variant {:2} r = {}: band error {:.3e}, "
+        "unstable poles {}\n",
+        v, r, e, res.diagnostics.at("unstable_poles"));
     EXPECT_TRUE(std::isfinite(e)) << v;
     if (v == "fv") {
       // One-sided projection of symmetric positive definite M, D, K: stable by construction.
@@ -460,8 +464,9 @@ TEST(Balanced, ModelsWithoutGramiansAreRefusedByName) {
 }
 
 TEST(Balanced, BadParametersAreNamed) {
-  std::string msg = message_of<ConfigError>(
-      [&] { registry().create("balanced", params({{"method", std::string("sqrt")}})); });
+  std::string msg = message_of<ConfigError>([&] {
+    registry().create("balanced", params({{"method", std::string("sqrt")}}));
+  });
   EXPECT_NE(msg.find("method"), std::string::npos) << msg;
   EXPECT_NE(msg.find("sqrt"), std::string::npos) << msg;
   msg = message_of<ConfigError>([&] {
@@ -470,8 +475,9 @@ TEST(Balanced, BadParametersAreNamed) {
   });
   EXPECT_NE(msg.find("variant"), std::string::npos) << msg;
   EXPECT_NE(msg.find("pp"), std::string::npos) << msg;
-  msg = message_of<ConfigError>(
-      [&] { registry().create("balanced", params({{"variant", std::string("pv")}})); });
+  msg = message_of<ConfigError>([&] {
+    registry().create("balanced", params({{"variant", std::string("pv")}}));
+  });
   EXPECT_NE(msg.find("variant = pv: applies to structure: second_order only"), std::string::npos)
       << msg;
   msg = message_of<ConfigError>([&] {
@@ -480,8 +486,9 @@ TEST(Balanced, BadParametersAreNamed) {
          band_of(0.1, 10.0));
   });
   EXPECT_NE(msg.find("needs a second-order model"), std::string::npos) << msg;
-  msg = message_of<ConfigError>(
-      [&] { registry().create("balanced", params({{"hsv_tolerance", 2.0}})); });
+  msg = message_of<ConfigError>([&] {
+    registry().create("balanced", params({{"hsv_tolerance", 2.0}}));
+  });
   EXPECT_NE(msg.find("hsv_tolerance"), std::string::npos) << msg;
   auto f = make(load_model(shared("build")), params({}), band_of(0.1, 10.0));
   msg = message_of<ConfigError>([&] { f->reducer->reduce({4, {point_at_hz(1.0)}}); });
