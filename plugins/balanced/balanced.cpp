@@ -1,0 +1,369 @@
+// balanced.cpp: the "balanced" reducer: balanced truncation (BT) from Gramian factors computed once
+// per setup(): first-order square-root and balancing-free square-root BT, the second-order
+// variants p, v, pv, vp, fv (Reis and Stykel 2008; Meyer and Srinivasan 1996) returning
+// (Mr, Dr, Kr, Br, Cr), and frequency-limited BT on the driver's band (Gawronski and Juang 1990).
+// See README.md for the algorithm, the Gramian blocks of each variant and measured numbers.
+#include <fmt/format.h>
+
+#include <Eigen/QR>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ecmor/error.hpp"
+#include "ecmor/first_order_view.hpp"
+#include "ecmor/frequency_response.hpp"
+#include "ecmor/plugin.hpp"
+#include "ecmor/projection.hpp"
+#include "gramian_factors.hpp"
+
+namespace ecmor::balanced {
+namespace {
+
+constexpr const char* kName = "balanced";
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+
+enum class Method { SquareRoot, BalancingFree };
+enum class Structure { FirstOrder, SecondOrder };
+enum class Variant { P, V, PV, VP, FV };
+
+std::string to_string(Variant v) {
+  switch (v) {
+    case Variant::P:
+      return "p";
+    case Variant::V:
+      return "v";
+    case Variant::PV:
+      return "pv";
+    case Variant::VP:
+      return "vp";
+    case Variant::FV:
+      return "fv";
+  }
+  return "?";
+}
+
+struct Options {
+  Method method = Method::SquareRoot;
+  Structure structure = Structure::FirstOrder;
+  Variant variant = Variant::PV;
+  bool band_limited = false;
+  double hsv_tolerance = 0.0;  // 0: off
+};
+
+/// The SVD Zl' Zr = U diag(s) V' of one pair of factors, with the numerical rank of s.
+struct Balancing {
+  Matrix U, V;
+  Vector s;
+  Index rank = 0;
+};
+
+/// Thin SVD of Zl' Zr. Numerical rank: s_i^2 is an eigenvalue of Xr Xl (Xr = Zr Zr', Xl = Zl Zl'),
+/// and each Gramian carries an absolute error of about n eps ||X|| (backward-stable solver plus
+/// the factor's truncation at that level, gramian_factors.hpp), which moves the eigenvalues of
+/// Xr Xl by up to about n eps ||Xr|| ||Xl||. An s_i with s_i^2 below that cannot be told from zero:
+/// the floor is s_i > sqrt(n eps trace(Xr) trace(Xl)) (traces bound the 2-norms from above, so the
+/// floor errs on the safe side). Rank-deficient directions also make the square-root bases
+/// (scaled by s^-1/2) meaningless, another reason not to go below it.
+Balancing balance(const Matrix& Zl, const Matrix& Zr, Index n) {
+  Balancing b;
+  const Eigen::BDCSVD<Matrix> svd(Matrix(Zl.transpose() * Zr),
+                                  Eigen::ComputeThinU | Eigen::ComputeThinV);
+  b.U = svd.matrixU();
+  b.V = svd.matrixV();
+  b.s = svd.singularValues();
+  const double floor =
+      std::sqrt(static_cast<double>(n) * kEps * Zl.squaredNorm() * Zr.squaredNorm());
+  while (b.rank < b.s.size() && b.s(b.rank) > floor) ++b.rank;
+  return b;
+}
+
+/// Orthonormal basis of the columns of X (Householder QR; X has full column rank by construction:
+/// r <= numerical rank of the balancing).
+Matrix orthonormal(const Matrix& X) {
+  const Eigen::HouseholderQR<Matrix> qr(X);
+  return qr.householderQ() * Matrix::Identity(X.rows(), X.cols());
+}
+
+Index unstable_count(const ComplexVector& p) {
+  Index count = 0;
+  for (const Complex& z : p) count += z.real() < 0.0 ? 0 : 1;  // NaN counts as unstable
+  return count;
+}
+
+class BalancedReducer final : public Reducer {
+ public:
+  explicit BalancedReducer(Options options) : m_options(options) {}
+
+  void setup(const ReductionContext& context) override {
+    if (context.model == nullptr || context.solver == nullptr) {
+      throw InputError("balanced: setup needs a model and a shifted solver");
+    }
+    m_view.emplace(*context.model, *context.solver);
+    m_band = context.band;
+    if (m_options.structure == Structure::SecondOrder && !m_view->second_order()) {
+      throw ConfigError(fmt::format(
+          "reducer 'balanced': structure: second_order (variant: {}) needs a second-order model "
+          "(M, D, K); this model is first order (E, A): use structure: first_order",
+          to_string(m_options.variant)));
+    }
+    if (m_options.band_limited) m_band.validate();
+    // The one place the Gramian factors are computed (dense now; low-rank ADI for large models
+    // later): everything below uses only m_factors.
+    m_factors = dense_gramian_factors(
+        *context.model, m_options.band_limited ? std::optional<Band>(m_band) : std::nullopt);
+    prepare_balancing();
+  }
+
+  ReducerResult reduce(const ReductionRequest& request) override {
+    if (!m_factors) throw InputError("balanced: reduce() called before setup()");
+    if (!request.points.empty()) {
+      throw ConfigError(
+          "reducer 'balanced' does not use expansion points (it truncates a balanced "
+          "realisation); a strategy that sets points cannot drive it: use grow_order");
+    }
+    if (request.order < 1) {
+      throw InputError(fmt::format("balanced: order = {}: must be >= 1", request.order));
+    }
+    const auto started = std::chrono::steady_clock::now();
+    const Index cap = max_order();
+    const Index r = std::min(request.order, cap);
+    ReducerResult result;
+    const Vector& s = m_main.s;
+    if (m_options.structure == Structure::FirstOrder) {
+      reduce_first_order(r, result);
+    } else {
+      reduce_second_order(r, result);
+    }
+    const double next = r < s.size() ? s(r) : 0.0;
+    result.diagnostics["gramian_seconds"] = m_factors->seconds;
+    result.diagnostics["lyapunov_residual_c"] = m_factors->residual_c;
+    result.diagnostics["lyapunov_residual_o"] = m_factors->residual_o;
+    result.diagnostics["gramian_rank_c"] = static_cast<double>(m_factors->Zc.cols());
+    result.diagnostics["gramian_rank_o"] = static_cast<double>(m_factors->Zq.cols());
+    result.diagnostics["hsv_1"] = s.size() > 0 ? s(0) : 0.0;
+    result.diagnostics["hsv_r"] = s(r - 1);
+    result.diagnostics["hsv_next"] = next;
+    const bool bound = m_options.structure == Structure::FirstOrder && !m_options.band_limited;
+    const double tail = s.size() > r ? s.tail(s.size() - r).sum() : 0.0;
+    if (bound) result.diagnostics["error_bound"] = 2.0 * tail;
+    const Index unstable = unstable_count(poles(result.model));
+    result.diagnostics["unstable_poles"] = static_cast<double>(unstable);
+    result.diagnostics["balanced_seconds"] =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+
+    std::string what = m_options.structure == Structure::FirstOrder
+                           ? "first-order"
+                           : fmt::format("second-order {}", to_string(m_options.variant));
+    if (m_options.band_limited) what = "frequency-limited " + what;
+    result.note =
+        fmt::format("{} BT ({}) r = {}: hsv s_1 = {:.3e}, s_r = {:.3e}, s_r+1 = {:.3e}; {}", what,
+                    m_options.method == Method::SquareRoot ? "square root" : "balancing-free", r,
+                    s.size() > 0 ? s(0) : 0.0, s(r - 1), next,
+                    bound ? fmt::format("bound 2 sum(tail) = {:.3e}", 2.0 * tail)
+                          : std::string("no a-priori bound"));
+    if (r < request.order) {
+      result.note += fmt::format("; order {} capped at {} ({})", request.order, r,
+                                 r == m_hsv_cap ? "hsv_tolerance" : "numerical rank of the hsv");
+    }
+    if (unstable > 0) result.note += fmt::format("; {} reduced poles with Re >= 0", unstable);
+    return result;
+  }
+
+  Index max_order() const override {
+    if (!m_factors) return kUnlimitedOrder;
+    return std::min(m_rank, m_hsv_cap);
+  }
+
+ private:
+  /// The SVDs of the products of factor blocks the chosen structure and variant need. Notation:
+  /// Zc = [Zc1; Zc2], Zq = [Zq1; Zq2] (position and velocity rows of the first-order state
+  /// x = [q; q']), Zo = E' Zq = [Zq1; M' Zq2]: the blocks of P and E'QE are
+  ///     Pp = Zc1 Zc1',  Pv = Zc2 Zc2',  Qp = Zo1 Zo1',  Qv = Zo2 Zo2' = M' Q22 M.
+  void prepare_balancing() {
+    const GramianFactors& g = *m_factors;
+    const Index states = g.states;
+    if (m_options.structure == Structure::FirstOrder) {
+      m_main = balance(g.Zo, g.Zc, states);
+      m_rank = m_main.rank;
+    } else {
+      const Index n = m_view->size();
+      const auto Zc1 = g.Zc.topRows(n), Zc2 = g.Zc.bottomRows(n);
+      const auto Zo1 = g.Zo.topRows(n), Zo2 = g.Zo.bottomRows(n);
+      // The left basis of p, v and vp balances the velocity blocks (Pv with Qv): W spans the
+      // dominant left singular directions of Zo2' Zc2 mapped back through M^-T, i.e. Zq2 U_v.
+      switch (m_options.variant) {
+        case Variant::P:
+          m_main = balance(Zo1, Zc1, n);  // Pp with Qp: V from Zc1
+          m_left = balance(Zo2, Zc2, n);  // Pv with Qv: W from Zq2
+          break;
+        case Variant::V:
+          m_main = balance(Zo2, Zc2, n);  // Pv with Qv: V from Zc2, W from Zq2
+          break;
+        case Variant::PV:
+          m_main = balance(Zo2, Zc1, n);  // Pp with Qv: V from Zc1, W from Zq2
+          break;
+        case Variant::VP:
+          m_main = balance(Zo1, Zc2, n);  // Pv with Qp: V from Zc2
+          m_left = balance(Zo2, Zc2, n);  // Pv with Qv: W from Zq2
+          break;
+        case Variant::FV:
+          m_main = balance(Zo1, Zc1, n);  // Pp with Qp: V = W from Zc1 (one-sided)
+          break;
+      }
+      m_rank = std::min(m_main.rank, n);
+      if (m_left) m_rank = std::min(m_rank, m_left->rank);
+    }
+    m_hsv_cap = kUnlimitedOrder;
+    if (m_options.hsv_tolerance > 0.0 && m_main.s.size() > 0) {
+      Index k = 0;
+      while (k < m_main.s.size() && m_main.s(k) > m_options.hsv_tolerance * m_main.s(0)) ++k;
+      m_hsv_cap = std::max<Index>(1, k);
+    }
+    if (m_rank < 1) {
+      throw NumericalError(
+          "balanced: the Hankel singular values are all at the rounding level of the Gramians "
+          "(zero transfer function?)");
+    }
+  }
+
+  /// Columns of Z * Y_r, scaled by s_r^-1/2 (square root) or orthonormalised (balancing-free).
+  Matrix basis(const Matrix& Z, const Matrix& Y, const Vector& s, Index r) const {
+    const Matrix X = Z * Y.leftCols(r);
+    if (m_options.method == Method::BalancingFree) return orthonormal(X);
+    return X * s.head(r).cwiseSqrt().cwiseInverse().asDiagonal();
+  }
+
+  void reduce_first_order(Index r, ReducerResult& result) const {
+    const GramianFactors& g = *m_factors;
+    Matrix V = basis(g.Zc, m_main.V, m_main.s, r);
+    Matrix W = basis(g.Zq, m_main.U, m_main.s, r);
+    ReducedDescriptorModel fo = m_view->project_first_order(V, W);
+    if (m_options.method == Method::SquareRoot) {
+      // W' E V = S^-1/2 U' (Zo' Zc) V S^-1/2 = I by construction; its rounding is reported and the
+      // exact identity used (square-root BT returns a standard state-space model).
+      result.diagnostics["biorthogonality_loss"] =
+          (fo.E - Matrix::Identity(r, r)).cwiseAbs().maxCoeff();
+      fo.E = Matrix::Identity(r, r);
+    }
+    result.model = std::move(fo);
+    result.V = std::move(V);
+    result.W = std::move(W);
+  }
+
+  void reduce_second_order(Index r, ReducerResult& result) const {
+    const GramianFactors& g = *m_factors;
+    const Index n = m_view->size();
+    const Matrix Zc1 = g.Zc.topRows(n), Zc2 = g.Zc.bottomRows(n);
+    const Matrix Zq2 = g.Zq.bottomRows(n);
+    Matrix V, W;
+    switch (m_options.variant) {
+      case Variant::P:
+        V = basis(Zc1, m_main.V, m_main.s, r);
+        W = basis(Zq2, m_left->U, m_left->s, r);
+        break;
+      case Variant::V:
+        V = basis(Zc2, m_main.V, m_main.s, r);
+        W = basis(Zq2, m_main.U, m_main.s, r);
+        break;
+      case Variant::PV:
+        V = basis(Zc1, m_main.V, m_main.s, r);
+        W = basis(Zq2, m_main.U, m_main.s, r);
+        break;
+      case Variant::VP:
+        V = basis(Zc2, m_main.V, m_main.s, r);
+        W = basis(Zq2, m_left->U, m_left->s, r);
+        break;
+      case Variant::FV:
+        V = basis(Zc1, m_main.V, m_main.s, r);
+        W = V;
+        break;
+    }
+    // Mr = W'MV, Dr = W'DV, Kr = W'KV, Br = W'B, Cr = CV (+ Cvr = Cv V): the column scalings of
+    // the square-root and balancing-free bases give the same transfer function.
+    result.model = project(*m_view->so(), V, W);
+    result.V = std::move(V);
+    result.W = std::move(W);
+  }
+
+  Options m_options;
+  std::optional<FirstOrderView> m_view;
+  Band m_band;
+  std::optional<GramianFactors> m_factors;
+  Balancing m_main;                 // its s are the reported Hankel singular values
+  std::optional<Balancing> m_left;  // p, vp: the velocity balancing that gives W
+  Index m_rank = 0;
+  Index m_hsv_cap = kUnlimitedOrder;
+};
+
+ReducerInfo balanced_info() {
+  ReducerInfo info;
+  info.name = kName;
+  info.description =
+      "balanced truncation from Gramian factors computed once: first-order square root or "
+      "balancing-free (a-priori bound 2 sum(tail)), second-order variants p/v/pv/vp/fv, "
+      "frequency-limited to the band; dense Gramians (low-rank ADI pending)";
+  info.version = "0.1.0";
+  info.second_order = true;
+  info.descriptor = true;
+  info.uses_expansion_points = false;
+  info.parameters = {
+      {"method", "string", "square_root",
+       "square_root: V = Zc V_r S_r^-1/2, W = Zq U_r S_r^-1/2 (first order: Er = I); "
+       "balancing_free: orthonormal bases of the same subspaces (same transfer function, better "
+       "conditioned when s_r is small)"},
+      {"structure", "string", "first_order",
+       "first_order: BT of the (first-order realisation of the) model, returns E, A, B, C of "
+       "order r; second_order: returns Mr, Dr, Kr, Br, Cr of size r (second-order models only)"},
+      {"variant", "string", "pv",
+       "structure: second_order only: which Gramian blocks are balanced (README): p (Pp, Qp), "
+       "v (Pv, Qv), pv (Pp, Qv), vp (Pv, Qp), fv (free velocity: Pp, one-sided W = V)"},
+      {"band_limited", "bool", "false",
+       "frequency-limited BT: Gramians restricted to the driver's band (Gawronski-Juang); no "
+       "a-priori error bound"},
+      {"hsv_tolerance", "double", "0",
+       "caps the order: at most the number of Hankel singular values s_i > hsv_tolerance * s_1 "
+       "(max_order(); a larger requested order returns that many states); 0 = off; in [0, 1)"},
+  };
+  return info;
+}
+
+std::unique_ptr<Reducer> create_balanced(const ParameterMap& params) {
+  Options o;
+  o.method = params.get_string("method", "square_root", {"square_root", "balancing_free"}) ==
+                     "balancing_free"
+                 ? Method::BalancingFree
+                 : Method::SquareRoot;
+  o.structure = params.get_string("structure", "first_order", {"first_order", "second_order"}) ==
+                        "second_order"
+                    ? Structure::SecondOrder
+                    : Structure::FirstOrder;
+  const std::string variant = params.get_string("variant", "pv", {"p", "v", "pv", "vp", "fv"});
+  o.variant = variant == "p"    ? Variant::P
+              : variant == "v"  ? Variant::V
+              : variant == "vp" ? Variant::VP
+              : variant == "fv" ? Variant::FV
+                                : Variant::PV;
+  if (params.has("variant") && o.structure != Structure::SecondOrder) {
+    const std::string where = params.location("variant");
+    throw ConfigError(fmt::format(
+        "{}{}: variant = {}: applies to structure: second_order only (second-order models)",
+        where.empty() ? "" : where + ": ", params.owner(), variant));
+  }
+  o.band_limited = params.get_bool("band_limited", o.band_limited);
+  o.hsv_tolerance = params.get_double("hsv_tolerance", o.hsv_tolerance, 0.0, 0.999999);
+  return std::make_unique<BalancedReducer>(o);
+}
+
+void register_reducers(Registry& registry) { registry.add({balanced_info(), create_balanced}); }
+
+}  // namespace
+}  // namespace ecmor::balanced
+
+ECMOR_PLUGIN(ecmor::balanced::register_reducers)

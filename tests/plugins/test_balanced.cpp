@@ -1,0 +1,516 @@
+// Tests of the "balanced" reducer plugin (loaded through the registry like any plugin) and of its
+// private Gramian-factor header. References are independent of ecmor's Bartels-Stewart solver:
+// Gramians by the matrix sign function (Roberts' Newton iteration, written here), frequency-limited
+// Gramians by Gauss-Legendre quadrature of their defining integral, transfer functions of the full
+// models in their eigenvector basis (Eigen's QR algorithm), the bound of Glover (1984).
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "balanced/gramian_factors.hpp"
+#include "common/test_support.hpp"
+#include "ecmor/band_error.hpp"
+#include "ecmor/error.hpp"
+#include "ecmor/frequency_response.hpp"
+#include "ecmor/lyapunov.hpp"
+#include "ecmor/model_io.hpp"
+#include "ecmor/registry.hpp"
+#include "ecmor/shifted_solver.hpp"
+
+namespace ecmor {
+namespace {
+
+using test::message_of;
+
+Registry& registry() {
+  static Registry r;
+  static bool loaded = false;
+  if (!loaded) {
+    r.load_plugin(std::filesystem::path(ECMOR_TEST_PLUGIN_DIR) / "libecmor_balanced.so");
+    loaded = true;
+  }
+  return r;
+}
+
+std::filesystem::path shared(const std::string& name) {
+  return std::filesystem::path("../shared/models") / name;
+}
+
+Band band_of(double f_min, double f_max) {
+  Band b;
+  b.f_min_hz = f_min;
+  b.f_max_hz = f_max;
+  return b;
+}
+
+struct Fixture {
+  Model model;
+  std::unique_ptr<ShiftedSolver> solver;
+  std::shared_ptr<Reducer> reducer;
+};
+
+ParameterMap params(std::initializer_list<std::pair<const char*, ParameterValue::Storage>> kv) {
+  ParameterMap p("reducer 'balanced'");
+  for (const auto& [k, v] : kv) p.set(k, ParameterValue{v, {}});
+  return p;
+}
+
+std::unique_ptr<Fixture> make(Model model, const ParameterMap& p, Band band) {
+  auto f = std::make_unique<Fixture>();
+  f->model = std::move(model);
+  f->solver = make_shifted_solver(f->model);
+  f->reducer = registry().create("balanced", p);
+  ReductionContext ctx;
+  ctx.model = &f->model;
+  ctx.solver = f->solver.get();
+  ctx.band = band;
+  f->reducer->setup(ctx);
+  return f;
+}
+
+/// Dense first-order data (E, A, B, C) of a small full model.
+struct Dense {
+  Matrix E, A, B, C;
+};
+
+Dense dense_of(const Model& model) {
+  const ReducedDescriptorModel fo = first_order_realization(densify(model));
+  return {fo.E, fo.A, fo.B, fo.C};
+}
+
+// ---- independent Gramians: the matrix sign function ---------------------------------------------
+
+/// X with F X + X F' + R = 0 for a stable F, by Roberts' Newton iteration for the sign function
+/// with determinant scaling: F_{k+1} = (c F_k + F_k^-1 / c) / 2 -> -I,
+/// R_{k+1} = (c R_k + F_k^-1 R_k F_k^-T / c) / 2 -> 2 X (Roberts 1971; Benner, Quintana-Orti 1999).
+Matrix sign_lyapunov(Matrix F, Matrix R) {
+  const Index n = F.rows();
+  for (int k = 0; k < 100; ++k) {
+    const Eigen::PartialPivLU<Matrix> lu(F);
+    const Matrix Finv = lu.inverse();
+    double log_det = 0.0;
+    for (Index i = 0; i < n; ++i) log_det += std::log(std::abs(lu.matrixLU()(i, i)));
+    // Scaling only while far from convergence (it would spoil the quadratic phase).
+    const double distance = (F + Matrix::Identity(n, n)).norm() / std::sqrt(double(n));
+    const double c = distance > 1e-2 ? std::exp(-log_det / double(n)) : 1.0;
+    const Matrix Fn = 0.5 * (c * F + Finv / c);
+    R = 0.5 * (c * R + Finv * R * Finv.transpose() / c);
+    R = 0.5 * (R + R.transpose()).eval();
+    const double change = (Fn - F).norm() / std::max(1.0, F.norm());
+    F = Fn;
+    if (change < 1e-14 * std::sqrt(double(n))) break;
+  }
+  EXPECT_LT((F + Matrix::Identity(n, n)).norm(), 1e-10 * std::sqrt(double(n)));
+  return 0.5 * R;
+}
+
+/// Hankel singular values from the sign-function Gramians: P of F P + P F' + Bt Bt' = 0 and
+/// Y = E'QE of F' Y + Y F + C'C = 0 (F = E^-1 A, Bt = E^-1 B), s_i = sqrt(lambda_i(P Y)), taken as
+/// singular values of Ly' Lp with symmetric-eigen factors.
+Vector sign_hsv(const Dense& d) {
+  const Eigen::PartialPivLU<Matrix> lu(d.E);
+  const Matrix F = lu.solve(d.A);
+  const Matrix Bt = lu.solve(d.B);
+  const Matrix P = sign_lyapunov(F, Bt * Bt.transpose());
+  const Matrix Y = sign_lyapunov(F.transpose(), d.C.transpose() * d.C);
+  auto factor = [](const Matrix& X) {
+    const Eigen::SelfAdjointEigenSolver<Matrix> es(X);
+    return Matrix(es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal());
+  };
+  const Eigen::JacobiSVD<Matrix> svd(Matrix(factor(Y).transpose() * factor(P)));
+  return svd.singularValues();
+}
+
+Vector plugin_hsv(const balanced::GramianFactors& g) {
+  const Eigen::JacobiSVD<Matrix> svd(Matrix(g.Zo.transpose() * g.Zc));
+  return svd.singularValues();
+}
+
+TEST(Balanced, HankelSingularValuesAgreeWithTheMatrixSignFunction) {
+  for (const std::string name : {"build", "iss", "cdplayer", "heat_cont"}) {
+    const Model model = load_model(shared(name));
+    const balanced::GramianFactors g = balanced::dense_gramian_factors(model);
+    const Vector ours = plugin_hsv(g);
+    const Vector reference = sign_hsv(dense_of(model));
+    const Dense d = dense_of(model);
+    // Both routes compute dense Gramians with absolute errors ~ n eps ||X|| and factor them; an
+    // HSV s_i then moves by up to ~ n eps ||P|| ||Y|| / (2 s_i) (s_i^2 is an eigenvalue of P Y).
+    // Hence 1e-8 relative wherever that perturbation allows it (s_i >= 1e-3 s_1 here), and the
+    // perturbation bound itself (with a factor 100) for HSVs further down (heat_cont's decay to
+    // 7e-8 s_1 by s_10: no dense-Gramian method resolves them to 1e-8; Hammarling's factored
+    // solver would, see README).
+    const double scale = double(d.A.rows()) * std::numeric_limits<double>::epsilon() *
+                         g.Zc.squaredNorm() * g.Zo.squaredNorm();
+    double worst = 0.0;
+    for (Index i = 0; i < 10; ++i) {
+      const double diff = std::abs(ours(i) - reference(i)) / reference(i);
+      const double allowed = std::max(1e-8, 100.0 * scale / (2.0 * reference(i) * reference(i)));
+      EXPECT_LE(diff, allowed) << name << " s_" << i + 1 << " = " << reference(i);
+      if (reference(i) >= 1e-3 * reference(0)) worst = std::max(worst, diff);
+      if (reference(i) < 1e-3 * reference(0)) {
+        std::cout << fmt::format(
+            "  {} s_{} = {:.3e} s_1: relative difference {:.1e} (allowed {:.1e})\n", name, i + 1,
+            reference(i) / reference(0), diff, allowed);
+      }
+    }
+    // Normwise backward errors of the factored Gramians: residual / (2 ||A|| ||E|| ||X|| + ||R||).
+    const Matrix P = g.Zc * g.Zc.transpose(), Q = g.Zq * g.Zq.transpose();
+    const double rc = (d.B * d.B.transpose()).norm(), ro = (d.C.transpose() * d.C).norm();
+    const double back_c = g.residual_c * rc / (2.0 * d.A.norm() * d.E.norm() * P.norm() + rc);
+    const double back_o = g.residual_o * ro / (2.0 * d.A.norm() * d.E.norm() * Q.norm() + ro);
+    std::cout << fmt::format(
+        "{}: s_1 = {:.6e}, s_10 = {:.6e}, worst relative difference of the "
+        "HSVs >= 1e-3 s_1 among the leading ten {:.2e}; residuals {:.1e}, "
+        "{:.1e} (backward errors {:.1e}, {:.1e}); {:.2f} s\n",
+        name, ours(0), ours(9), worst, g.residual_c, g.residual_o, back_c, back_o, g.seconds);
+    EXPECT_LT(worst, 1e-8) << name;
+    // A backward-stable solver and a factor truncated at eps max X_ii: backward errors of a
+    // small multiple of n eps.
+    EXPECT_LT(back_c, 1e-13) << name;
+    EXPECT_LT(back_o, 1e-13) << name;
+  }
+}
+
+// ---- first-order BT: the a-priori bound, stability, balancing-free = square root ----------------
+
+/// H(i w) of a dense first-order model in its eigenvector basis: C X (iw - L)^-1 X^-1 E^-1 B.
+struct ModalResponse {
+  explicit ModalResponse(const Dense& d) {
+    const Eigen::PartialPivLU<Matrix> lu(d.E);
+    const Eigen::EigenSolver<Matrix> es(Matrix(lu.solve(d.A)));
+    poles = es.eigenvalues();
+    const ComplexMatrix X = es.eigenvectors();
+    const Eigen::PartialPivLU<ComplexMatrix> xlu(X);
+    b = xlu.solve(ComplexMatrix(lu.solve(d.B).cast<Complex>()));
+    c = d.C.cast<Complex>() * X;
+  }
+  ComplexMatrix operator()(double w) const {
+    const ComplexVector inv = (Complex(0.0, w) - poles.array()).inverse().matrix();
+    return c * inv.asDiagonal() * b;
+  }
+  ComplexVector poles;
+  ComplexMatrix b, c;
+};
+
+ComplexMatrix reduced_h(const ReducedDescriptorModel& r, double w) {
+  const ComplexMatrix P = Complex(0.0, w) * r.E.cast<Complex>() - r.A.cast<Complex>();
+  return r.C.cast<Complex>() * P.partialPivLu().solve(r.B.cast<Complex>());
+}
+
+double spectral(const ComplexMatrix& X) {
+  return Eigen::JacobiSVD<ComplexMatrix>(X).singularValues()(0);
+}
+
+/// sup_w ||H(iw) - Hr(iw)||_2: 1500 log-spaced w from 1e-3 min|pole| to 1e3 max|pole|, plus the
+/// |Im| of every full and reduced pole in that range, then golden-section refinement (in log w)
+/// around the five largest local maxima of the samples.
+double hinf_error(const ModalResponse& full, const ReducedDescriptorModel& r) {
+  const double lo = 1e-3 * full.poles.cwiseAbs().minCoeff();
+  const double hi = 1e3 * full.poles.cwiseAbs().maxCoeff();
+  std::vector<double> w;
+  for (int i = 0; i < 1500; ++i) w.push_back(lo * std::pow(hi / lo, i / 1499.0));
+  const Eigen::EigenSolver<Matrix> es(Matrix(r.E.partialPivLu().solve(r.A)), false);
+  for (const ComplexVector* p : {&full.poles, &es.eigenvalues()}) {
+    for (const Complex& z : *p) {
+      if (std::abs(z.imag()) > lo && std::abs(z.imag()) < hi) w.push_back(std::abs(z.imag()));
+    }
+  }
+  std::sort(w.begin(), w.end());
+  auto err = [&](double x) { return spectral(full(x) - reduced_h(r, x)); };
+  std::vector<double> e(w.size());
+  for (std::size_t i = 0; i < w.size(); ++i) e[i] = err(w[i]);
+  double sup = *std::max_element(e.begin(), e.end());
+  std::vector<std::size_t> peaks;
+  for (std::size_t i = 1; i + 1 < w.size(); ++i) {
+    if (e[i] >= e[i - 1] && e[i] >= e[i + 1]) peaks.push_back(i);
+  }
+  std::sort(peaks.begin(), peaks.end(), [&](auto a, auto b) { return e[a] > e[b]; });
+  if (peaks.size() > 5) peaks.resize(5);
+  for (std::size_t i : peaks) {
+    double a = std::log(w[i - 1]), b = std::log(w[i + 1]);
+    const double g = 0.5 * (std::sqrt(5.0) - 1.0);
+    for (int k = 0; k < 60; ++k) {
+      const double x1 = b - g * (b - a), x2 = a + g * (b - a);
+      const double e1 = err(std::exp(x1)), e2 = err(std::exp(x2));
+      sup = std::max({sup, e1, e2});
+      if (e1 > e2) {
+        b = x2;
+      } else {
+        a = x1;
+      }
+    }
+  }
+  return sup;
+}
+
+TEST(Balanced, FirstOrderErrorRespectsTheAPrioriBoundAndIsStable) {
+  for (const std::string name : {"build", "iss", "cdplayer", "heat_cont", "pde", "random200"}) {
+    const Model model = load_model(shared(name));
+    const ModalResponse full(dense_of(model));
+    auto f = make(model, params({}), band_of(1e-3, 1e3));
+    for (const Index r : {2, 6, 12, 20}) {
+      if (r > f->reducer->max_order()) continue;
+      const ReducerResult res = f->reducer->reduce(ReductionRequest{r, {}});
+      const auto& red = std::get<ReducedDescriptorModel>(res.model);
+      ASSERT_EQ(red.A.rows(), r);
+      const double bound = res.diagnostics.at("error_bound");
+      const double hinf = hinf_error(full, red);
+      std::cout << fmt::format("{} r = {:2d}: H-inf error {:.4e} <= bound {:.4e} (ratio {:.3f})\n",
+                               name, r, hinf, bound, hinf / bound);
+      // Glover's bound is exact theory; the sampled sup can only be smaller than the true one,
+      // and 1e-9 relative covers the rounding of both sides.
+      EXPECT_LE(hinf, bound * (1.0 + 1e-9)) << name << " r = " << r;
+      // Square-root BT preserves asymptotic stability (Pernebo and Silverman 1982).
+      const Eigen::EigenSolver<Matrix> es(red.A, false);
+      EXPECT_LT(es.eigenvalues().real().maxCoeff(), 0.0) << name << " r = " << r;
+      EXPECT_EQ(res.diagnostics.at("unstable_poles"), 0.0) << name;
+    }
+  }
+}
+
+TEST(Balanced, BalancingFreeGivesTheTransferFunctionOfTheSquareRootMethod) {
+  for (const std::string name : {"build", "cdplayer", "iss"}) {
+    const Model model = load_model(shared(name));
+    auto sr = make(model, params({}), band_of(1e-3, 1e3));
+    auto bf = make(model, params({{"method", std::string("balancing_free")}}), band_of(1e-3, 1e3));
+    for (const Index r : {4, 16}) {
+      const auto a = std::get<ReducedDescriptorModel>(sr->reducer->reduce({r, {}}).model);
+      const auto b = std::get<ReducedDescriptorModel>(bf->reducer->reduce({r, {}}).model);
+      double worst = 0.0;
+      for (int i = 0; i < 200; ++i) {
+        const double w = 1e-3 * std::pow(1e7, i / 199.0);
+        const ComplexMatrix ha = reduced_h(a, w);
+        worst = std::max(worst, spectral(ha - reduced_h(b, w)) / spectral(ha));
+      }
+      std::cout << fmt::format("{} r = {}: max relative difference SR vs BF {:.2e}\n", name, r,
+                               worst);
+      // Same projection subspaces; the difference is rounding amplified by the conditioning of
+      // the square-root bases (scaled by s_r^-1/2).
+      EXPECT_LT(worst, 1e-9) << name << " r = " << r;
+    }
+  }
+}
+
+// ---- frequency-limited Gramians and BT --------------------------------------------------------
+
+/// (1/2pi) int_{+-[w1, w2]} (iwE - A)^-1 B B' (iwE - A)^-H dw and the observability analogue
+/// E' (...)^-H C'C (...)^-1 E, by composite 16-point Gauss-Legendre in log w on `panels` panels.
+std::pair<Matrix, Matrix> quadrature_gramians(const Dense& d, double w1, double w2, int panels) {
+  const Index n = d.A.rows();
+  // 16-point Gauss-Legendre nodes and weights on [-1, 1] by Newton on P_16 (Golub-Welsch would do
+  // as well); computed once.
+  std::vector<double> x(16), wt(16);
+  for (int i = 0; i < 16; ++i) {
+    double z = std::cos(kPi * (i + 0.75) / 16.5), dp = 0.0;
+    for (int it = 0; it < 100; ++it) {
+      double p0 = 1.0, p1 = z;
+      for (int k = 2; k <= 16; ++k) {
+        const double p2 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p0) / k;
+        p0 = p1;
+        p1 = p2;
+      }
+      dp = 16.0 * (z * p1 - p0) / (z * z - 1.0);
+      const double dz = p1 / dp;
+      z -= dz;
+      if (std::abs(dz) < 1e-16) break;
+    }
+    x[i] = z;
+    wt[i] = 2.0 / ((1.0 - z * z) * dp * dp);
+  }
+  Matrix P = Matrix::Zero(n, n), Y = Matrix::Zero(n, n);
+  const double t1 = std::log(w1), t2 = std::log(w2), h = (t2 - t1) / panels;
+  for (int k = 0; k < panels; ++k) {
+    for (int i = 0; i < 16; ++i) {
+      const double t = t1 + h * (k + 0.5 * (x[i] + 1.0));
+      const double w = std::exp(t);
+      const double weight = 0.5 * h * wt[i] * w / kPi;  // (1/2pi) * 2 Re(...) dw, dw = w dt
+      const ComplexMatrix Pw = Complex(0.0, w) * d.E.cast<Complex>() - d.A.cast<Complex>();
+      const Eigen::PartialPivLU<ComplexMatrix> lu(Pw);
+      const ComplexMatrix X = lu.solve(d.B.cast<Complex>());
+      const Eigen::PartialPivLU<ComplexMatrix> lua(Pw.adjoint());
+      const ComplexMatrix Z = d.E.transpose().cast<Complex>() *
+                              lua.solve(ComplexMatrix(d.C.transpose().cast<Complex>()));
+      P += weight * (X * X.adjoint()).real();
+      Y += weight * (Z * Z.adjoint()).real();
+    }
+  }
+  return {P, Y};
+}
+
+TEST(Balanced, FrequencyLimitedGramiansMatchTheirDefiningIntegral) {
+  // Panels: enough that each lightly damped resonance in the band spans several panels (build's
+  // damping ratios are ~1e-2: 400 panels of 0.006 in log w over one decade); cdplayer's band
+  // response is smooth at this resolution (100 panels already agree to 1e-13).
+  for (const auto& [name, f1, f2, panels] :
+       {std::tuple{"build", 0.5, 5.0, 400}, std::tuple{"cdplayer", 10.0, 1000.0, 100}}) {
+    const Model model = load_model(shared(name));
+    const Dense d = dense_of(model);
+    const balanced::GramianFactors g = balanced::dense_gramian_factors(model, band_of(f1, f2));
+    const auto [P, Y] = quadrature_gramians(d, kTwoPi * f1, kTwoPi * f2, panels);
+    const Matrix Pf = g.Zc * g.Zc.transpose(), Yf = g.Zo * g.Zo.transpose();
+    const double ep = (Pf - P).norm() / P.norm(), ey = (Yf - Y).norm() / Y.norm();
+    std::cout << fmt::format(
+        "{} band [{}, {}] Hz: relative difference to quadrature P {:.2e}, "
+        "E'QE {:.2e}; residuals {:.1e}, {:.1e}\n",
+        name, f1, f2, ep, ey, g.residual_c, g.residual_o);
+    // 16-point Gauss-Legendre on these panels converges to far below 1e-8 (measured 1e-12).
+    EXPECT_LT(ep, 1e-8) << name;
+    EXPECT_LT(ey, 1e-8) << name;
+    // Residuals relative to the (indefinite) band right-hand sides; those are small next to
+    // ||A|| ||X|| on these bands, hence a looser floor than the backward errors above.
+    EXPECT_LT(g.residual_c, 1e-8) << name;
+    EXPECT_LT(g.residual_o, 1e-8) << name;
+  }
+}
+
+/// sup relative band error by ecmor's band error engine (sparse full response, 400 log grid).
+double band_error(const Model& model, const ReducedModel& reduced, const Band& band) {
+  auto solver = make_shifted_solver(model);
+  ResponseCache cache(model, *solver);
+  BandErrorOptions o;
+  o.grid_points = 400;
+  BandErrorEstimator est(cache, band, o);
+  return est.evaluate(reduced).sup_relative;
+}
+
+TEST(Balanced, FrequencyLimitedBtHasTheSmallerBandError) {
+  struct Case {
+    const char* name;
+    Band band;
+    Index r;
+  };
+  // Measured with the CLI first (README): FL-BT wins by orders of magnitude on heat_cont and
+  // random200, and on build in [0.5, 3] Hz; on iss it lowers the absolute band error but not the
+  // relative one (README), so iss is not a case here.
+  for (const Case& c :
+       {Case{"heat_cont", band_of(1e-3, 0.1), 4}, Case{"random200", band_of(0.1, 10.0), 6},
+        Case{"build", band_of(0.5, 3.0), 6}}) {
+    const Model model = load_model(shared(c.name));
+    auto plain = make(model, params({}), c.band);
+    auto fl = make(model, params({{"band_limited", true}}), c.band);
+    const ReducerResult a = plain->reducer->reduce({c.r, {}});
+    const ReducerResult b = fl->reducer->reduce({c.r, {}});
+    const double ea = band_error(model, a.model, c.band), eb = band_error(model, b.model, c.band);
+    std::cout << fmt::format(
+        "{} r = {} on [{}, {}] Hz: band error plain BT {:.3e}, "
+        "frequency-limited {:.3e}\n",
+        c.name, c.r, c.band.f_min_hz, c.band.f_max_hz, ea, eb);
+    EXPECT_LT(eb, ea) << c.name;
+    EXPECT_EQ(b.diagnostics.count("error_bound"), 0u) << "FL-BT has no a-priori bound";
+  }
+}
+
+// ---- second-order variants ----------------------------------------------------------------------
+
+TEST(Balanced, SecondOrderVariantsReturnSecondOrderModels) {
+  const Model model = load_model(shared("triplechain_cmess_n301"));
+  const Band band = band_of(1.6e-5, 0.05);
+  for (const std::string v : {"p", "v", "pv", "vp", "fv"}) {
+    auto f =
+        make(model, params({{"structure", std::string("second_order")}, {"variant", v}}), band);
+    // This heavily damped chain has few HSVs above the rounding floor (max_order() 7..8).
+    const Index r = std::min<Index>(6, f->reducer->max_order());
+    const ReducerResult res = f->reducer->reduce({r, {}});
+    const auto* so = std::get_if<ReducedSecondOrderModel>(&res.model);
+    ASSERT_NE(so, nullptr) << v;
+    EXPECT_EQ(so->size(), r) << v;
+    const double e = band_error(model, res.model, band);
+    std::cout << fmt::format(
+        "triplechain_cmess_n301 variant {:2} r = {}: band error {:.3e}, "
+        "unstable poles {}\n",
+        v, r, e, res.diagnostics.at("unstable_poles"));
+    EXPECT_TRUE(std::isfinite(e)) << v;
+    if (v == "fv") {
+      // One-sided projection of symmetric positive definite M, D, K: stable by construction.
+      EXPECT_EQ(res.diagnostics.at("unstable_poles"), 0.0);
+    }
+  }
+}
+
+// ---- bad input --------------------------------------------------------------------------------
+
+TEST(Balanced, ModelsWithoutGramiansAreRefusedByName) {
+  std::string msg = message_of<InputError>(
+      [&] { make(load_model(shared("peec")), params({}), band_of(0.1, 1e5)); });
+  EXPECT_NE(msg.find("balanced: the Gramians do not exist"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("E is numerically singular"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("computed finite poles have Re >= 0"), std::string::npos) << msg;
+  msg = message_of<InputError>(
+      [&] { make(load_model(shared("mna1")), params({}), band_of(0.1, 1e5)); });
+  EXPECT_NE(msg.find("balanced: the Gramians do not exist"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("singular"), std::string::npos) << msg;
+  // iss with A negated: every pole unstable, E nonsingular.
+  Model unstable = load_model(shared("iss"));
+  std::get<DescriptorModel>(unstable).A *= -1.0;
+  msg = message_of<InputError>([&] { make(unstable, params({}), band_of(0.1, 10.0)); });
+  EXPECT_NE(msg.find("270 poles with Re >= 0"), std::string::npos) << msg;
+  // Too large for dense Gramians: named, with the pending low-rank route.
+  msg = message_of<InputError>(
+      [&] { make(load_model(shared("rail_20209")), params({}), band_of(0.1, 10.0)); });
+  EXPECT_NE(msg.find("20209 first-order states"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("low-rank ADI"), std::string::npos) << msg;
+}
+
+TEST(Balanced, BadParametersAreNamed) {
+  std::string msg = message_of<ConfigError>([&] {
+    registry().create("balanced", params({{"method", std::string("sqrt")}}));
+  });
+  EXPECT_NE(msg.find("method"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("sqrt"), std::string::npos) << msg;
+  msg = message_of<ConfigError>([&] {
+    registry().create("balanced", params({{"structure", std::string("second_order")},
+                                          {"variant", std::string("pp")}}));
+  });
+  EXPECT_NE(msg.find("variant"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("pp"), std::string::npos) << msg;
+  msg = message_of<ConfigError>([&] {
+    registry().create("balanced", params({{"variant", std::string("pv")}}));
+  });
+  EXPECT_NE(msg.find("variant = pv: applies to structure: second_order only"), std::string::npos)
+      << msg;
+  msg = message_of<ConfigError>([&] {
+    make(load_model(shared("build")),
+         params({{"structure", std::string("second_order")}, {"variant", std::string("p")}}),
+         band_of(0.1, 10.0));
+  });
+  EXPECT_NE(msg.find("needs a second-order model"), std::string::npos) << msg;
+  msg = message_of<ConfigError>([&] {
+    registry().create("balanced", params({{"hsv_tolerance", 2.0}}));
+  });
+  EXPECT_NE(msg.find("hsv_tolerance"), std::string::npos) << msg;
+  auto f = make(load_model(shared("build")), params({}), band_of(0.1, 10.0));
+  msg = message_of<ConfigError>([&] { f->reducer->reduce({4, {point_at_hz(1.0)}}); });
+  EXPECT_NE(msg.find("does not use expansion points"), std::string::npos) << msg;
+}
+
+TEST(Balanced, HsvToleranceCapsTheOrder) {
+  const Model model = load_model(shared("build"));
+  auto all = make(model, params({}), band_of(0.1, 10.0));
+  const ReducerResult first = all->reducer->reduce({1, {}});
+  auto capped = make(model, params({{"hsv_tolerance", 1e-2}}), band_of(0.1, 10.0));
+  const Index cap = capped->reducer->max_order();
+  // Independent count of s_i > 1e-2 s_1 from the sign-function HSVs.
+  const Vector s = sign_hsv(dense_of(model));
+  Index expected = 0;
+  while (s(expected) > 1e-2 * s(0)) ++expected;
+  EXPECT_EQ(cap, expected);
+  const ReducerResult res = capped->reducer->reduce({cap + 5, {}});
+  EXPECT_EQ(size_of(res.model), cap);
+  EXPECT_NE(res.note.find("capped"), std::string::npos) << res.note;
+  EXPECT_NEAR(first.diagnostics.at("hsv_1"), s(0), 1e-8 * s(0));
+}
+
+}  // namespace
+}  // namespace ecmor
