@@ -1,0 +1,65 @@
+#pragma once
+/// \file lowrank_factors.hpp
+/// The low-rank route to the Gramian factors of the balanced reducer (balanced.cpp): both factors
+/// by ecmor's low-rank ADI (ecmor/lowrank_adi.hpp) through the model's FirstOrderView, so a
+/// second-order model is solved with P(s) = s^2 M + s D + K of size N and no 2N matrix is formed.
+/// The result fills the same GramianFactors as the dense route (gramian_factors.hpp), so the
+/// truncation code does not know which route ran:
+///     P ~ Zc Zc',   Q ~ Zq Zq' (ADI's observability factor),   E'QE ~ Zo Zo' with Zo = E' Zq.
+/// Private to the plugin (and its tests).
+#include <fmt/format.h>
+
+#include <chrono>
+#include <string>
+
+#include "ecmor/error.hpp"
+#include "ecmor/first_order_view.hpp"
+#include "ecmor/lowrank_adi.hpp"
+#include "gramian_factors.hpp"
+
+namespace ecmor::balanced {
+
+/// What the two ADI runs did, for the diagnostics, the note and the refusal of an unconverged run.
+struct AdiSummary {
+  AdiResult controllability;  ///< without its factor (moved into GramianFactors::Zc)
+  AdiResult observability;    ///< without its factor (moved into GramianFactors::Zq)
+  bool converged() const { return controllability.converged && observability.converged; }
+  /// "controllability: converged: residual ...; observability: not converged: ..."
+  std::string text() const {
+    return "controllability: " + controllability.message + "; observability: " +
+           observability.message;
+  }
+};
+
+/// Both Gramian factors by low-rank ADI with one LowRankAdi, so the observability run reuses the
+/// shift factorisations of the controllability run. An ADI run that stops at its budget is a
+/// result (AdiSummary::converged() false, residual reported), not an exception: the caller
+/// decides (balanced.cpp: warn, or refuse with adi_require_convergence).
+/// \throws InputError from the ADI for an unstable model or a singular E / M (a DAE);
+///         NumericalError for a breakdown, naming the shift and the iteration.
+inline GramianFactors lowrank_gramian_factors(FirstOrderView& view, const AdiOptions& options,
+                                              AdiSummary& summary) {
+  const auto started = std::chrono::steady_clock::now();
+  LowRankAdi adi(view, options);
+  GramianFactors g;
+  g.states = view.state_size();
+  try {
+    summary.controllability = adi.solve(GramianSide::Controllability);
+    summary.observability = adi.solve(GramianSide::Observability);
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("balanced: the Gramians do not exist: {}", e.what()));
+  }
+  g.Zc = std::move(summary.controllability.Z);
+  g.Zq = std::move(summary.observability.Z);
+  summary.controllability.Z.resize(0, 0);
+  summary.observability.Z.resize(0, 0);
+  g.Zo = view.apply_e_transposed(g.Zq);
+  // The ADI residuals are 2-norm ratios ||R||_2 / ||B B'||_2 of the uncompressed factors; the
+  // compression changes the Gramian by at most compression_tolerance^2 relatively (lowrank_adi.hpp).
+  g.residual_c = summary.controllability.residual;
+  g.residual_o = summary.observability.residual;
+  g.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  return g;
+}
+
+}  // namespace ecmor::balanced

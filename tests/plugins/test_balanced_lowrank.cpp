@@ -1,0 +1,243 @@
+// test_balanced_lowrank: the balanced reducer's low-rank route (gramians: lowrank / auto above
+// 2000 states): factors by low-rank ADI (lowrank_factors.hpp) against the dense route; the
+// second-order variants on the M-M.E.S.S. triple chain (N = 1501) at r = 20 against the shared
+// reference response and the peers' figure; the handling of an ADI run that stops at its budget;
+// bad parameters.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "balanced/gramian_factors.hpp"
+#include "balanced/lowrank_factors.hpp"
+#include "common/test_support.hpp"
+#include "ecmor/error.hpp"
+#include "ecmor/model_io.hpp"
+#include "ecmor/reduced_response.hpp"
+#include "ecmor/registry.hpp"
+#include "ecmor/shifted_solver.hpp"
+
+namespace ecmor {
+namespace {
+
+using test::message_of;
+
+Registry& registry() {
+  static Registry r;
+  static bool loaded = false;
+  if (!loaded) {
+    r.load_plugin(std::filesystem::path(ECMOR_TEST_PLUGIN_DIR) / "libecmor_balanced.so");
+    loaded = true;
+  }
+  return r;
+}
+
+std::filesystem::path shared(const std::string& name) {
+  return std::filesystem::path("../shared/models") / name;
+}
+
+Band band_of(double f_min, double f_max) {
+  Band b;
+  b.f_min_hz = f_min;
+  b.f_max_hz = f_max;
+  return b;
+}
+
+ParameterMap params(std::initializer_list<std::pair<const char*, ParameterValue::Storage>> kv) {
+  ParameterMap p("reducer 'balanced'");
+  for (const auto& [k, v] : kv) p.set(k, ParameterValue{v, {}});
+  return p;
+}
+
+struct Fixture {
+  Model model;
+  std::unique_ptr<ShiftedSolver> solver;
+  std::shared_ptr<Reducer> reducer;
+};
+
+std::unique_ptr<Fixture> make(const std::string& name, const ParameterMap& p, Band band) {
+  auto f = std::make_unique<Fixture>();
+  f->model = load_model(shared(name));
+  f->solver = make_shifted_solver(f->model);
+  f->reducer = registry().create("balanced", p);
+  ReductionContext ctx;
+  ctx.model = &f->model;
+  ctx.solver = f->solver.get();
+  ctx.band = band;
+  f->reducer->setup(ctx);
+  return f;
+}
+
+Vector hsv(const balanced::GramianFactors& g) {
+  return Eigen::JacobiSVD<Matrix>(Matrix(g.Zo.transpose() * g.Zc)).singularValues();
+}
+
+/// The low-rank factors give the Hankel singular values of the dense route. ADI stops at the
+/// relative residual 1e-12 here, so each Gramian is within about 1e-12 ||X|| (times the
+/// equation's condition) of the exact one, and s_i^2 (an eigenvalue of P E'QE) moves by about
+/// that times ||P|| ||E'QE||: 1e-6 relative for the HSVs down to 1e-3 s_1 leaves a margin of
+/// several hundred for the condition. The leading HSVs are compared; the tail is below what
+/// either route resolves.
+TEST(BalancedLowRank, FactorsReproduceTheDenseHankelSingularValues) {
+  for (const std::string name : {"build", "cdplayer", "triplechain_cmess_n301"}) {
+    const Model model = load_model(shared(name));
+    const Vector dense = hsv(balanced::dense_gramian_factors(model));
+    auto solver = make_shifted_solver(model);
+    FirstOrderView view(model, *solver);
+    AdiOptions options;
+    options.tolerance = 1e-12;
+    options.max_iterations = 2000;
+    balanced::AdiSummary summary;
+    const Vector lowrank = hsv(balanced::lowrank_gramian_factors(view, options, summary));
+    ASSERT_TRUE(summary.converged()) << name << ": " << summary.text();
+    Index compared = 0;
+    double worst = 0.0;
+    for (Index i = 0; i < std::min<Index>(10, lowrank.size()); ++i) {
+      if (dense(i) < 1e-3 * dense(0)) break;
+      const double diff = std::abs(lowrank(i) - dense(i)) / dense(i);
+      EXPECT_LE(diff, 1e-6) << name << " s_" << i + 1 << " = " << dense(i);
+      worst = std::max(worst, diff);
+      ++compared;
+    }
+    EXPECT_GE(compared, 3) << name;
+    std::cout << fmt::format("  {}: {} HSVs >= 1e-3 s_1 compared, worst relative difference "
+                             "{:.1e}; ADI {} / {} iterations\n",
+                             name, compared, worst, summary.controllability.iterations,
+                             summary.observability.iterations);
+  }
+}
+
+// ref_freq_response.csv: omega (rad/s), sigma_max, re_H_0_0, im_H_0_0 (SISO models).
+struct SisoReference {
+  std::vector<double> omega;
+  std::vector<Complex> H;
+};
+
+SisoReference read_siso_reference(const std::string& name) {
+  std::ifstream in(shared(name) / "ref_freq_response.csv");
+  SisoReference ref;
+  std::string line;
+  bool header = true;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    if (header) {
+      EXPECT_EQ(line, "omega,sigma_max,re_H_0_0,im_H_0_0");
+      header = false;
+      continue;
+    }
+    std::stringstream ss(line);
+    std::string field;
+    std::vector<double> v;
+    while (std::getline(ss, field, ',')) v.push_back(std::stod(field));
+    ref.omega.push_back(v.at(0));
+    ref.H.emplace_back(v.at(2), v.at(3));
+  }
+  return ref;
+}
+
+/// The comparison: second-order BT at r = 20 on triplechain_mess_n1501, where pyMOR,
+/// M-M.E.S.S. and C-M.E.S.S. reach a maximum relative band error of about 0.20 with their best
+/// variants. 3002 first-order states: gramians: auto takes the low-rank route; ADI stops at its
+/// budget of 300 iterations with residuals of a few 1e-2, as M-M.E.S.S.'s demo does (its own test
+/// only asks for a residual below 0.1): the Gramian of this lightly damped chain has a numerical
+/// rank above 1000 (docs/lowrank-adi.md). The error is measured against the shared reference
+/// response (SciPy/SuperLU, 200 log-spaced frequencies over the demo's band 1e-4..1 rad/s), i.e.
+/// on a grid of the peers' kind. On that grid the sharp resonance the reduced models miss near
+/// 0.06 Hz is not resolved; the driver's estimator resolves it (0.248 for p, README), which is
+/// why the figure must be compared on a grid like the peers'.
+TEST(BalancedLowRank, TripleChainSecondOrderVariantsReachThePeersError) {
+  const std::string name = "triplechain_mess_n1501";
+  const SisoReference ref = read_siso_reference(name);
+  ASSERT_EQ(ref.omega.size(), 200u);
+  const Band band = band_of(1.6e-5, 1.6);
+  double best = 1e300;
+  for (const std::string variant : {"p", "v", "pv", "vp", "fv"}) {
+    auto f = make(name, params({{"structure", std::string("second_order")}, {"variant", variant}}),
+                  band);
+    const ReducerResult r = f->reducer->reduce(ReductionRequest{20, {}});
+    ASSERT_TRUE(std::holds_alternative<ReducedSecondOrderModel>(r.model)) << variant;
+    EXPECT_EQ(r.diagnostics.at("adi_converged"), 0.0) << variant;
+    EXPECT_GT(r.diagnostics.at("adi_residual_c"), 0.0);
+    EXPECT_LT(r.diagnostics.at("adi_residual_c"), 0.1) << variant;
+    EXPECT_LT(r.diagnostics.at("adi_residual_o"), 0.1) << variant;
+    EXPECT_NE(r.note.find("did not converge"), std::string::npos) << r.note;
+    const ReducedResponse response(r.model);
+    double worst = 0.0;
+    for (std::size_t k = 0; k < ref.omega.size(); ++k) {
+      const Complex Hr = response(Complex(0.0, ref.omega[k]))(0, 0);
+      worst = std::max(worst, std::abs(ref.H[k] - Hr) / std::abs(ref.H[k]));
+    }
+    std::cout << fmt::format("  {} r = 20: max relative error {:.3f} on the reference grid, "
+                             "{} unstable poles, Gramians {:.2f} s\n",
+                             variant, worst, r.diagnostics.at("unstable_poles"),
+                             r.diagnostics.at("gramian_seconds"));
+    if (variant == "p" || variant == "v" || variant == "fv") {
+      // The peers' "about 0.20" to its two stated digits.
+      EXPECT_LT(worst, 0.205) << variant;
+      EXPECT_EQ(r.diagnostics.at("unstable_poles"), 0.0) << variant;
+    }
+    best = std::min(best, worst);
+  }
+  EXPECT_LE(best, 0.20) << "the best variant is no worse than the peers' best";
+}
+
+TEST(BalancedLowRank, AnAdiRunThatStopsAtItsBudgetIsReportedOrRefused) {
+  // build at 4 ADI iterations is far from converged (its Gramians need dozens).
+  auto f = make("build", params({{"gramians", std::string("lowrank")},
+                                 {"adi_max_iterations", 4LL}}),
+                band_of(0.1, 10.0));
+  const ReducerResult r = f->reducer->reduce(ReductionRequest{4, {}});
+  EXPECT_EQ(r.diagnostics.at("adi_converged"), 0.0);
+  EXPECT_GT(r.diagnostics.at("adi_residual_c"), 1e-10);
+  EXPECT_EQ(r.diagnostics.count("error_bound"), 0u) << "no bound from truncated Gramians";
+  EXPECT_NE(r.note.find("WARNING"), std::string::npos) << r.note;
+
+  const std::string msg = message_of<NumericalError>([] {
+    make("build", params({{"gramians", std::string("lowrank")}, {"adi_max_iterations", 4LL},
+                          {"adi_require_convergence", true}}),
+         band_of(0.1, 10.0));
+  });
+  EXPECT_NE(msg.find("did not reach adi_tolerance"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("adi_max_iterations = 4"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("residual"), std::string::npos) << msg;
+
+  // Converged: the bound is reported and holds the same meaning as on the dense route.
+  auto ok = make("build", params({{"gramians", std::string("lowrank")}}), band_of(0.1, 10.0));
+  const ReducerResult good = ok->reducer->reduce(ReductionRequest{4, {}});
+  EXPECT_EQ(good.diagnostics.at("adi_converged"), 1.0);
+  EXPECT_LE(good.diagnostics.at("adi_residual_c"), 1e-10);
+  EXPECT_EQ(good.diagnostics.count("error_bound"), 1u);
+}
+
+TEST(BalancedLowRank, BadParametersAreNamed) {
+  auto create = [](const ParameterMap& p) { registry().create("balanced", p); };
+  std::string msg = message_of<ConfigError>(
+      [&] { create(params({{"gramians", std::string("dense")}, {"adi_tolerance", 1e-8}})); });
+  EXPECT_NE(msg.find("adi_tolerance"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("low-rank Gramians only"), std::string::npos) << msg;
+  msg = message_of<ConfigError>([&] { create(params({{"gramians", std::string("sparse")}})); });
+  EXPECT_NE(msg.find("gramians"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("lowrank"), std::string::npos) << msg;
+  msg = message_of<ConfigError>([&] { create(params({{"adi_shifts", std::string("penzl")}})); });
+  EXPECT_NE(msg.find("adi_shifts"), std::string::npos) << msg;
+  msg = message_of<ConfigError>([&] { create(params({{"adi_max_iterations", 0LL}})); });
+  EXPECT_NE(msg.find("adi_max_iterations"), std::string::npos) << msg;
+  // A DAE has no ADI Gramians either: the route names the singular E.
+  msg = message_of<InputError>([&] {
+    make("mna1", params({{"gramians", std::string("lowrank")}}), band_of(1e6, 1e9));
+  });
+  EXPECT_NE(msg.find("singular"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("balanced"), std::string::npos) << msg;
+}
+
+}  // namespace
+}  // namespace ecmor
