@@ -40,6 +40,15 @@ struct AdiSummary {
 inline GramianFactors lowrank_gramian_factors(FirstOrderView& view, const AdiOptions& options,
                                               AdiSummary& summary) {
   const auto started = std::chrono::steady_clock::now();
+  if (const SecondOrderModel* so = view.so(); so != nullptr && so->D.norm() == 0.0) {
+    // Certain without any iteration: with D = 0 every pole is on the imaginary axis. (A damped
+    // model with an undamped mode is caught by the ADI: no admissible shift, or a Ritz value on
+    // the axis that is an eigenvalue.)
+    throw InputError(
+        "balanced: the Gramians do not exist: the second-order model is undamped (D = 0), so all "
+        "its poles lie on the imaginary axis and the Lyapunov equations have no solution; add "
+        "damping (e.g. Rayleigh damping alpha M + beta K) or use modal or krylov");
+  }
   LowRankAdi adi(view, options);
   GramianFactors g;
   g.states = view.state_size();
@@ -48,6 +57,8 @@ inline GramianFactors lowrank_gramian_factors(FirstOrderView& view, const AdiOpt
     summary.observability = adi.solve(GramianSide::Observability);
   } catch (const InputError& e) {
     throw InputError(fmt::format("balanced: the Gramians do not exist: {}", e.what()));
+  } catch (const NumericalError& e) {
+    throw NumericalError(fmt::format("balanced: low-rank ADI Gramians failed: {}", e.what()));
   }
   g.Zc = std::move(summary.controllability.Z);
   g.Zq = std::move(summary.observability.Z);

@@ -239,5 +239,52 @@ TEST(BalancedLowRank, BadParametersAreNamed) {
   EXPECT_NE(msg.find("balanced"), std::string::npos) << msg;
 }
 
+
+/// A spring chain without damping (D = 0): every pole is on the imaginary axis, the Gramians do
+/// not exist. The low-rank route must say so, not iterate to its budget or return a model.
+TEST(BalancedLowRank, UndampedAndUnstableModelsAreRefusedByName) {
+  const Index n = 60;
+  SecondOrderModel so;
+  std::vector<Eigen::Triplet<double>> k;
+  for (Index i = 0; i < n; ++i) {
+    k.emplace_back(i, i, 2.0);
+    if (i + 1 < n) {
+      k.emplace_back(i, i + 1, -1.0);
+      k.emplace_back(i + 1, i, -1.0);
+    }
+  }
+  so.K.resize(n, n);
+  so.K.setFromTriplets(k.begin(), k.end());
+  so.M.resize(n, n);
+  so.M.setIdentity();
+  so.D.resize(n, n);  // all zero
+  so.B = Matrix::Zero(n, 1);
+  so.B(0, 0) = 1.0;
+  so.C = Matrix::Zero(1, n);
+  so.C(0, n - 1) = 1.0;
+  Model model = so;
+  auto solver = make_shifted_solver(model);
+  auto reducer = registry().create("balanced", params({{"gramians", std::string("lowrank")}}));
+  ReductionContext ctx;
+  ctx.model = &model;
+  ctx.solver = solver.get();
+  ctx.band = band_of(0.01, 1.0);
+  const std::string msg = message_of<InputError>([&] { reducer->setup(ctx); });
+  EXPECT_NE(msg.find("balanced"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("do not exist"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("imaginary axis"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("D = 0"), std::string::npos) << msg;
+
+  // Negative damping: unstable. The ADI's projection finds a Ritz value with Re > 0 whose
+  // residual makes it an eigenvalue, and the setup refuses the model by name.
+  std::get<SecondOrderModel>(model).D = -0.01 * std::get<SecondOrderModel>(model).M;
+  auto unstable_solver = make_shifted_solver(model);
+  ctx.solver = unstable_solver.get();
+  auto again = registry().create("balanced", params({{"gramians", std::string("lowrank")}}));
+  const std::string unstable = message_of<InputError>([&] { again->setup(ctx); });
+  EXPECT_NE(unstable.find("do not exist"), std::string::npos) << unstable;
+  EXPECT_NE(unstable.find("not asymptotically stable"), std::string::npos) << unstable;
+}
+
 }  // namespace
 }  // namespace ecmor
