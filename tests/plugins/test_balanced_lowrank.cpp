@@ -19,6 +19,7 @@
 
 #include "balanced/gramian_factors.hpp"
 #include "balanced/lowrank_factors.hpp"
+#include "common/plugin_registry.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/model_io.hpp"
@@ -31,15 +32,7 @@ namespace {
 
 using test::message_of;
 
-Registry& registry() {
-  static Registry r;
-  static bool loaded = false;
-  if (!loaded) {
-    r.load_plugin(std::filesystem::path(ECMOR_TEST_PLUGIN_DIR) / "libecmor_balanced.so");
-    loaded = true;
-  }
-  return r;
-}
+Registry& registry() { return test::plugin_registry("libecmor_balanced.so"); }
 
 std::filesystem::path shared(const std::string& name) {
   return std::filesystem::path("../shared/models") / name;

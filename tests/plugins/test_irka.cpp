@@ -16,6 +16,7 @@
 #include <variant>
 #include <vector>
 
+#include "common/plugin_registry.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
@@ -28,15 +29,7 @@ namespace {
 
 using test::message_of;
 
-Registry& registry() {
-  static Registry r;
-  static bool loaded = false;
-  if (!loaded) {
-    r.load_plugin(std::filesystem::path(ECMOR_TEST_PLUGIN_DIR) / "libecmor_irka.so");
-    loaded = true;
-  }
-  return r;
-}
+Registry& registry() { return test::plugin_registry("libecmor_irka.so"); }
 
 std::filesystem::path shared(const std::string& name) {
   return std::filesystem::path("../shared/models") / name;

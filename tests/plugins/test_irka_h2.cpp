@@ -15,6 +15,7 @@
 #include <iostream>
 #include <string>
 
+#include "common/plugin_registry.hpp"
 #include "common/dense_balanced_truncation.hpp"
 #include "ecmor/h2_norm.hpp"
 #include "ecmor/lyapunov.hpp"
@@ -25,15 +26,7 @@
 namespace ecmor {
 namespace {
 
-Registry& registry() {
-  static Registry r;
-  static bool loaded = false;
-  if (!loaded) {
-    r.load_plugin(std::filesystem::path(ECMOR_TEST_PLUGIN_DIR) / "libecmor_irka.so");
-    loaded = true;
-  }
-  return r;
-}
+Registry& registry() { return test::plugin_registry("libecmor_irka.so"); }
 
 struct Case {
   const char* model;

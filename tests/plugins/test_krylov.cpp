@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "common/plugin_registry.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
@@ -36,15 +37,7 @@ using test::message_of;
 
 // ---- helpers ----------------------------------------------------------------------------------
 
-Registry& registry() {
-  static Registry r;
-  static bool loaded = false;
-  if (!loaded) {
-    r.load_plugin(std::filesystem::path(ECMOR_TEST_PLUGIN_DIR) / "libecmor_krylov.so");
-    loaded = true;
-  }
-  return r;
-}
+Registry& registry() { return test::plugin_registry("libecmor_krylov.so"); }
 
 // Test-only fault injection: a ShiftedSolver forwarding to the embedded one whose factorisations
 // make the fail_at-th solve call (1-based, counted over all factorisations) fail, by throwing a

@@ -12,6 +12,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/SparseCholesky>
 
+#include "common/plugin_registry.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/model_io.hpp"
 #include "ecmor/registry.hpp"
@@ -22,15 +23,7 @@ namespace {
 
 // ---- helpers ----------------------------------------------------------------------------------
 
-Registry& registry() {
-  static Registry r;
-  static bool loaded = false;
-  if (!loaded) {
-    r.load_plugin(std::filesystem::path(ECMOR_TEST_PLUGIN_DIR) / "libecmor_modal.so");
-    loaded = true;
-  }
-  return r;
-}
+Registry& registry() { return test::plugin_registry("libecmor_modal.so"); }
 
 struct Fixture {
   Model model;
