@@ -866,6 +866,17 @@ LowRankBandGramians lowrank_band_gramians(FirstOrderView& view, const Band& band
   out.observability = adi.solve(GramianSide::Observability,
                                 balanced_pair(Et_Lc, Matrix(view.output_matrix().transpose())),
                                 swap_weight(view.outputs()));
+  const MatrixQuadrature& q = out.integrals.quadrature;
+  if (!q.converged) {
+    // Missing the quadrature tolerance is a result, not an exception, but the Gramians are then
+    // those of an inaccurate right-hand side: say so where the ADI outcome is read.
+    const std::string note = "; the band quadrature did not converge (error estimate " +
+                             number_text(q.error_estimate / std::max(q.integral.norm(), 1e-300)) +
+                             " relative after " + std::to_string(q.evaluations) +
+                             " evaluations): Lb, Lc and hence the Gramians are inaccurate";
+    out.controllability.message += note;
+    out.observability.message += note;
+  }
   out.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   return out;
 }

@@ -279,6 +279,9 @@ struct ECMOR_API LowRankBandGramians {
 /// Both band Gramian factors with one LowRankAdi (shift factorisations shared by the two sides).
 /// G's two blocks are scaled to equal norms (G S G' is unchanged: [a X, Y / a] S [a X, Y / a]' =
 /// X Y' + Y X'), which keeps the rounding of W S W' at the level of ||G S G'|| when Lb is small.
+/// A band quadrature that misses its tolerance is a result: integrals.quadrature.converged is
+/// false and both messages say so (lightly damped models with many poles in the band need more
+/// than the default 3000 evaluations).
 /// \throws ConfigError for an invalid band, ADI or quadrature options; NumericalError when a
 ///         quadrature node's factorisation fails (a pole on the imaginary axis inside the band);
 ///         otherwise as LowRankAdi::solve.
