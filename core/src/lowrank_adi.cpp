@@ -249,6 +249,94 @@ std::vector<Complex> select_minmax(const std::vector<Complex>& candidates, Index
   return chosen;
 }
 
+/// ||W S W'||_2 for a tall W with few columns and a symmetric S: the nonzero eigenvalues of
+/// W S W' are those of R S R' for the thin QR W = Q R. O(n k^2) for k columns, small next to a
+/// solve with the same block.
+double ldl_norm(const Matrix& W, const Matrix& S) {
+  if (W.cols() == 0) return 0.0;
+  const Eigen::HouseholderQR<Matrix> qr(W);
+  const Index k = std::min(W.rows(), W.cols());
+  const Matrix R = qr.matrixQR().topRows(k).triangularView<Eigen::Upper>();
+  const Matrix T = R * S * R.transpose();
+  const Vector ev = Eigen::SelfAdjointEigenSolver<Matrix>(Matrix((T + T.transpose()) / 2),
+                                                          Eigen::EigenvaluesOnly)
+                        .eigenvalues();
+  return std::max(std::abs(ev.minCoeff()), std::abs(ev.maxCoeff()));
+}
+
+/// The rules for an indefinite right-hand side G S G' (see LowRankAdi::solve(side, G, S)).
+void check_ldl_rhs(const std::string& where, Index n, const Matrix& G, const Matrix& S) {
+  auto dims = [](const Matrix& X) {
+    return std::to_string(X.rows()) + " x " + std::to_string(X.cols());
+  };
+  if (G.rows() != n || G.cols() == 0)
+    throw InputError(where + ": G is " + dims(G) + ": must have the state size " +
+                     std::to_string(n) + " rows and at least one column");
+  if (S.rows() != G.cols() || S.cols() != G.cols())
+    throw InputError(where + ": S is " + dims(S) + ": must be square of G's column count " +
+                     std::to_string(G.cols()));
+  if (!G.allFinite()) throw InputError(where + ": G has a non-finite entry");
+  if (!S.allFinite()) throw InputError(where + ": S has a non-finite entry");
+  const double asym = (S - S.transpose()).norm();
+  if (asym > 1e-12 * S.norm())
+    throw InputError(where + ": S is not symmetric: ||S - S'||_F = " + number_text(asym) +
+                     " > 1e-12 ||S||_F");
+}
+
+/// Fills the timing and solver-work fields at the end of a run.
+void record_work(FirstOrderView& view, const SolverCounters& c0, Clock::time_point t0,
+                 AdiResult& result) {
+  const SolverCounters dc = view.solver().counters() - c0;
+  result.counters = dc;
+  result.factorizations = dc.factorizations;
+  result.solves = dc.solves;
+  result.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+/// A semidefinite factor Z of X = L D L', D = diag(S, ..., S), into result.Z, and the truncation
+/// diagnostics. Householder QR L = Q R, then R D R' = Y Theta Y' and Z = Q Y_+ Theta_+^1/2 over
+/// the kept eigenvalues (> tol^2 theta_max with compression, > 0 without).
+/// Why not the Gram route of the plain compression: with an indefinite D the directions of L
+/// with small singular values sigma_j enter X through cross terms sigma_1 sigma_j, and the Gram
+/// route, which must drop the directions below sqrt(k eps) sigma_1 (their singular vectors are
+/// lost in rounding), would change X by about sqrt(k eps) ||X|| = 1e-7 ||X||. The QR is backward
+/// stable: Q R = L + dL with ||dL|| ~ eps ||L||, so R D R' represents X to eps ||L||^2.
+void semidefinite_factor(const Matrix& L, const Matrix& S, const AdiOptions& opt,
+                         AdiLdlResult& result) {
+  const Index n = L.rows(), cols = L.cols(), m = S.rows();
+  if (cols == 0) {
+    result.Z = Matrix(n, 0);
+    return;
+  }
+  const Eigen::HouseholderQR<Matrix> qr(L);
+  const Index k = std::min(n, cols);
+  const Matrix R = qr.matrixQR().topRows(k).triangularView<Eigen::Upper>();
+  Matrix RD(k, cols);
+  for (Index j = 0; j < cols; j += m) RD.middleCols(j, m).noalias() = R.middleCols(j, m) * S;
+  Matrix T = RD * R.transpose();
+  T = ((T + T.transpose()) / 2).eval();
+  const Eigen::SelfAdjointEigenSolver<Matrix> es(T);  // ascending eigenvalues
+  const Vector& theta = es.eigenvalues();
+  const double theta_max = theta(k - 1), theta_min = theta(0);
+  const double scale = std::max(std::abs(theta_max), std::abs(theta_min));
+  result.largest_eigenvalue = theta_max;
+  result.negative_eigenvalues = (theta.array() < 0.0).count();
+  result.most_negative_eigenvalue = theta_min < 0.0 && scale > 0.0 ? theta_min / scale : 0.0;
+  const double cut =
+      theta_max > 0.0 && opt.compress
+          ? opt.compression_tolerance * opt.compression_tolerance * theta_max
+          : 0.0;
+  Index keep = 0;
+  while (keep < k && theta(k - 1 - keep) > cut) ++keep;
+  if (keep < k && theta(k - 1 - keep) > 0.0 && theta_max > 0.0)
+    result.largest_dropped_positive = theta(k - 1 - keep) / theta_max;
+  // Columns in descending order of the eigenvalue, as the plain compression returns them.
+  Matrix Y = Matrix::Zero(n, keep);
+  for (Index j = 0; j < keep; ++j)
+    Y.col(j).head(k) = es.eigenvectors().col(k - 1 - j) * std::sqrt(theta(k - 1 - j));
+  result.Z = qr.householderQ() * Y;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -448,6 +536,134 @@ struct LowRankAdi::Impl {
     heuristic_shifts = select_minmax(candidates, options.max_shifts);
     return *heuristic_shifts;
   }
+
+  /// The ADI iteration from W_0 = W with the residual W_k S W_k' (S == nullptr: S = I, the plain
+  /// equation); rhs_norm = ||W_0 S W_0'||_2 > 0. Returns the uncompressed factor (X_k = L S~ L',
+  /// S~ = diag(S, ..., S)) and fills the iteration fields of `result` (residuals, steps, shifts,
+  /// shift_sets, iterations, residual, converged, message).
+  Matrix iterate(GramianSide side, Matrix W, const Matrix* S, double rhs_norm,
+                 AdiResult& result) {
+    const bool tr = side == GramianSide::Observability;
+    const Index n = ops.state_size();
+    // Z in a buffer with doubling capacity (see the file comment).
+    Matrix Zbuf(n, std::max<Index>(4 * W.cols(), 16));
+    Index cols = 0;
+    auto append = [&](const Matrix& block) {
+      if (cols + block.cols() > Zbuf.cols()) {
+        Matrix bigger(n, std::max(2 * Zbuf.cols(), cols + block.cols()));
+        bigger.leftCols(cols) = Zbuf.leftCols(cols);
+        Zbuf.swap(bigger);
+      }
+      Zbuf.middleCols(cols, block.cols()) = block;
+      cols += block.cols();
+    };
+
+    std::vector<Complex> set;
+    std::size_t pos = 0;
+    Index cols_at_last_set = 0;
+    const Index proj_cols =
+        options.projection_columns > 0 ? options.projection_columns : options.max_shifts * W.cols();
+    auto new_set = [&]() -> bool {
+      std::vector<Complex> fresh;
+      if (options.shifts == AdiShiftStrategy::Heuristic) {
+        fresh = heuristic(tr, result);
+      } else {
+        // Project on span(B, E^-1 A B) at the start, then on the columns added since the last set (at
+        // most proj_cols of the last ones; at least the last block, so the set never starves).
+        Matrix X;
+        if (cols == 0) {
+          // span(B) alone can hold no information on the spectrum (a position output C' = [c; 0]
+          // of a second-order model gives the single Ritz value 0): one Krylov step with E^-1 A
+          // (the E factorisation exists already) makes the first set informative.
+          X.resize(n, 2 * W.cols());
+          X.leftCols(W.cols()) = W;
+          X.rightCols(W.cols()) = ops.solve_e(*e_factorization, ops.apply_a(W, tr), tr);
+        } else {
+          const Index take = std::min(cols, std::max(cols - cols_at_last_set, proj_cols));
+          X = Zbuf.middleCols(cols - take, take);
+        }
+        const std::vector<RitzPair> ritz = projected_ritz(X, tr);
+        fresh = select_minmax(admissible(ritz, tr, "projection", result), options.max_shifts);
+      }
+      cols_at_last_set = cols;
+      if (fresh.empty()) return false;
+      set = std::move(fresh);
+      pos = 0;
+      ++result.shift_sets;
+      return true;
+    };
+    if (!new_set()) {
+      throw NumericalError("low-rank ADI (" + to_string(side) + "): no admissible shift: every "
+                           "Ritz value of the initial " + to_string(options.shifts) +
+                           " shift set is infinite, zero or on the imaginary axis (" +
+                           std::to_string(result.mirrored_ritz_values) +
+                           " had Re >= 0); an undamped model?");
+    }
+
+    double res = 1.0;
+    while (result.iterations < options.max_iterations && res > options.tolerance) {
+      if (pos == set.size()) {
+        // Shifts used up: a fresh projection set, or cyclic reuse (heuristic, or a projection
+        // that found no admissible Ritz value).
+        if (options.shifts == AdiShiftStrategy::Heuristic || !new_set()) pos = 0;
+      }
+      const Complex p = set[pos++];
+      const Index it = result.iterations + 1;
+      if (!(p.real() < 0.0))
+        throw NumericalError("low-rank ADI: shift p = " + number_text(p) + " at iteration " +
+                             std::to_string(it) + " is not in the open left half-plane");
+      const auto fact = factorization(p, it);
+      if (p.imag() == 0.0) {
+        // (A + p E) V = W:  V = -(s E - A)^-1 W at s = -p.
+        const Matrix V = -ops.solve(*fact, -p.real(), W, tr);
+        if (!all_finite(V))
+          throw NumericalError("low-rank ADI: breakdown at iteration " + std::to_string(it) +
+                               ": the solve with the shift p = " + number_text(p) +
+                               " returned a non-finite value");
+        W -= (2.0 * p.real()) * ops.apply_e(V, tr);
+        append(std::sqrt(-2.0 * p.real()) * V);
+        result.iterations += 1;
+        result.shifts.push_back(p);
+      } else {
+        const ComplexMatrix V = -ops.solve(*fact, -p, W, tr);
+        if (!all_finite(V))
+          throw NumericalError("low-rank ADI: breakdown at iteration " + std::to_string(it) +
+                               ": the solve with the shift p = " + number_text(p) +
+                               " returned a non-finite value");
+        // The real double step (Benner, Kuerschner, Saak 2013, Alg. 3).
+        const double gamma = 2.0 * std::sqrt(-p.real());
+        const double delta = p.real() / p.imag();
+        const Matrix Vr = V.real(), Vi = V.imag();
+        const Matrix Vc = Vr + delta * Vi;
+        W += (gamma * gamma) * ops.apply_e(Vc, tr);
+        Matrix block(n, 2 * V.cols());
+        block.leftCols(V.cols()) = gamma * Vc;
+        block.rightCols(V.cols()) = (gamma * std::sqrt(delta * delta + 1.0)) * Vi;
+        append(block);
+        result.iterations += 2;
+        result.shifts.push_back(p);
+        result.shifts.push_back(std::conj(p));
+      }
+      if (!all_finite(W))
+        throw NumericalError("low-rank ADI: breakdown at iteration " + std::to_string(it) +
+                             ": the residual factor is not finite after the shift p = " +
+                             number_text(p));
+      res = (S != nullptr ? ldl_norm(W, *S) : gram_norm(W)) / rhs_norm;
+      result.residuals.push_back(res);
+      result.steps.push_back({p, res, cols});
+    }
+    result.residual = res;
+    result.converged = res <= options.tolerance;
+    result.message =
+        std::string(result.converged ? "converged" : "not converged") + ": residual " +
+        number_text(res) + (result.converged ? " <= " : " > ") + number_text(options.tolerance) +
+        " after " + std::to_string(result.iterations) + " iterations (rank " + std::to_string(cols) +
+        (result.converged ? ")" : ", max_iterations reached)");
+    if (result.mirrored_ritz_values > 0)
+      result.message += "; " + std::to_string(result.mirrored_ritz_values) +
+                        " Ritz values with Re >= 0 were mirrored";
+    return Matrix(Zbuf.leftCols(cols));
+  }
 };
 
 LowRankAdi::LowRankAdi(FirstOrderView& view, const AdiOptions& options) : m_options(options) {
@@ -478,28 +694,7 @@ AdiResult LowRankAdi::solve(GramianSide side) {
   Matrix W = tr ? Matrix(im.view.output_matrix().transpose()) : im.view.input_matrix();
   const double rhs_norm = gram_norm(W);
   result.residuals.push_back(1.0);
-  auto finish = [&](Matrix Z) {
-    result.uncompressed_rank = Z.cols();
-    if (opt.compress && Z.cols() > 0) {
-      // With Z' Z = V L V' (eigenvalues descending), Z V = U S holds the singular directions.
-      // Keeping the columns with lambda_i > tol^2 lambda_1 changes Z Z' by Z V_rest V_rest' Z',
-      // whose norm is the largest dropped lambda: <= tol^2 ||Z Z'|| plus the eigensolver's
-      // rounding (eps ||Z' Z||). This is as sharp as a QR + SVD of Z at this tolerance and costs
-      // two matrix products instead of a Householder QR of the tall Z (seconds at N = 2e4).
-      const auto [lambda, V] = gram_eigen(Z);
-      const double cut = opt.compression_tolerance * opt.compression_tolerance * lambda(0);
-      Index keep = 0;
-      while (keep < lambda.size() && lambda(keep) > cut) ++keep;
-      Z = Z * V.leftCols(keep);
-    }
-    result.Z = std::move(Z);
-    const SolverCounters dc = im.view.solver().counters() - c0;
-    result.counters = dc;
-    result.factorizations = dc.factorizations;
-    result.solves = dc.solves;
-    result.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-    return std::move(result);
-  };
+  Matrix Z;
   if (!(rhs_norm > 0.0)) {
     // B = 0 (C = 0): X = 0 solves the equation exactly.
     result.residual = 0.0;
@@ -507,127 +702,66 @@ AdiResult LowRankAdi::solve(GramianSide side) {
     result.converged = true;
     result.message = "converged: the right-hand side " + std::string(tr ? "C' C" : "B B'") +
                      " is zero, the Gramian is 0";
-    return finish(Matrix(n, 0));
+    Z = Matrix(n, 0);
+  } else {
+    Z = im.iterate(side, std::move(W), nullptr, rhs_norm, result);
   }
-
-  // Z in a buffer with doubling capacity (see the file comment).
-  Matrix Zbuf(n, std::max<Index>(4 * W.cols(), 16));
-  Index cols = 0;
-  auto append = [&](const Matrix& block) {
-    if (cols + block.cols() > Zbuf.cols()) {
-      Matrix bigger(n, std::max(2 * Zbuf.cols(), cols + block.cols()));
-      bigger.leftCols(cols) = Zbuf.leftCols(cols);
-      Zbuf.swap(bigger);
-    }
-    Zbuf.middleCols(cols, block.cols()) = block;
-    cols += block.cols();
-  };
-
-  std::vector<Complex> set;
-  std::size_t pos = 0;
-  Index cols_at_last_set = 0;
-  const Index proj_cols =
-      opt.projection_columns > 0 ? opt.projection_columns : opt.max_shifts * W.cols();
-  auto new_set = [&]() -> bool {
-    std::vector<Complex> fresh;
-    if (opt.shifts == AdiShiftStrategy::Heuristic) {
-      fresh = im.heuristic(tr, result);
-    } else {
-      // Project on span(B, E^-1 A B) at the start, then on the columns added since the last set (at
-      // most proj_cols of the last ones; at least the last block, so the set never starves).
-      Matrix X;
-      if (cols == 0) {
-        // span(B) alone can hold no information on the spectrum (a position output C' = [c; 0]
-        // of a second-order model gives the single Ritz value 0): one Krylov step with E^-1 A
-        // (the E factorisation exists already) makes the first set informative.
-        X.resize(n, 2 * W.cols());
-        X.leftCols(W.cols()) = W;
-        X.rightCols(W.cols()) = im.ops.solve_e(*im.e_factorization, im.ops.apply_a(W, tr), tr);
-      } else {
-        const Index take = std::min(cols, std::max(cols - cols_at_last_set, proj_cols));
-        X = Zbuf.middleCols(cols - take, take);
-      }
-      const std::vector<RitzPair> ritz = im.projected_ritz(X, tr);
-      fresh = select_minmax(im.admissible(ritz, tr, "projection", result), opt.max_shifts);
-    }
-    cols_at_last_set = cols;
-    if (fresh.empty()) return false;
-    set = std::move(fresh);
-    pos = 0;
-    ++result.shift_sets;
-    return true;
-  };
-  if (!new_set()) {
-    throw NumericalError("low-rank ADI (" + to_string(side) + "): no admissible shift: every "
-                         "Ritz value of the initial " + to_string(opt.shifts) +
-                         " shift set is infinite, zero or on the imaginary axis (" +
-                         std::to_string(result.mirrored_ritz_values) +
-                         " had Re >= 0); an undamped model?");
+  result.uncompressed_rank = Z.cols();
+  if (opt.compress && Z.cols() > 0) {
+    // With Z' Z = V L V' (eigenvalues descending), Z V = U S holds the singular directions.
+    // Keeping the columns with lambda_i > tol^2 lambda_1 changes Z Z' by Z V_rest V_rest' Z',
+    // whose norm is the largest dropped lambda: <= tol^2 ||Z Z'|| plus the eigensolver's
+    // rounding (eps ||Z' Z||). This is as sharp as a QR + SVD of Z at this tolerance and costs
+    // two matrix products instead of a Householder QR of the tall Z (seconds at N = 2e4).
+    const auto [lambda, V] = gram_eigen(Z);
+    const double cut = opt.compression_tolerance * opt.compression_tolerance * lambda(0);
+    Index keep = 0;
+    while (keep < lambda.size() && lambda(keep) > cut) ++keep;
+    Z = Z * V.leftCols(keep);
   }
+  result.Z = std::move(Z);
+  record_work(im.view, c0, t0, result);
+  return result;
+}
 
-  double res = 1.0;
-  while (result.iterations < opt.max_iterations && res > opt.tolerance) {
-    if (pos == set.size()) {
-      // Shifts used up: a fresh projection set, or cyclic reuse (heuristic, or a projection
-      // that found no admissible Ritz value).
-      if (opt.shifts == AdiShiftStrategy::Heuristic || !new_set()) pos = 0;
-    }
-    const Complex p = set[pos++];
-    const Index it = result.iterations + 1;
-    if (!(p.real() < 0.0))
-      throw NumericalError("low-rank ADI: shift p = " + number_text(p) + " at iteration " +
-                           std::to_string(it) + " is not in the open left half-plane");
-    const auto fact = im.factorization(p, it);
-    if (p.imag() == 0.0) {
-      // (A + p E) V = W:  V = -(s E - A)^-1 W at s = -p.
-      const Matrix V = -im.ops.solve(*fact, -p.real(), W, tr);
-      if (!all_finite(V))
-        throw NumericalError("low-rank ADI: breakdown at iteration " + std::to_string(it) +
-                             ": the solve with the shift p = " + number_text(p) +
-                             " returned a non-finite value");
-      W -= (2.0 * p.real()) * im.ops.apply_e(V, tr);
-      append(std::sqrt(-2.0 * p.real()) * V);
-      result.iterations += 1;
-      result.shifts.push_back(p);
-    } else {
-      const ComplexMatrix V = -im.ops.solve(*fact, -p, W, tr);
-      if (!all_finite(V))
-        throw NumericalError("low-rank ADI: breakdown at iteration " + std::to_string(it) +
-                             ": the solve with the shift p = " + number_text(p) +
-                             " returned a non-finite value");
-      // The real double step (Benner, Kuerschner, Saak 2013, Alg. 3).
-      const double gamma = 2.0 * std::sqrt(-p.real());
-      const double delta = p.real() / p.imag();
-      const Matrix Vr = V.real(), Vi = V.imag();
-      const Matrix Vc = Vr + delta * Vi;
-      W += (gamma * gamma) * im.ops.apply_e(Vc, tr);
-      Matrix block(n, 2 * V.cols());
-      block.leftCols(V.cols()) = gamma * Vc;
-      block.rightCols(V.cols()) = (gamma * std::sqrt(delta * delta + 1.0)) * Vi;
-      append(block);
-      result.iterations += 2;
-      result.shifts.push_back(p);
-      result.shifts.push_back(std::conj(p));
-    }
-    if (!all_finite(W))
-      throw NumericalError("low-rank ADI: breakdown at iteration " + std::to_string(it) +
-                           ": the residual factor is not finite after the shift p = " +
-                           number_text(p));
-    res = gram_norm(W) / rhs_norm;
-    result.residuals.push_back(res);
-    result.steps.push_back({p, res, cols});
+AdiLdlResult LowRankAdi::solve(GramianSide side, const Matrix& G, const Matrix& S) {
+  Impl& im = *m_impl;
+  const AdiOptions& opt = m_options;
+  const auto t0 = Clock::now();
+  const SolverCounters c0 = im.view.solver().counters();
+  const Index n = im.ops.state_size();
+  check_ldl_rhs("LowRankAdi::solve", n, G, S);
+
+  AdiLdlResult result;
+  result.side = side;
+  result.G = G;
+  // Exactly symmetric (the check allowed rounding), so that R S R' is symmetric up to its own
+  // rounding only.
+  result.S = (S + S.transpose()) / 2;
+  im.check_e();
+
+  const double rhs_norm = ldl_norm(G, result.S);
+  result.rhs_norm = rhs_norm;
+  result.residuals.push_back(1.0);
+  Matrix L;
+  if (!(rhs_norm > 0.0)) {
+    result.residual = 0.0;
+    result.residuals.back() = 0.0;
+    result.converged = true;
+    result.message = "converged: the right-hand side G S G' is zero, the solution is 0";
+    L = Matrix(n, 0);
+  } else {
+    L = im.iterate(side, G, &result.S, rhs_norm, result);
   }
-  result.residual = res;
-  result.converged = res <= opt.tolerance;
-  result.message =
-      std::string(result.converged ? "converged" : "not converged") + ": residual " +
-      number_text(res) + (result.converged ? " <= " : " > ") + number_text(opt.tolerance) +
-      " after " + std::to_string(result.iterations) + " iterations (rank " + std::to_string(cols) +
-      (result.converged ? ")" : ", max_iterations reached)");
-  if (result.mirrored_ritz_values > 0)
-    result.message += "; " + std::to_string(result.mirrored_ritz_values) +
-                      " Ritz values with Re >= 0 were mirrored";
-  return finish(Matrix(Zbuf.leftCols(cols)));
+  result.uncompressed_rank = L.cols();
+  result.blocks = L.cols() / G.cols();
+  semidefinite_factor(L, result.S, opt, result);
+  result.message += "; semidefinite factor of rank " + std::to_string(result.Z.cols()) +
+                    ", most negative eigenvalue dropped " +
+                    number_text(result.most_negative_eigenvalue) + " of the largest";
+  result.L = std::move(L);
+  record_work(im.view, c0, t0, result);
+  return result;
 }
 
 LowRankGramians lowrank_gramians(FirstOrderView& view, const AdiOptions& options) {
@@ -638,21 +772,22 @@ LowRankGramians lowrank_gramians(FirstOrderView& view, const AdiOptions& options
   return g;
 }
 
-double lowrank_residual(FirstOrderView& view, const Matrix& Z, GramianSide side) {
+namespace {
+
+/// ||A Z Z' E' + E Z Z' A' + G S G'||_2 / ||G S G'||_2 (S == nullptr: S = I), see
+/// lowrank_residual. With F = [A Z, E Z, G] the residual is F S_F F' with
+/// S_F = [0 I 0; I 0 0; 0 0 S]; its nonzero eigenvalues are those of R S_F R' (F = Q R).
+double residual_of(FirstOrderView& view, const Matrix& Z, GramianSide side, const Matrix& G,
+                   const Matrix* S) {
   const bool tr = side == GramianSide::Observability;
   const Index n = view.state_size();
-  if (Z.rows() != n)
-    throw InputError("lowrank_residual: Z has " + std::to_string(Z.rows()) +
-                     " rows: must equal the state size " + std::to_string(n));
   RealOps ops(view);
-  const Matrix B = tr ? Matrix(view.output_matrix().transpose()) : view.input_matrix();
-  const double rhs = gram_norm(B);
-  const Index r = Z.cols(), m = B.cols();
+  const double rhs = S != nullptr ? ldl_norm(G, *S) : gram_norm(G);
+  const Index r = Z.cols(), m = G.cols();
   Matrix F(n, 2 * r + m);
   F.leftCols(r) = ops.apply_a(Z, tr);
   F.middleCols(r, r) = ops.apply_e(Z, tr);
-  F.rightCols(m) = B;
-  // F S F' with S = [0 I 0; I 0 0; 0 0 I]: its nonzero eigenvalues are those of R S R' (F = QR).
+  F.rightCols(m) = G;
   const Index k = F.cols();
   Eigen::HouseholderQR<Matrix> qr(F);
   const Index kk = std::min(n, k);
@@ -660,13 +795,90 @@ double lowrank_residual(FirstOrderView& view, const Matrix& Z, GramianSide side)
   Matrix RS(kk, k);
   RS.leftCols(r) = R.middleCols(r, r);
   RS.middleCols(r, r) = R.leftCols(r);
-  RS.rightCols(m) = R.rightCols(m);
+  RS.rightCols(m) = S != nullptr ? Matrix(R.rightCols(m) * *S) : Matrix(R.rightCols(m));
   const Matrix T = RS * R.transpose();
   const Matrix Ts = (T + T.transpose()) / 2;
   const Vector ev =
       Eigen::SelfAdjointEigenSolver<Matrix>(Ts, Eigen::EigenvaluesOnly).eigenvalues();
   const double norm = std::max(std::abs(ev.minCoeff()), std::abs(ev.maxCoeff()));
   return rhs > 0.0 ? norm / rhs : norm;
+}
+
+void check_factor_rows(const Matrix& Z, Index n) {
+  if (Z.rows() != n)
+    throw InputError("lowrank_residual: Z has " + std::to_string(Z.rows()) +
+                     " rows: must equal the state size " + std::to_string(n));
+}
+
+/// [a X, Y / a] with ||a X||_F = ||Y / a||_F (see lowrank_band_gramians); X, Y unscaled when
+/// either is zero.
+Matrix balanced_pair(const Matrix& X, const Matrix& Y) {
+  const double nx = X.norm(), ny = Y.norm();
+  const double a = nx > 0.0 && ny > 0.0 ? std::sqrt(ny / nx) : 1.0;
+  Matrix G(X.rows(), X.cols() + Y.cols());
+  G.leftCols(X.cols()) = a * X;
+  G.rightCols(Y.cols()) = Y / a;
+  return G;
+}
+
+/// S = [0 I; I 0] with k x k blocks.
+Matrix swap_weight(Index k) {
+  Matrix S = Matrix::Zero(2 * k, 2 * k);
+  S.topRightCorner(k, k).setIdentity();
+  S.bottomLeftCorner(k, k).setIdentity();
+  return S;
+}
+
+}  // namespace
+
+double lowrank_residual(FirstOrderView& view, const Matrix& Z, GramianSide side) {
+  check_factor_rows(Z, view.state_size());
+  const Matrix B = side == GramianSide::Observability ? Matrix(view.output_matrix().transpose())
+                                                      : view.input_matrix();
+  return residual_of(view, Z, side, B, nullptr);
+}
+
+double lowrank_residual(FirstOrderView& view, const Matrix& Z, GramianSide side, const Matrix& G,
+                        const Matrix& S) {
+  check_factor_rows(Z, view.state_size());
+  check_ldl_rhs("lowrank_residual", view.state_size(), G, S);
+  return residual_of(view, Z, side, G, &S);
+}
+
+LowRankBandGramians lowrank_band_gramians(FirstOrderView& view, const Band& band,
+                                          const AdiOptions& options,
+                                          const AdaptiveQuadratureOptions& quadrature) {
+  const auto t0 = Clock::now();
+  band.validate();
+  options.validate();
+  quadrature.validate();
+  LowRankBandGramians out;
+  // L_B = int_Omega (iwE - A)^-1 B dw, L_C = int_Omega (iwE - A)^-T C' dw; the equations need
+  // them divided by 2 pi (file comment of the header).
+  out.integrals = band_resolvent_integrals(view, band, quadrature);
+  out.quadrature_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  LowRankAdi adi(view, options);
+  const Matrix E_Lb = view.apply_e(Matrix(out.integrals.input / kTwoPi));
+  out.controllability = adi.solve(GramianSide::Controllability,
+                                  balanced_pair(E_Lb, view.input_matrix()),
+                                  swap_weight(view.inputs()));
+  const Matrix Et_Lc = view.apply_e_transposed(Matrix(out.integrals.output / kTwoPi));
+  out.observability = adi.solve(GramianSide::Observability,
+                                balanced_pair(Et_Lc, Matrix(view.output_matrix().transpose())),
+                                swap_weight(view.outputs()));
+  const MatrixQuadrature& q = out.integrals.quadrature;
+  if (!q.converged) {
+    // Missing the quadrature tolerance is a result, not an exception, but the Gramians are then
+    // those of an inaccurate right-hand side: say so where the ADI outcome is read.
+    const std::string note = "; the band quadrature did not converge (error estimate " +
+                             number_text(q.error_estimate / std::max(q.integral.norm(), 1e-300)) +
+                             " relative after " + std::to_string(q.evaluations) +
+                             " evaluations): Lb, Lc and hence the Gramians are inaccurate";
+    out.controllability.message += note;
+    out.observability.message += note;
+  }
+  out.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  return out;
 }
 
 }  // namespace ecmor

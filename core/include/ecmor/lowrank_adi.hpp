@@ -33,13 +33,25 @@
 /// what the dense gramians() returns; E' Z (FirstOrderView::apply_e_transposed) is one sparse
 /// product when a factor of E' Y E is wanted (square-root balancing: the Hankel singular values
 /// are the singular values of (E' Zo)' Zc).
+///
+/// Indefinite right-hand sides (LDL' form; J. Saak, N. Lang, H. Mena, "On the benefits of the
+/// LDL^T factorization for large-scale differential matrix equation solvers", Linear Algebra Appl.
+/// 480, 2015): A X E' + E X A' + G S G' = 0 with a symmetric, possibly indefinite S runs the same
+/// iteration from W_0 = G. Every step is a linear map applied to W from the left, so the identities
+/// above hold with S in the middle: X_k = L D L' with the same columns L as the plain iteration
+/// would build from G, D = diag(S, ..., S) (one S per block of columns; the shift weights
+/// sqrt(-2 Re p) stay in L), and the residual is exactly W_k S W_k'. The frequency-limited (band)
+/// Gramians (Gawronski and Juang 1990) solve such equations, with G = [E L_b, B],
+/// S = [0 I; I 0]: lowrank_band_gramians().
 
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "ecmor/export.hpp"
+#include "ecmor/band_error.hpp"
 #include "ecmor/first_order_view.hpp"
+#include "ecmor/quadrature.hpp"
 #include "ecmor/shifted_solver.hpp"
 #include "ecmor/types.hpp"
 
@@ -66,7 +78,8 @@ ECMOR_API AdiShiftStrategy parse_adi_shift_strategy(const std::string& name);
 
 /// Options of the low-rank ADI solver. Defaults are what the tests and benchmarks use.
 struct ECMOR_API AdiOptions {
-  /// Stop when ||R_k||_2 / ||B B'||_2 <= tolerance; in (0, 1), default 1e-10.
+  /// Stop when ||R_k||_2 / ||B B'||_2 <= tolerance (||G S G'||_2 for an indefinite right-hand
+  /// side); in (0, 1), default 1e-10.
   double tolerance = 1e-10;
   /// Maximum number of ADI iterations (a conjugate pair counts as two, as in M.E.S.S.), >= 1,
   /// default 300. A run that reaches it returns converged = false with the last residual.
@@ -144,6 +157,36 @@ struct ECMOR_API AdiResult {
   std::string message;
 };
 
+/// Result of a run with an indefinite right-hand side G S G' (LowRankAdi::solve(side, G, S)).
+/// The AdiResult fields keep their meaning with B B' replaced by G S G': `residuals` and
+/// `residual` are ||W_k S W_k'||_2 / ||G S G'||_2, the exact residual of X_k = L D L'. `Z` is a
+/// positive semidefinite factor of X_k (X_k ~ Z Z'), obtained from the eigen-decomposition of
+/// R D R' with L = Q R (Householder): the eigenvalues above compression_tolerance^2 times the
+/// largest are kept (all positive ones when compress = false), the negative ones are dropped and
+/// reported. For an equation whose solution is semidefinite (band Gramians), X_k has negative
+/// eigenvalues only as large as its error, so most_negative_eigenvalue measures how honest the
+/// truncation to a semidefinite factor was. uncompressed_rank = L.cols().
+struct ECMOR_API AdiLdlResult : AdiResult {
+  /// X_k = L D L' before the truncation: L (state_size() x k blocks of S's size), with
+  /// D = diag(S, ..., S) implicit (`blocks` copies of S). Kept for checks; clear it to save memory.
+  Matrix L;
+  Index blocks = 0;
+  /// The right-hand side factors as used: A X E' + E X A' + G S G' = 0 (controllability form;
+  /// the observability side uses A', E').
+  Matrix G, S;
+  /// ||G S G'||_2, the residual's reference.
+  double rhs_norm = 0.0;
+  /// Largest eigenvalue of L D L' (0 when L is empty).
+  double largest_eigenvalue = 0.0;
+  /// The most negative eigenvalue of L D L' divided by the largest (0 when none is negative):
+  /// dropped by the truncation to a semidefinite factor.
+  double most_negative_eigenvalue = 0.0;
+  /// Negative eigenvalues dropped (their count), and the largest positive eigenvalue dropped by
+  /// the compression, relative to the largest eigenvalue (0 when none).
+  Index negative_eigenvalues = 0;
+  double largest_dropped_positive = 0.0;
+};
+
 /// The low-rank ADI solver bound to one model's first-order view. It keeps the factorisations
 /// of the shifts it used, so that the second Gramian (same pencil) reuses them.
 ///
@@ -164,6 +207,15 @@ class ECMOR_API LowRankAdi {
 
   /// Runs the iteration for one Gramian.
   AdiResult solve(GramianSide side);
+
+  /// Runs the iteration for A X E' + E X A' + G S G' = 0 (controllability side) or
+  /// A' X E + E' X A + G S G' = 0 (observability side) with a symmetric, possibly indefinite S,
+  /// in the LDL' form of the file comment: X ~ L D L', and a semidefinite factor Z of it (see
+  /// AdiLdlResult). The shifts are generated as for solve(side), from G in place of B (C').
+  /// \throws InputError when G does not have state_size() rows or has no column, S is not
+  ///         square of G's column count, S is not symmetric (to 1e-12 relative), or G or S has a
+  ///         non-finite entry, naming the matrix and the rule; otherwise as solve(side).
+  AdiLdlResult solve(GramianSide side, const Matrix& G, const Matrix& S);
 
   /// Number of distinct shift factorisations currently kept.
   Index cached_factorizations() const;
@@ -192,5 +244,49 @@ ECMOR_API LowRankGramians lowrank_gramians(FirstOrderView& view, const AdiOption
 /// of the residual-factor norm, and the residual of a compressed factor.
 /// \throws InputError when Z does not have state_size() rows.
 ECMOR_API double lowrank_residual(FirstOrderView& view, const Matrix& Z, GramianSide side);
+
+/// ||A Z Z' E' + E Z Z' A' + G S G'||_2 / ||G S G'||_2 (controllability; observability with A', E'),
+/// the residual of a semidefinite factor Z (e.g. AdiLdlResult::Z after the truncation) for an
+/// indefinite right-hand side, by the same QR route as lowrank_residual, O(N (2r + k)^2).
+/// \throws InputError when Z or G does not have state_size() rows or S is not k x k for G's k
+///         columns.
+ECMOR_API double lowrank_residual(FirstOrderView& view, const Matrix& Z, GramianSide side,
+                                  const Matrix& G, const Matrix& S);
+
+/// Frequency-limited (band) Gramians of large models (Gawronski and Juang 1990; the dense route
+/// and its conventions are in plugins/balanced/gramian_factors.hpp). On Omega = +-[w1, w2] rad/s
+/// (w = 2 pi f),
+///     P_Omega = (1/2pi) int_Omega (iwE - A)^-1 B B' (iwE - A)^-H dw,
+///     Q_Omega = (1/2pi) int_Omega (iwE - A)^-H C' C (iwE - A)^-1 dw,
+/// and with (iwE - A)^-1 A = iw (iwE - A)^-1 E - I integrated over Omega,
+///     A P E' + E P A' + E Lb B' + B Lb' E' = 0,     Lb = (1/2pi) int_Omega (iwE - A)^-1 B dw,
+///     A' Q E + E' Q A + E' Lc C + C' Lc' E = 0,     Lc = (1/2pi) int_Omega (iwE - A)^-T C' dw,
+/// (Lb, Lc real: Omega is symmetric). Lb = L_B / 2pi and Lc = L_C / 2pi of
+/// band_resolvent_integrals(); E' Lc = S' C' for the dense route's S = s(E^-1 A). The right-hand
+/// sides are G S G' with G = [E Lb, B] (resp. [E' Lc, C']) and S = [0 I; I 0], indefinite; the
+/// solutions are semidefinite (integrals of semidefinite matrices). Q_Omega itself is returned,
+/// as for the plain Gramians (E' Zq is a factor of E' Q E).
+struct ECMOR_API LowRankBandGramians {
+  AdiLdlResult controllability;  ///< P_Omega ~ Zc Zc' (controllability.Z)
+  AdiLdlResult observability;    ///< Q_Omega ~ Zq Zq' (observability.Z)
+  /// L_B, L_C and the quadrature diagnostics (evaluations, error_estimate, converged), plus the
+  /// band rule and the response at its nodes (band H2 norms: band_h2_squared_error()).
+  BandResolventIntegrals integrals;
+  double quadrature_seconds = 0.0;  ///< wall time of band_resolvent_integrals
+  double seconds = 0.0;             ///< wall time of everything
+};
+
+/// Both band Gramian factors with one LowRankAdi (shift factorisations shared by the two sides).
+/// G's two blocks are scaled to equal norms (G S G' is unchanged: [a X, Y / a] S [a X, Y / a]' =
+/// X Y' + Y X'), which keeps the rounding of W S W' at the level of ||G S G'|| when Lb is small.
+/// A band quadrature that misses its tolerance is a result: integrals.quadrature.converged is
+/// false and both messages say so (lightly damped models with many poles in the band need more
+/// than the default 3000 evaluations).
+/// \throws ConfigError for an invalid band, ADI or quadrature options; NumericalError when a
+///         quadrature node's factorisation fails (a pole on the imaginary axis inside the band);
+///         otherwise as LowRankAdi::solve.
+ECMOR_API LowRankBandGramians lowrank_band_gramians(FirstOrderView& view, const Band& band,
+                                                    const AdiOptions& options = {},
+                                                    const AdaptiveQuadratureOptions& quadrature = {});
 
 }  // namespace ecmor
