@@ -66,6 +66,7 @@ struct Options {
   GramianRoute gramians = GramianRoute::Auto;
   AdiOptions adi;
   bool adi_require_convergence = false;
+  AdaptiveQuadratureOptions quadrature;  // band_limited on the low-rank route
 };
 
 /// The SVD Zl' Zr = U diag(s) V' of one pair of factors, with the numerical rank of s.
@@ -129,21 +130,26 @@ class BalancedReducer final : public Reducer {
     m_adi.reset();
     m_factors.reset();
     if (use_lowrank()) {
-      if (m_options.band_limited) {
-        throw ConfigError(
-            "reducer 'balanced': band_limited: true with low-rank Gramians is not available yet "
-            "(the frequency-limited Gramians are dense only): use gramians: dense (at most "
-            "kMaxDenseStates first-order states) or band_limited: false");
-      }
       AdiSummary summary;
-      m_factors = lowrank_gramian_factors(*m_view, m_options.adi, summary);
+      m_factors = m_options.band_limited
+                      ? lowrank_band_gramian_factors(*m_view, m_band, m_options.adi,
+                                                     m_options.quadrature, summary)
+                      : lowrank_gramian_factors(*m_view, m_options.adi, summary);
       if (!summary.converged() && m_options.adi_require_convergence) {
-        throw NumericalError(fmt::format(
-            "balanced: low-rank ADI did not reach adi_tolerance = {:.3g} within "
-            "adi_max_iterations = {} ({}); raise adi_max_iterations, or set "
-            "adi_require_convergence: false to truncate the approximate Gramians (the band error "
-            "is still verified by the driver)",
-            m_options.adi.tolerance, m_options.adi.max_iterations, summary.text()));
+        const bool adi = summary.controllability.converged && summary.observability.converged;
+        throw NumericalError(
+            adi ? fmt::format("balanced: the band quadrature did not reach "
+                              "band_quadrature_tolerance = {:.3g} within band_quadrature_budget "
+                              "= {} evaluations (estimate {:.2e}); raise the budget, or set "
+                              "adi_require_convergence: false",
+                              m_options.quadrature.relative_tolerance,
+                              m_options.quadrature.max_evaluations, summary.quadrature_error)
+                : fmt::format(
+                      "balanced: low-rank ADI did not reach adi_tolerance = {:.3g} within "
+                      "adi_max_iterations = {} ({}); raise adi_max_iterations, or set "
+                      "adi_require_convergence: false to truncate the approximate Gramians (the "
+                      "band error is still verified by the driver)",
+                      m_options.adi.tolerance, m_options.adi.max_iterations, summary.text()));
       }
       m_adi = std::move(summary);
     } else {
@@ -184,6 +190,12 @@ class BalancedReducer final : public Reducer {
       result.diagnostics["adi_converged"] = m_adi->converged() ? 1.0 : 0.0;
       result.diagnostics["adi_factorizations"] =
           static_cast<double>(c.factorizations + o.factorizations);
+      if (m_adi->band) {
+        result.diagnostics["band_integral_evaluations"] =
+            static_cast<double>(m_adi->quadrature_evaluations);
+        result.diagnostics["band_integral_error"] = m_adi->quadrature_error;
+        result.diagnostics["band_integral_seconds"] = m_adi->quadrature_seconds;
+      }
     } else {
       result.diagnostics["lyapunov_residual_c"] = m_factors->residual_c;
       result.diagnostics["lyapunov_residual_o"] = m_factors->residual_o;
@@ -225,13 +237,22 @@ class BalancedReducer final : public Reducer {
                                  m_adi->controllability.iterations,
                                  m_adi->observability.iterations, m_adi->controllability.residual,
                                  m_adi->observability.residual);
-      if (!m_adi->converged()) {
+      const bool adi_ok = m_adi->controllability.converged && m_adi->observability.converged;
+      if (!adi_ok) {
         result.note += fmt::format(
             "; WARNING: ADI did not converge to {:.1e} within {} iterations: the Gramians are "
             "approximate{}",
             m_options.adi.tolerance, m_options.adi.max_iterations,
-            m_options.structure == Structure::FirstOrder ? " and the a-priori bound does not hold"
-                                                         : "");
+            m_options.structure == Structure::FirstOrder && !m_options.band_limited
+                ? " and the a-priori bound does not hold"
+                : "");
+      }
+      if (!m_adi->quadrature_converged) {
+        result.note += fmt::format(
+            "; WARNING: the band quadrature missed {:.1e} (estimate {:.1e} after {} "
+            "evaluations): the band Gramians' right-hand sides are approximate",
+            m_options.quadrature.relative_tolerance, m_adi->quadrature_error,
+            m_adi->quadrature_evaluations);
       }
     }
     return result;
@@ -420,6 +441,12 @@ ReducerInfo balanced_info() {
        "true: an ADI run that reaches adi_max_iterations before adi_tolerance fails the setup "
        "(NumericalError with the residuals); false: the approximate Gramians are truncated, the "
        "note carries a warning, adi_converged = 0 and no a-priori bound is reported"},
+      {"band_quadrature_tolerance", "double", "1e-8",
+       "band_limited on the low-rank route: relative tolerance of the adaptive quadrature of "
+       "L_B = int (iwE - A)^-1 B dw and L_C over the band; in (0, 1)"},
+      {"band_quadrature_budget", "int", "20000",
+       "band_limited on the low-rank route: at most this many quadrature nodes (one "
+       "factorisation each); >= 15"},
   };
   return info;
 }
@@ -470,6 +497,20 @@ std::unique_ptr<Reducer> create_balanced(const ParameterMap& params) {
       params.get_int("adi_max_shifts", static_cast<long long>(o.adi.max_shifts), 1));
   o.adi_require_convergence =
       params.get_bool("adi_require_convergence", o.adi_require_convergence);
+  for (const char* key : {"band_quadrature_tolerance", "band_quadrature_budget"}) {
+    if (params.has(key) && (!o.band_limited || o.gramians == GramianRoute::Dense)) {
+      const std::string where = params.location(key);
+      throw ConfigError(fmt::format(
+          "{}{}: {}: applies to band_limited: true on the low-rank route only (the dense band "
+          "Gramians use a matrix function, no quadrature)",
+          where.empty() ? "" : where + ": ", params.owner(), key));
+    }
+  }
+  o.quadrature.max_evaluations = 20000;
+  o.quadrature.relative_tolerance = params.get_double(
+      "band_quadrature_tolerance", o.quadrature.relative_tolerance, 1e-300, 0.999999);
+  o.quadrature.max_evaluations = static_cast<Index>(params.get_int(
+      "band_quadrature_budget", static_cast<long long>(o.quadrature.max_evaluations), 15));
   return std::make_unique<BalancedReducer>(o);
 }
 

@@ -15,15 +15,25 @@
 #include "ecmor/error.hpp"
 #include "ecmor/first_order_view.hpp"
 #include "ecmor/lowrank_adi.hpp"
+#include "ecmor/quadrature.hpp"
 #include "gramian_factors.hpp"
 
 namespace ecmor::balanced {
 
-/// What the two ADI runs did, for the diagnostics, the note and the refusal of an unconverged run.
+/// What the two ADI runs (and, for band Gramians, the band quadrature) did, for the diagnostics,
+/// the note and the refusal of an unconverged run.
 struct AdiSummary {
   AdiResult controllability;  ///< without its factor (moved into GramianFactors::Zc)
   AdiResult observability;    ///< without its factor (moved into GramianFactors::Zq)
-  bool converged() const { return controllability.converged && observability.converged; }
+  bool band = false;          ///< band Gramians: the quadrature fields below are set
+  bool quadrature_converged = true;
+  Index quadrature_evaluations = 0;
+  double quadrature_error = 0.0;  ///< error estimate relative to ||[L_B L_C]||_F
+  double quadrature_seconds = 0.0;
+  /// Both ADI runs met their tolerance and (band) the quadrature its own.
+  bool converged() const {
+    return controllability.converged && observability.converged && quadrature_converged;
+  }
   /// "controllability: converged: residual ...; observability: not converged: ..."
   std::string text() const {
     return "controllability: " + controllability.message + "; observability: " +
@@ -69,6 +79,53 @@ inline GramianFactors lowrank_gramian_factors(FirstOrderView& view, const AdiOpt
   // compression changes the Gramian by at most compression_tolerance^2 relatively (lowrank_adi.hpp).
   g.residual_c = summary.controllability.residual;
   g.residual_o = summary.observability.residual;
+  g.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  return g;
+}
+
+/// The frequency-limited Gramian factors on `band` by low-rank ADI with the band's indefinite
+/// right-hand sides (lowrank_band_gramians, ecmor/lowrank_adi.hpp): L_B and L_C by adaptive
+/// quadrature (one factorisation of P(i w) per node), then both ADI runs. A quadrature or ADI run
+/// that misses its tolerance is reported in `summary`, as for the plain Gramians.
+/// 	hrows as lowrank_gramian_factors, plus NumericalError for a pole on the imaginary axis in the
+///         band (a quadrature node's factorisation fails).
+inline GramianFactors lowrank_band_gramian_factors(FirstOrderView& view, const Band& band,
+                                                   const AdiOptions& options,
+                                                   const AdaptiveQuadratureOptions& quadrature,
+                                                   AdiSummary& summary) {
+  const auto started = std::chrono::steady_clock::now();
+  if (const SecondOrderModel* so = view.so(); so != nullptr && so->D.norm() == 0.0) {
+    throw InputError(
+        "balanced: the band Gramians do not exist: the second-order model is undamped (D = 0), "
+        "so all its poles lie on the imaginary axis; add damping or use modal or krylov");
+  }
+  LowRankBandGramians bg;
+  try {
+    bg = lowrank_band_gramians(view, band, options, quadrature);
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("balanced: the band Gramians do not exist: {}", e.what()));
+  } catch (const NumericalError& e) {
+    throw NumericalError(fmt::format("balanced: low-rank band Gramians failed: {}", e.what()));
+  }
+  GramianFactors g;
+  g.states = view.state_size();
+  g.band_limited = true;
+  g.Zc = std::move(bg.controllability.Z);
+  g.Zq = std::move(bg.observability.Z);
+  g.Zo = view.apply_e_transposed(g.Zq);
+  g.residual_c = bg.controllability.residual;
+  g.residual_o = bg.observability.residual;
+  summary.controllability = static_cast<const AdiResult&>(bg.controllability);
+  summary.observability = static_cast<const AdiResult&>(bg.observability);
+  summary.controllability.Z.resize(0, 0);
+  summary.observability.Z.resize(0, 0);
+  summary.band = true;
+  const MatrixQuadrature& q = bg.integrals.quadrature;
+  summary.quadrature_converged = q.converged;
+  summary.quadrature_evaluations = q.evaluations;
+  const double size = q.integral.norm();
+  summary.quadrature_error = size > 0.0 ? q.error_estimate / size : q.error_estimate;
+  summary.quadrature_seconds = bg.quadrature_seconds;
   g.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return g;
 }
