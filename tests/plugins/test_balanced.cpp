@@ -1,6 +1,7 @@
 // Tests of the "balanced" reducer plugin (loaded through the registry like any plugin) and of its
-// private Gramian-factor header. References are independent of ecmor's Bartels-Stewart solver:
-// Gramians by the matrix sign function (Roberts' Newton iteration, written here), frequency-limited
+// private Gramian-factor header. References are independent of ecmor's Lyapunov solvers (Hammarling,
+// Bartels-Stewart): Gramian factors by the factored matrix sign function in long double (Roberts'
+// Newton iteration, written here), frequency-limited
 // Gramians by Gauss-Legendre quadrature of their defining integral, transfer functions of the full
 // models in their eigenvector basis (Eigen's QR algorithm), the bound of Glover (1984).
 #include <fmt/format.h>
@@ -25,6 +26,7 @@
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
 #include "ecmor/lyapunov.hpp"
+#include "ecmor/lyapunov_factor.hpp"
 #include "ecmor/model_io.hpp"
 #include "ecmor/registry.hpp"
 #include "ecmor/shifted_solver.hpp"
@@ -90,47 +92,65 @@ Dense dense_of(const Model& model) {
   return {fo.E, fo.A, fo.B, fo.C};
 }
 
-// ---- independent Gramians: the matrix sign function ---------------------------------------------
+// ---- independent Gramian factors: the factored matrix sign function in long double -------------
 
-/// X with F X + X F' + R = 0 for a stable F, by Roberts' Newton iteration for the sign function
-/// with determinant scaling: F_{k+1} = (c F_k + F_k^-1 / c) / 2 -> -I,
-/// R_{k+1} = (c R_k + F_k^-1 R_k F_k^-T / c) / 2 -> 2 X (Roberts 1971; Benner, Quintana-Orti 1999).
-Matrix sign_lyapunov(Matrix F, Matrix R) {
+using LMatrix = Eigen::Matrix<long double, Eigen::Dynamic, Eigen::Dynamic>;
+
+/// A factor Z (Z Z' = X) of the solution of F X + X F' + G G' = 0 for a stable F, by the factored
+/// form of Roberts' Newton iteration for the sign function with determinant scaling (Roberts 1971;
+/// Benner and Quintana-Orti, "Solving stable generalized Lyapunov equations with the matrix sign
+/// function", Numer. Algorithms 20, 1999):
+///     F_{k+1} = (c F_k + F_k^-1 / c) / 2 -> -I,
+///     G_{k+1} = [sqrt(c) G_k, F_k^-1 G_k / sqrt(c)] / sqrt(2),   G_k G_k' -> 2 X,
+/// in long double (64-bit significand, eps = 1.1e-19). G_{k+1} is kept at most n columns by an
+/// unpivoted Householder QR of its transpose (G G' = R'R exactly: an orthogonal transformation, no
+/// truncation). Why it is an independent and accurate enough reference for the plugin's Hammarling
+/// factors: a different algorithm (no Schur form: inverses and products only), never a Gramian
+/// formed and factored afterwards, and an arithmetic 2^11 times finer than double, so that its
+/// errors on the HSVs (about eps_ld cond s_1 with the conditioning of the Lyapunov operator,
+/// ||F|| / (2 min|Re lambda|) <= ~1e4 on these models) stay far below 1e-8 s_10 even for
+/// heat_cont's s_10 = 7e-8 s_1.
+LMatrix sign_factor(LMatrix F, LMatrix G) {
   const Index n = F.rows();
-  for (int k = 0; k < 100; ++k) {
-    const Eigen::PartialPivLU<Matrix> lu(F);
-    const Matrix Finv = lu.inverse();
-    double log_det = 0.0;
+  const LMatrix I = LMatrix::Identity(n, n);
+  bool converged = false;
+  for (int k = 0; k < 100 && !converged; ++k) {
+    const Eigen::PartialPivLU<LMatrix> lu(F);
+    const LMatrix Finv = lu.inverse();
+    long double log_det = 0.0L;
     for (Index i = 0; i < n; ++i) log_det += std::log(std::abs(lu.matrixLU()(i, i)));
     // Scaling only while far from convergence (it would spoil the quadratic phase).
-    const double distance = (F + Matrix::Identity(n, n)).norm() / std::sqrt(double(n));
-    const double c = distance > 1e-2 ? std::exp(-log_det / double(n)) : 1.0;
-    const Matrix Fn = 0.5 * (c * F + Finv / c);
-    R = 0.5 * (c * R + Finv * R * Finv.transpose() / c);
-    R = 0.5 * (R + R.transpose()).eval();
-    const double change = (Fn - F).norm() / std::max(1.0, F.norm());
+    const long double distance = (F + I).norm() / std::sqrt(static_cast<long double>(n));
+    const long double c = distance > 1e-2L ? std::exp(-log_det / static_cast<long double>(n)) : 1.0L;
+    const LMatrix Fn = 0.5L * (c * F + Finv / c);
+    LMatrix Gn(n, 2 * G.cols());
+    Gn << std::sqrt(c) * G, Finv * G / std::sqrt(c);
+    Gn /= std::sqrt(2.0L);
+    if (Gn.cols() > n) {
+      const Eigen::HouseholderQR<LMatrix> qr(LMatrix(Gn.transpose()));
+      Gn = qr.matrixQR().topRows(n).triangularView<Eigen::Upper>().transpose();
+    }
+    const long double change = (Fn - F).norm() / std::max(1.0L, F.norm());
     F = Fn;
-    if (change < 1e-14 * std::sqrt(double(n))) break;
+    G = Gn;
+    converged = change < 1e-17L * std::sqrt(static_cast<long double>(n));
   }
-  EXPECT_LT((F + Matrix::Identity(n, n)).norm(), 1e-10 * std::sqrt(double(n)));
-  return 0.5 * R;
+  EXPECT_TRUE(converged);
+  EXPECT_LT(static_cast<double>((F + I).norm()), 1e-14 * std::sqrt(double(n)));
+  return G / std::sqrt(2.0L);
 }
 
-/// Hankel singular values from the sign-function Gramians: P of F P + P F' + Bt Bt' = 0 and
-/// Y = E'QE of F' Y + Y F + C'C = 0 (F = E^-1 A, Bt = E^-1 B), s_i = sqrt(lambda_i(P Y)), taken as
-/// singular values of Ly' Lp with symmetric-eigen factors.
+/// Hankel singular values from the sign-function factors: Zc of F P + P F' + Bt Bt' = 0 and Zo of
+/// F' Y + Y F + C'C = 0 with Y = E'QE (F = E^-1 A, Bt = E^-1 B, all in long double), s = singular
+/// values of Zo' Zc by one-sided-accurate Jacobi SVD in long double (absolute errors ~ eps_ld s_1).
 Vector sign_hsv(const Dense& d) {
-  const Eigen::PartialPivLU<Matrix> lu(d.E);
-  const Matrix F = lu.solve(d.A);
-  const Matrix Bt = lu.solve(d.B);
-  const Matrix P = sign_lyapunov(F, Bt * Bt.transpose());
-  const Matrix Y = sign_lyapunov(F.transpose(), d.C.transpose() * d.C);
-  auto factor = [](const Matrix& X) {
-    const Eigen::SelfAdjointEigenSolver<Matrix> es(X);
-    return Matrix(es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal());
-  };
-  const Eigen::JacobiSVD<Matrix> svd(Matrix(factor(Y).transpose() * factor(P)));
-  return svd.singularValues();
+  const Eigen::PartialPivLU<LMatrix> lu(LMatrix(d.E.cast<long double>()));
+  const LMatrix F = lu.solve(LMatrix(d.A.cast<long double>()));
+  const LMatrix Bt = lu.solve(LMatrix(d.B.cast<long double>()));
+  const LMatrix Zc = sign_factor(F, Bt);
+  const LMatrix Zo = sign_factor(LMatrix(F.transpose()), LMatrix(d.C.transpose().cast<long double>()));
+  const Eigen::JacobiSVD<LMatrix> svd(LMatrix(Zo.transpose() * Zc));
+  return svd.singularValues().cast<double>();
 }
 
 Vector plugin_hsv(const balanced::GramianFactors& g) {
@@ -139,30 +159,25 @@ Vector plugin_hsv(const balanced::GramianFactors& g) {
 }
 
 TEST(Balanced, HankelSingularValuesAgreeWithTheMatrixSignFunction) {
+  // Issue 5: the leading ten HSVs agree with an independent dense computation to 1e-8 relative,
+  // including heat_cont's, which decay to 7e-8 s_1 by s_10 (the plugin's factors come straight
+  // from Hammarling's method, not from factored Gramians: absolute HSV errors ~ eps s_1).
   for (const std::string name : {"build", "iss", "cdplayer", "heat_cont"}) {
     const Model model = load_model(shared(name));
+    const Dense d = dense_of(model);
     const balanced::GramianFactors g = balanced::dense_gramian_factors(model);
     const Vector ours = plugin_hsv(g);
-    const Vector reference = sign_hsv(dense_of(model));
-    const Dense d = dense_of(model);
-    // Both routes compute dense Gramians with absolute errors ~ n eps ||X|| and factor them; an
-    // HSV s_i then moves by up to ~ n eps ||P|| ||Y|| / (2 s_i) (s_i^2 is an eigenvalue of P Y).
-    // Hence 1e-8 relative wherever that perturbation allows it (s_i >= 1e-3 s_1 here), and the
-    // perturbation bound itself (with a factor 100) for HSVs further down (heat_cont's decay to
-    // 7e-8 s_1 by s_10: no dense-Gramian method resolves them to 1e-8; Hammarling's factored
-    // solver would, see README).
-    const double scale = double(d.A.rows()) * std::numeric_limits<double>::epsilon() *
-                         g.Zc.squaredNorm() * g.Zo.squaredNorm();
+    const Vector reference = sign_hsv(d);
+    ASSERT_GE(ours.size(), 10) << name;
     double worst = 0.0;
+    Index worst_i = 0;
     for (Index i = 0; i < 10; ++i) {
       const double diff = std::abs(ours(i) - reference(i)) / reference(i);
-      const double allowed = std::max(1e-8, 100.0 * scale / (2.0 * reference(i) * reference(i)));
-      EXPECT_LE(diff, allowed) << name << " s_" << i + 1 << " = " << reference(i);
-      if (reference(i) >= 1e-3 * reference(0)) worst = std::max(worst, diff);
-      if (reference(i) < 1e-3 * reference(0)) {
-        std::cout << fmt::format(
-            "  {} s_{} = {:.3e} s_1: relative difference {:.1e} (allowed {:.1e})\n", name, i + 1,
-            reference(i) / reference(0), diff, allowed);
+      EXPECT_LE(diff, 1e-8) << name << " s_" << i + 1 << " = " << reference(i) << " = "
+                            << reference(i) / reference(0) << " s_1";
+      if (diff >= worst) {
+        worst = diff;
+        worst_i = i;
       }
     }
     // Normwise backward errors of the factored Gramians: residual / (2 ||A|| ||E|| ||X|| + ||R||).
@@ -171,13 +186,33 @@ TEST(Balanced, HankelSingularValuesAgreeWithTheMatrixSignFunction) {
     const double back_c = g.residual_c * rc / (2.0 * d.A.norm() * d.E.norm() * P.norm() + rc);
     const double back_o = g.residual_o * ro / (2.0 * d.A.norm() * d.E.norm() * Q.norm() + ro);
     std::cout << fmt::format(
-        "{}: s_1 = {:.6e}, s_10 = {:.6e}, worst relative difference of the "
-        "HSVs >= 1e-3 s_1 among the leading ten {:.2e}; residuals {:.1e}, "
-        "{:.1e} (backward errors {:.1e}, {:.1e}); {:.2f} s\n",
-        name, ours(0), ours(9), worst, g.residual_c, g.residual_o, back_c, back_o, g.seconds);
-    EXPECT_LT(worst, 1e-8) << name;
-    // A backward-stable solver and a factor truncated at eps max X_ii: backward errors of a
-    // small multiple of n eps.
+        "{}: s_1 = {:.6e}, s_10 = {:.3e} s_1; worst relative difference of the leading ten HSVs "
+        "{:.2e} (s_{}); ranks {}, {}; residuals {:.1e}, {:.1e} (backward errors {:.1e}, {:.1e}); "
+        "{:.2f} s\n",
+        name, ours(0), ours(9) / ours(0), worst, worst_i + 1, g.Zc.cols(), g.Zq.cols(),
+        g.residual_c, g.residual_o, back_c, back_o, g.seconds);
+    // Where the HSVs stop being resolved (for max_order()'s numerical-rank rule, balanced.cpp):
+    // the first s_i that differs from the reference by more than 10 %, against the current floor
+    // sqrt(n eps trace(P) trace(E'QE)) and against n eps s_1.
+    const Index count = std::min(ours.size(), reference.size());
+    Index resolved = 0;
+    while (resolved < count &&
+           std::abs(ours(resolved) - reference(resolved)) <= 0.1 * reference(resolved))
+      ++resolved;
+    const double eps = std::numeric_limits<double>::epsilon(), states = double(d.A.rows());
+    const double floor = std::sqrt(states * eps * g.Zc.squaredNorm() * g.Zo.squaredNorm());
+    Index above_floor = 0, above_neps = 0;
+    for (Index i = 0; i < ours.size(); ++i) {
+      above_floor += ours(i) > floor ? 1 : 0;
+      above_neps += ours(i) > states * eps * ours(0) ? 1 : 0;
+    }
+    std::cout << fmt::format(
+        "  {}: HSVs within 10 % of the reference: the first {} of {} (s_{} = {:.1e} s_1); "
+        "above sqrt(n eps tr P tr E'QE) = {:.1e} s_1: {}; above n eps s_1: {}\n",
+        name, resolved, count, resolved + 1 <= count ? resolved + 1 : count,
+        resolved < count ? reference(resolved) / reference(0) : 0.0, floor / ours(0), above_floor,
+        above_neps);
+    // Factors of a backward-stable solver: backward errors of a small multiple of n eps.
     EXPECT_LT(back_c, 1e-13) << name;
     EXPECT_LT(back_o, 1e-13) << name;
   }
@@ -511,6 +546,7 @@ TEST(Balanced, HsvToleranceCapsTheOrder) {
   EXPECT_NE(res.note.find("capped"), std::string::npos) << res.note;
   EXPECT_NEAR(first.diagnostics.at("hsv_1"), s(0), 1e-8 * s(0));
 }
+
 
 }  // namespace
 }  // namespace ecmor
