@@ -7,9 +7,9 @@
 ///     P ~ Zc Zc',     Q ~ Zq Zq',     E'QE ~ Zo Zo'  (Zo = E' Zq),
 /// of the controllability and observability Gramians
 ///     A P E' + E P A' + B B' = 0,     A' Q E + E' Q A + C' C = 0,
-/// so that the low-rank ADI factors (issue 5, ecmor/lowrank_adi.hpp, pending) can replace the dense
-/// ones here without touching the truncation code: ADI also returns Zc and Zq, and Zo = E' Zq is a
-/// product with E (FirstOrderView::apply_e_transposed, no 2N matrix).
+/// so that the low-rank ADI factors (lowrank_factors.hpp) go through the same truncation code: ADI
+/// also returns Zc and Zq, and Zo = E' Zq is a product with E (FirstOrderView::apply_e_transposed,
+/// no 2N matrix).
 ///
 /// Dense route (this file): the pencil checked by ecmor::stable_pencil (refuses unstable models and
 /// singular E), then the factors computed directly, never the Gramians, by Hammarling's method
@@ -238,9 +238,8 @@ inline GramianFactors dense_gramian_factors(const Model& model,
   if (states > kMaxDenseStates) {
     throw InputError(fmt::format(
         "balanced: the model has {} first-order states{}: dense Gramians are limited to "
-        "kMaxDenseStates = {} (a dense Schur form of that size takes minutes); large models need "
-        "low-rank ADI Gramian factors, which are pending (issue 5): reduce it with krylov, modal "
-        "or irka meanwhile",
+        "kMaxDenseStates = {} (a dense Schur form of that size takes minutes): use gramians: auto "
+        "or lowrank (low-rank ADI factors)",
         states, second ? fmt::format(" (2N, N = {})", size_of(model)) : std::string(),
         kMaxDenseStates));
   }
