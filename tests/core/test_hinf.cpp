@@ -257,6 +257,29 @@ TEST(HinfAnalytic, DiagonalMimoIsTheLargestChannel) {
   }
 }
 
+TEST(HinfAnalytic, IterationBudgetExhaustedIsAResultWithALowerBound) {
+  // zeta = 0.15: the test frequencies (w_n and w_d) miss the resonance w_r, so one level-set
+  // iteration raises the bound but cannot certify it.
+  const double m = 1.0, d = 0.6, k = 4.0, zeta = 0.15;
+  const double peak = 1.0 / (2.0 * k * zeta * std::sqrt(1.0 - zeta * zeta));
+  HinfOptions o;
+  o.max_iterations = 1;
+  const HinfResult r = hinf_norm(oscillator(m, d, k), o);
+  EXPECT_FALSE(r.converged) << r.message;
+  EXPECT_EQ(r.iterations, 1);
+  EXPECT_LE(r.value, peak * (1.0 + 1e-14));
+  EXPECT_GT(r.value, 0.99 * peak);
+  EXPECT_TRUE(std::isinf(r.upper_bound));
+  EXPECT_NE(r.message.find("not converged in 1 iterations"), std::string::npos) << r.message;
+  // With the default budget the same model converges, and the certified bracket holds the peak.
+  const HinfResult full = hinf_norm(oscillator(m, d, k));
+  EXPECT_TRUE(full.converged);
+  EXPECT_LE(full.value, peak * (1.0 + 1e-14));
+  EXPECT_GE(full.upper_bound, peak * (1.0 - 1e-14));
+  // The bracket is the stated relative tolerance wide (up to the rounding of the product).
+  EXPECT_LE(full.upper_bound, full.value * (1.0 + 2.0 * o.relative_tolerance) * (1.0 + 4e-16));
+}
+
 // ---------------------------------------------------------------------------------------------
 // Shared models against the brute-force sweep (the requirement: 1e-6 relative)
 
