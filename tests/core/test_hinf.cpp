@@ -315,8 +315,13 @@ TEST_P(HinfSharedModel, AgreesWithBruteForceSweep) {
   expect_agrees(r, BruteForce(model), GetParam());
 }
 
+// Not here: lf10, whose mass matrix (condition 2e6) makes every evaluation through M^-1 K
+// (the library's Hessenberg path, this sweep, the Hamiltonian) inaccurate at omega = 0 by 2e-5..5e-5
+// against C K^-1 B (see docs/error-measures.md); random200 agrees with the sweep to 2e-9 only,
+// the distance between two backward-stable evaluations of a model with norm 1.6e7, above the
+// 1e-9 of the peak check (still within the 1e-6).
 INSTANTIATE_TEST_SUITE_P(Small, HinfSharedModel,
-                         ::testing::Values("build", "cdplayer", "iss", "build_so"));
+                         ::testing::Values("build", "cdplayer", "iss", "build_so", "iss_so", "beam"));
 
 // ---------------------------------------------------------------------------------------------
 // Error systems
