@@ -58,11 +58,10 @@ StateSpace state_space(const ReducedModel& model, std::string_view origin) {
   const Vector pivots = lu.matrixLU().diagonal().cwiseAbs();
   const double rcond = std::min(lu.rcond(), pivots.minCoeff() / pivots.maxCoeff());
   if (!(rcond > static_cast<double>(r.E.rows()) * kEps))
-    throw InputError(std::string(origin) + ": " +
-                     (kind_of(model) == ModelKind::SecondOrder ? "M" : "E") +
-                     " is numerically singular (reciprocal condition " +
-                     detail::number_text(rcond) +
-                     "): descriptor models (DAEs) are not supported by the H-infinity norm");
+    throw InputError(
+        std::string(origin) + ": " + (kind_of(model) == ModelKind::SecondOrder ? "M" : "E") +
+        " is numerically singular (reciprocal condition " + detail::number_text(rcond) +
+        "): descriptor models (DAEs) are not supported by the H-infinity norm");
   require_stable(model, origin);
   return StateSpace{lu.solve(r.A), lu.solve(r.B), r.C};
 }
@@ -163,9 +162,9 @@ HinfResult level_set(StateSpace ss, const ReducedModel& a, const ReducedModel* b
     return result;
   };
   if (lower == 0.0)
-    // A nonzero transfer matrix of order n vanishes at fewer than n frequencies; the test
-    // frequencies number more than n unless all poles are real. Exactly zero everywhere happens
-    // for B = 0, C = 0 or a model against itself.
+    // A nonzero transfer matrix of order n (numerators of degree < n) vanishes at fewer than n
+    // frequencies; there are at least n + 1 test frequencies (distinct unless poles repeat).
+    // Exactly zero everywhere happens for B = 0, C = 0 or a model against itself.
     return finish(true, "the transfer matrix is exactly zero at all " +
                             std::to_string(tests.size()) + " test frequencies");
 

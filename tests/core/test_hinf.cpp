@@ -212,8 +212,8 @@ TEST(HinfAnalytic, LightlyDampedOscillatorResonance) {
     ASSERT_LT(zeta, 1.0 / std::sqrt(2.0));
     const double peak = 1.0 / (2.0 * k * zeta * std::sqrt(1.0 - zeta * zeta));
     const double wr = wn * std::sqrt(1.0 - 2.0 * zeta * zeta);
-    for (const ReducedModel& model :
-         {ReducedModel(oscillator(m, d, k)), ReducedModel(first_order_realization(oscillator(m, d, k)))}) {
+    for (const ReducedModel& model : {ReducedModel(oscillator(m, d, k)),
+                                      ReducedModel(first_order_realization(oscillator(m, d, k)))}) {
       const HinfResult r = hinf_norm(model);
       EXPECT_TRUE(r.converged) << r.message;
       EXPECT_LT(rel(r.value, peak), 1e-10) << "d = " << d << ": " << r.message;
@@ -296,11 +296,12 @@ void expect_agrees(const HinfResult& r, const BruteForce& ref, const std::string
   EXPECT_GE(r.value, sweep * (1.0 - 1e-12)) << name << ": the sweep found a larger value";
   EXPECT_LE(r.value, sweep * (1.0 + 1e-6)) << name;
   EXPECT_LT(rel(ref.sigma(r.omega_peak_rad_s), r.value), 1e-9) << name;
-  std::printf("[ hinf     ] %-28s %.12e at %.6g rad/s, %lld iterations, %lld evaluations (%s); "
-              "sweep %.12e at %.6g rad/s (%.1f s), rel. diff %.2e\n",
-              name.c_str(), r.value, r.omega_peak_rad_s, static_cast<long long>(r.iterations),
-              static_cast<long long>(r.evaluations), r.message.c_str(), sweep, w_ref,
-              sweep_seconds, (r.value - sweep) / sweep);
+  std::printf(
+      "[ hinf     ] %-28s %.12e at %.6g rad/s, %lld iterations, %lld evaluations (%s); "
+      "sweep %.12e at %.6g rad/s (%.1f s), rel. diff %.2e\n",
+      name.c_str(), r.value, r.omega_peak_rad_s, static_cast<long long>(r.iterations),
+      static_cast<long long>(r.evaluations), r.message.c_str(), sweep, w_ref, sweep_seconds,
+      (r.value - sweep) / sweep);
 }
 
 class HinfSharedModel : public ::testing::TestWithParam<std::string> {};
@@ -316,12 +317,13 @@ TEST_P(HinfSharedModel, AgreesWithBruteForceSweep) {
 }
 
 // Not here: lf10, whose mass matrix (condition 2e6) makes every evaluation through M^-1 K
-// (the library's Hessenberg path, this sweep, the Hamiltonian) inaccurate at omega = 0 by 2e-5..5e-5
-// against C K^-1 B (see docs/error-measures.md); random200 agrees with the sweep to 2e-9 only,
-// the distance between two backward-stable evaluations of a model with norm 1.6e7, above the
+// (the library's Hessenberg path, this sweep, the Hamiltonian) inaccurate at omega = 0 by
+// 2e-5..5e-5 against C K^-1 B (see docs/error-measures.md); random200 agrees with the sweep to 2e-9
+// only, the distance between two backward-stable evaluations of a model with norm 1.6e7, above the
 // 1e-9 of the peak check (still within the 1e-6).
 INSTANTIATE_TEST_SUITE_P(Small, HinfSharedModel,
-                         ::testing::Values("build", "cdplayer", "iss", "build_so", "iss_so", "beam"));
+                         ::testing::Values("build", "cdplayer", "iss", "build_so", "iss_so",
+                                           "beam"));
 
 // ---------------------------------------------------------------------------------------------
 // Error systems
@@ -339,9 +341,9 @@ TEST(HinfError, BalancedTruncationAgreesWithSweepAndGloverBounds) {
   // For any reduced model of order r, ||G - Gr||_inf >= s_{r+1} (Hankel singular value), and
   // for balanced truncation ||G - Gr||_inf <= 2 (s_{r+1} + ... + s_n) (Glover 1984): bounds
   // independent of both our method and the sweep.
-  for (const auto& [name, r] : {std::pair<std::string, Index>{"build", 12},
-                               std::pair<std::string, Index>{"cdplayer", 20},
-                               std::pair<std::string, Index>{"build_so", 10}}) {
+  for (const auto& [name, r] :
+       {std::pair<std::string, Index>{"build", 12}, std::pair<std::string, Index>{"cdplayer", 20},
+        std::pair<std::string, Index>{"build_so", 10}}) {
     const ReducedModel full = densify(load_model(kModels + name));
     const test::BalancedTruncation bt = test::dense_balanced_truncation(full, r);
     const ReducedModel reduced = bt.model;
@@ -387,8 +389,9 @@ TEST(HinfInput, SingularMassAndMismatchedSizesAreRefused) {
 TEST(HinfInput, InvalidOptionsNameTheField) {
   HinfOptions o;
   o.relative_tolerance = 0.0;
-  EXPECT_NE(message_of<ConfigError>([&] { hinf_norm(oscillator(1.0, 0.1, 4.0), o); })
-                .find("HinfOptions::relative_tolerance = 0"),
+  EXPECT_NE(message_of<ConfigError>([&] {
+              hinf_norm(oscillator(1.0, 0.1, 4.0), o);
+            }).find("HinfOptions::relative_tolerance = 0"),
             std::string::npos);
   o = HinfOptions{};
   o.max_iterations = 0;

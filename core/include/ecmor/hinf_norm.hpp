@@ -40,15 +40,15 @@ struct ECMOR_API HinfOptions {
 /// Result of hinf_norm and hinf_error_norm. Not converging within max_iterations is a result
 /// (converged = false, value a lower bound), not an exception.
 struct ECMOR_API HinfResult {
-  double value = 0.0;            ///< ||G||_Hinf (a lower bound, attained at omega_peak_rad_s)
-  double upper_bound = 0.0;      ///< value (1 + 2 tol) when converged, +inf otherwise
-  double omega_peak_rad_s = 0.0; ///< a frequency where sigma_max(G(i omega)) = value, rad/s
-  double f_peak_hz = 0.0;        ///< the same in Hz (omega / 2 pi)
-  Index iterations = 0;          ///< Hamiltonian eigenvalue problems solved
-  Index evaluations = 0;         ///< transfer-matrix evaluations (test frequencies, midpoints)
-  bool converged = false;        ///< the level-set test certified the tolerance
-  std::string method;            ///< "level set (Bruinsma-Steinbuch)"
-  std::string message;           ///< how the iteration ended, with numbers
+  double value = 0.0;             ///< ||G||_Hinf (a lower bound, attained at omega_peak_rad_s)
+  double upper_bound = 0.0;       ///< value (1 + 2 tol) when converged, +inf otherwise
+  double omega_peak_rad_s = 0.0;  ///< a frequency where sigma_max(G(i omega)) = value, rad/s
+  double f_peak_hz = 0.0;         ///< the same in Hz (omega / 2 pi)
+  Index iterations = 0;           ///< Hamiltonian eigenvalue problems solved
+  Index evaluations = 0;          ///< transfer-matrix evaluations (test frequencies, midpoints)
+  bool converged = false;         ///< the level-set test certified the tolerance
+  std::string method;             ///< "level set (Bruinsma-Steinbuch)"
+  std::string message;            ///< how the iteration ended, with numbers
 };
 
 /// ||G||_Hinf of a dense model of either kind (through first_order_realization).
