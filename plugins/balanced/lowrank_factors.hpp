@@ -41,6 +41,19 @@ struct AdiSummary {
   }
 };
 
+/// Refuses an undamped second-order model (D = 0) before any iteration: every pole is then on the
+/// imaginary axis, which is certain without computing one. (A damped model with an undamped mode
+/// is caught by the ADI: no admissible shift, or a Ritz value on the axis that is an eigenvalue.)
+inline void refuse_undamped(const FirstOrderView& view, const char* what) {
+  if (const SecondOrderModel* so = view.so(); so != nullptr && so->D.norm() == 0.0) {
+    throw InputError(fmt::format(
+        "balanced: the {} do not exist: the second-order model is undamped (D = 0), so all its "
+        "poles lie on the imaginary axis and the Lyapunov equations have no solution; add damping "
+        "(e.g. Rayleigh damping alpha M + beta K) or use modal or krylov",
+        what));
+  }
+}
+
 /// Both Gramian factors by low-rank ADI with one LowRankAdi, so the observability run reuses the
 /// shift factorisations of the controllability run. An ADI run that stops at its budget is a
 /// result (AdiSummary::converged() false, residual reported), not an exception: the caller
@@ -50,15 +63,7 @@ struct AdiSummary {
 inline GramianFactors lowrank_gramian_factors(FirstOrderView& view, const AdiOptions& options,
                                               AdiSummary& summary) {
   const auto started = std::chrono::steady_clock::now();
-  if (const SecondOrderModel* so = view.so(); so != nullptr && so->D.norm() == 0.0) {
-    // Certain without any iteration: with D = 0 every pole is on the imaginary axis. (A damped
-    // model with an undamped mode is caught by the ADI: no admissible shift, or a Ritz value on
-    // the axis that is an eigenvalue.)
-    throw InputError(
-        "balanced: the Gramians do not exist: the second-order model is undamped (D = 0), so all "
-        "its poles lie on the imaginary axis and the Lyapunov equations have no solution; add "
-        "damping (e.g. Rayleigh damping alpha M + beta K) or use modal or krylov");
-  }
+  refuse_undamped(view, "Gramians");
   LowRankAdi adi(view, options);
   GramianFactors g;
   g.states = view.state_size();
@@ -94,11 +99,7 @@ inline GramianFactors lowrank_band_gramian_factors(FirstOrderView& view, const B
                                                    const AdaptiveQuadratureOptions& quadrature,
                                                    AdiSummary& summary) {
   const auto started = std::chrono::steady_clock::now();
-  if (const SecondOrderModel* so = view.so(); so != nullptr && so->D.norm() == 0.0) {
-    throw InputError(
-        "balanced: the band Gramians do not exist: the second-order model is undamped (D = 0), "
-        "so all its poles lie on the imaginary axis; add damping or use modal or krylov");
-  }
+  refuse_undamped(view, "band Gramians");
   LowRankBandGramians bg;
   try {
     bg = lowrank_band_gramians(view, band, options, quadrature);
