@@ -1,6 +1,7 @@
 #include "commands.hpp"
 
 #include <fmt/core.h>
+#include <fmt/format.h>
 
 #include <atomic>
 #include <csignal>
@@ -37,11 +38,24 @@ class TablePrinter final : public RunObserver {
     fmt::print("band     [{:g}, {:g}] Hz    target: relative {} error <= {:g}\n",
                config.band.f_min_hz, config.band.f_max_hz, to_string(config.norm),
                config.tolerance);
-    fmt::print("reducer  {}    strategy {}    output {}\n\n", config.reducer_name,
-               config.strategy_name, config.output_dir.string());
+    if (config.portfolio.empty()) {
+      fmt::print("reducer  {}    strategy {}    output {}\n\n", config.reducer_name,
+                 config.strategy_name, config.output_dir.string());
+    } else {
+      std::vector<std::string> labels;
+      for (const PortfolioMember& m : config.portfolio) labels.push_back(m.label());
+      fmt::print("portfolio  {}    output {}\n\n", fmt::join(labels, ", "),
+                 config.output_dir.string());
+    }
     fmt::print("{:>4}  {:<7} {:>6}  {:>10}  {:>11}  {:>4}  {:>8}  {:>6}  {:>7}  {}\n", "iter",
                "phase", "order", "band err", "f_peak Hz", "met", "time s", "facts", "solves",
                "note");
+    std::fflush(stdout);
+  }
+
+  void on_member_started(std::size_t index, std::size_t count, const std::string& label) override {
+    if (m_quiet) return;
+    fmt::print("---- portfolio member {}/{}: {}\n", index + 1, count, label);
     std::fflush(stdout);
   }
 
@@ -60,6 +74,13 @@ class TablePrinter final : public RunObserver {
 
   void on_finished(const RunSummary& s) override {
     if (!m_quiet) fmt::print("\n");
+    if (s.attempts.size() > 1) {
+      for (const PortfolioAttempt& a : s.attempts) {
+        fmt::print("  {} {:<28} {:<18} order {:>4}  band error {:>9.3e}  {:>7.2f} s\n",
+                   a.selected ? "*" : " ", a.label(), a.termination, a.order, a.band_error,
+                   a.seconds);
+      }
+    }
     fmt::print("{}: {}\n", to_string(s.termination), s.message);
     if (s.has_model) {
       fmt::print(

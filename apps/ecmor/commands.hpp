@@ -44,6 +44,15 @@ struct BenchOptions {
 /// errors, times and counters per run; writes bench.csv, bench.json and bench.md (a table).
 /// 0 when every run met its target, 2 when some did not, 1 on an error before the runs.
 int bench(const BenchOptions& options, const CommonOptions& common);
+/// Options of `ecmor check`.
+struct CheckOptions {
+  std::vector<std::filesystem::path> inputs;  ///< config files or directories of *.yaml
+  std::filesystem::path output_dir = "out/check";
+};
+/// `ecmor check CONFIG_OR_DIR...`: runs each config and checks its target (met, independent
+/// re-check within tolerance, stable) and its `check:` budgets; prints a pass/fail table and writes
+/// check.json and check.md. 0 when all pass, 1 when any fails or on an error, 130 interrupted.
+int check(const CheckOptions& options, const CommonOptions& common);
 /// `ecmor info MODEL_DIR`: sizes, nnz, symmetry, definiteness, lowest eigenfrequencies.
 int info(const std::filesystem::path& model_dir, int eigenfrequencies, const CommonOptions& common);
 

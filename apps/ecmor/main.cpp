@@ -57,6 +57,18 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   add_common(bench);
 
+  ecmor::app::CheckOptions check_options;
+  auto* check = cli.add_subcommand(
+      "check", "run configurations as regression tests of their tolerance targets (and of their "
+               "optional check: budgets); pass/fail table, exit 1 on any failure");
+  check->add_option("inputs", check_options.inputs,
+                    "YAML configurations or directories of them (*.yaml, not recursive)")
+      ->required();
+  check->add_option("-o,--output", check_options.output_dir,
+                    "output directory; each config's run goes to DIR/<config name> (default "
+                    "out/check)");
+  add_common(check);
+
   std::filesystem::path model_dir;
   int eigenfrequencies = 10;
   auto* info = cli.add_subcommand(
@@ -76,6 +88,7 @@ int main(int argc, char** argv) {
   }
   if (*reduce) return ecmor::app::reduce(config, common);
   if (*bench) return ecmor::app::bench(bench_options, common);
+  if (*check) return ecmor::app::check(check_options, common);
   if (*plugins) return ecmor::app::plugins(common);
   if (*info) return ecmor::app::info(model_dir, eigenfrequencies, common);
   return 1;

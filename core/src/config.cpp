@@ -20,7 +20,7 @@ namespace ecmor {
 namespace {
 
 const std::vector<std::string> kSections = {"model", "band",   "target", "reducer", "strategy",
-                                            "error", "solver", "output", "plugins"};
+                                            "error", "solver", "output", "plugins", "check"};
 
 std::string node_kind(const YAML::Node& node) {
   switch (node.Type()) {
@@ -120,6 +120,8 @@ class Parser {
 
   /// Every key but `name` becomes a parameter of the reducer/strategy.
   void collect_parameters(const YAML::Node& map, const std::string& sec, ParameterMap& params);
+  /// strategy: {name: portfolio, prune: ..., members: [{reducer: {...}, strategy: {...}}, ...]}.
+  void parse_portfolio(const YAML::Node& strategy, RunConfig& config);
   ParameterValue parameter(const YAML::Node& key, const YAML::Node& value,
                            const std::string& full_key);
 
@@ -289,6 +291,66 @@ void Parser::collect_parameters(const YAML::Node& map, const std::string& sec,
   }
 }
 
+void Parser::parse_portfolio(const YAML::Node& strategy, RunConfig& config) {
+  check_keys(strategy, "'strategy' (portfolio)", {"name", "members", "prune", "time_limit_s"});
+  if (auto v = boolean(strategy, "strategy", "prune")) config.portfolio_prune = *v;
+  const YAML::Node members = strategy["members"];
+  const std::string shape =
+      "a list of {reducer: {name: ..., <parameters>}, strategy: {name: ..., <parameters>}}";
+  if (!members.IsDefined()) fail(at(strategy), "strategy 'portfolio' needs 'members': " + shape);
+  if (!members.IsSequence() || members.size() == 0)
+    fail(members.IsNull() ? key_location(strategy, "members") : at(members),
+         fmt::format("strategy.members must be {}, found {}", shape,
+                     members.IsSequence() ? "an empty list" : node_kind(members)));
+  for (std::size_t k = 0; k < members.size(); ++k) {
+    const YAML::Node item = members[k];
+    const std::string where = fmt::format("strategy.members[{}]", k + 1);
+    if (!item.IsMap())
+      fail(at(item), fmt::format("{} must be a mapping with 'reducer' (and optionally "
+                                 "'strategy'), found {}",
+                                 where, node_kind(item)));
+    check_keys(item, where, {"reducer", "strategy"});
+    PortfolioMember member;
+    const YAML::Node reducer = item["reducer"];
+    if (!reducer.IsDefined())
+      fail(at(item), fmt::format("missing required key '{}.reducer'", where));
+    if (!reducer.IsMap())
+      fail(reducer.IsNull() ? key_location(item, "reducer") : at(reducer),
+           fmt::format("{}.reducer must be a mapping with 'name' and the reducer's parameters, "
+                       "found {}",
+                       where, node_kind(reducer)));
+    check_keys(reducer, "'" + where + ".reducer'", {});
+    member.reducer_name = *text(reducer, where + ".reducer", "name", true);
+    member.reducer_params =
+        ParameterMap(fmt::format("reducer '{}' ({})", member.reducer_name, where));
+    collect_parameters(reducer, where + ".reducer", member.reducer_params);
+    const YAML::Node inner = item["strategy"];
+    if (inner.IsDefined() && !inner.IsMap())
+      fail(inner.IsNull() ? key_location(item, "strategy") : at(inner),
+           fmt::format("{}.strategy must be a mapping with 'name' and the strategy's parameters, "
+                       "found {}",
+                       where, node_kind(inner)));
+    if (inner.IsDefined()) {
+      check_keys(inner, "'" + where + ".strategy'", {});
+      if (auto name = text(inner, where + ".strategy", "name", false)) member.strategy_name = *name;
+      if (member.strategy_name == "portfolio")
+        fail(at(inner["name"]), where + ".strategy: a portfolio member cannot be a portfolio");
+      if (inner["time_limit_s"].IsDefined())
+        fail(at(inner["time_limit_s"]),
+             where +
+                 ".strategy.time_limit_s: the time limit is the whole portfolio's; give it as "
+                 "strategy.time_limit_s");
+      member.strategy_params =
+          ParameterMap(fmt::format("strategy '{}' ({})", member.strategy_name, where));
+      collect_parameters(inner, where + ".strategy", member.strategy_params);
+    } else {
+      member.strategy_params =
+          ParameterMap(fmt::format("strategy '{}' ({})", member.strategy_name, where));
+    }
+    config.portfolio.push_back(std::move(member));
+  }
+}
+
 RunConfig Parser::parse(const std::string& yaml) {
   try {
     m_root = YAML::Load(yaml);
@@ -304,9 +366,18 @@ RunConfig Parser::parse(const std::string& yaml) {
     fail(at(m_root), fmt::format("expected a mapping of sections ({}), found {}",
                                  fmt::join(kSections, ", "), node_kind(m_root)));
   check_keys(m_root, "the configuration", kSections);
-  for (const char* required : {"model", "band", "target", "reducer", "output"})
+  const YAML::Node strategy_node = m_root["strategy"];
+  const bool portfolio = strategy_node.IsMap() && strategy_node["name"].IsScalar() &&
+                         strategy_node["name"].Scalar() == "portfolio";
+  for (const char* required : {"model", "band", "target", "reducer", "output"}) {
+    if (portfolio && std::string(required) == "reducer") continue;
     if (!m_root[required].IsDefined())
       fail(at(m_root), fmt::format("missing required section '{}'", required));
+  }
+  if (portfolio && m_root["reducer"].IsDefined())
+    fail(key_location(m_root, "reducer"),
+         "with strategy 'portfolio' each member names its reducer (strategy.members[k].reducer); "
+         "remove the top-level 'reducer' section");
 
   RunConfig config;
 
@@ -344,15 +415,20 @@ RunConfig Parser::parse(const std::string& yaml) {
     }
   }
 
-  const YAML::Node reducer = section(m_root, "reducer", {"name"}, true);
-  config.reducer_name = *text(reducer, "reducer", "name", true);
-  config.reducer_params = ParameterMap("reducer '" + config.reducer_name + "'");
-  collect_parameters(reducer, "reducer", config.reducer_params);
-
   const YAML::Node strategy = section(m_root, "strategy", {"name"}, true);
-  if (auto name = text(strategy, "strategy", "name", false)) config.strategy_name = *name;
-  config.strategy_params = ParameterMap("strategy '" + config.strategy_name + "'");
-  collect_parameters(strategy, "strategy", config.strategy_params);
+  if (portfolio) {
+    config.reducer_name = "portfolio";
+    config.strategy_name = "portfolio";
+    parse_portfolio(strategy, config);
+  } else {
+    const YAML::Node reducer = section(m_root, "reducer", {"name"}, true);
+    config.reducer_name = *text(reducer, "reducer", "name", true);
+    config.reducer_params = ParameterMap("reducer '" + config.reducer_name + "'");
+    collect_parameters(reducer, "reducer", config.reducer_params);
+    if (auto name = text(strategy, "strategy", "name", false)) config.strategy_name = *name;
+    config.strategy_params = ParameterMap("strategy '" + config.strategy_name + "'");
+    collect_parameters(strategy, "strategy", config.strategy_params);
+  }
   if (auto v = number(strategy, "strategy", "time_limit_s", false)) {
     if (!(*v > 0.0))
       fail(at(strategy["time_limit_s"]),
@@ -397,6 +473,15 @@ RunConfig Parser::parse(const std::string& yaml) {
       (std::string(key) == "symmetry_tol" ? config.solver.symmetry_tol
                                           : config.solver.singular_rcond) = *v;
     }
+  }
+
+  const YAML::Node check = section(m_root, "check", {"max_order", "max_seconds"});
+  if (auto v = integer(check, "check", "max_order", 1)) config.check_max_order = *v;
+  if (auto v = number(check, "check", "max_seconds", false)) {
+    if (!(*v > 0.0))
+      fail(at(check["max_seconds"]),
+           fmt::format("check.max_seconds = {}: must be > 0", check["max_seconds"].Scalar()));
+    config.check_max_seconds = *v;
   }
 
   const YAML::Node output = section(m_root, "output", {"dir"});

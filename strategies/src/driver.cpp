@@ -1,12 +1,12 @@
 #include "ecmor/strategies/driver.hpp"
 
+#include <fmt/format.h>
 #include <sys/resource.h>
 
 #include <chrono>
 #include <fstream>
 #include <iomanip>
-
-#include <fmt/format.h>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "ecmor/atomic_file.hpp"
@@ -101,6 +101,66 @@ class TimedReducer final : public Reducer {
 
 }  // namespace
 
+namespace {
+
+/// A member ready to run: created (and its parameters validated) before any heavy work.
+struct PreparedMember {
+  PortfolioMember member;
+  std::shared_ptr<Reducer> reducer;
+  std::unique_ptr<Strategy> strategy;
+  ReducerInfo info;
+};
+
+std::vector<PreparedMember> prepare_members(const RunConfig& config, Registry& registry) {
+  std::vector<PortfolioMember> members = config.portfolio;
+  const bool portfolio = !members.empty();
+  if (!portfolio) {
+    members.push_back(PortfolioMember{config.reducer_name, config.reducer_params,
+                                      config.strategy_name, config.strategy_params});
+  }
+  std::vector<PreparedMember> out;
+  for (std::size_t k = 0; k < members.size(); ++k) {
+    PreparedMember p;
+    p.member = members[k];
+    p.reducer = registry.create(p.member.reducer_name, p.member.reducer_params);
+    p.strategy = make_strategy(p.member.strategy_name, p.member.strategy_params);
+    for (const Registry::Entry& e : registry.entries()) {
+      if (e.info.name == p.member.reducer_name) p.info = e.info;
+    }
+    if (p.strategy->moves_points() && !p.info.uses_expansion_points) {
+      const std::string where =
+          portfolio ? fmt::format(" (strategy.members[{}])", k + 1) : std::string();
+      throw ConfigError(config.source.string() + ": strategy '" + p.member.strategy_name +
+                        "' moves expansion points, but reducer '" + p.member.reducer_name +
+                        "' does not use them; use strategy grow_order with it" + where);
+    }
+    out.push_back(std::move(p));
+  }
+  return out;
+}
+
+/// Index of the reported attempt: the smallest order meeting the target (ties: less time), else
+/// the smallest band error among members with a model; -1 when no member has one.
+int select_winner(const std::vector<PortfolioAttempt>& attempts) {
+  int best = -1;
+  for (std::size_t k = 0; k < attempts.size(); ++k) {
+    const PortfolioAttempt& a = attempts[k];
+    if (!a.has_model) continue;
+    if (best < 0) {
+      best = static_cast<int>(k);
+      continue;
+    }
+    const PortfolioAttempt& b = attempts[static_cast<std::size_t>(best)];
+    const bool better = a.met != b.met ? a.met
+                        : a.met ? (a.order != b.order ? a.order < b.order : a.seconds < b.seconds)
+                                : a.band_error < b.band_error;
+    if (better) best = static_cast<int>(k);
+  }
+  return best;
+}
+
+}  // namespace
+
 RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserver* observer) {
   const auto start = std::chrono::steady_clock::now();
   auto elapsed = [&] {
@@ -111,38 +171,17 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   const double load_seconds = elapsed();
   if (observer) observer->on_model_loaded(config, model, load_seconds);
 
-  // Bad configuration is found before any heavy work.
-  std::shared_ptr<Reducer> reducer = registry.create(config.reducer_name, config.reducer_params);
-  std::unique_ptr<Strategy> strategy = make_strategy(config.strategy_name, config.strategy_params);
-  ReducerInfo reducer_info;
-  for (const Registry::Entry& e : registry.entries()) {
-    if (e.info.name == config.reducer_name) reducer_info = e.info;
-  }
-  if (strategy->moves_points() && !reducer_info.uses_expansion_points) {
-    throw ConfigError(config.source.string() + ": strategy '" + config.strategy_name +
-                      "' moves expansion points, but reducer '" + config.reducer_name +
-                      "' does not use them; use strategy grow_order with it");
-  }
+  // Bad configuration (of every member) is found before any heavy work.
+  std::vector<PreparedMember> members = prepare_members(config, registry);
+  const bool portfolio = !config.portfolio.empty();
 
   std::unique_ptr<ShiftedSolver> solver = make_shifted_solver(model, config.solver);
   ResponseCache cache(model, *solver, config.threads);
   BandErrorOptions error_options = config.error;
   error_options.norm = config.norm;
   BandErrorEstimator estimator(cache, config.band, error_options);
-
-  reducer->setup(ReductionContext{&model, solver.get(), config.band});
-  TimedReducer timed(*reducer, *solver);
-
   HistoryWriter history(config.output_dir);
-  StrategyContext ctx;
-  ctx.reducer = &timed;
-  ctx.reducer_info = reducer_info;
-  ctx.estimator = &estimator;
-  ctx.tolerance = config.tolerance;
-  ctx.verify_factor = config.verify_factor;
-  ctx.start = start;
-  ctx.counters = [&] { return solver->counters(); };
-  ctx.full_evaluations = [&] { return cache.size(); };
+
   // The time limit acts as an interrupt: strategies poll stop_requested() and finish with the
   // best model so far; the message then says which of the two ended the run.
   bool out_of_time = false;
@@ -150,21 +189,159 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
     if (config.time_limit_s > 0.0 && elapsed() > config.time_limit_s) out_of_time = true;
     return out_of_time;
   };
-  ctx.stop_requested = [&] {
-    return time_is_up() || (observer != nullptr && observer->stop_requested());
-  };
-  ctx.on_iteration = [&](const IterationRecord& rec) {
-    IterationRecord with_memory = rec;
-    with_memory.diagnostics["peak_memory_mb"] = peak_memory_mb();
-    history.append(with_memory);
-    const bool go_on = observer ? observer->on_iteration(with_memory) : true;
-    return !time_is_up() && go_on;
+  bool user_stop = false;
+  auto stop_requested = [&] {
+    if (observer != nullptr && observer->stop_requested()) user_stop = true;
+    return time_is_up() || user_stop;
   };
 
-  StrategyResult result = strategy->run(ctx);
-  if (out_of_time && result.termination == Termination::Interrupted) {
-    result.message = fmt::format("time limit strategy.time_limit_s = {} s used up: {}",
-                                 config.time_limit_s, result.message);
+  std::vector<PortfolioAttempt> attempts;
+  std::vector<StrategyResult> results;
+  double reducer_seconds = 0.0;
+  Index reducer_calls = 0;
+  SolverCounters reducer_counters;
+  Index smallest_met_order = 0;  // of the members so far; 0: none met yet
+  for (std::size_t k = 0; k < members.size(); ++k) {
+    PreparedMember& m = members[k];
+    PortfolioAttempt attempt;
+    attempt.reducer = m.member.reducer_name;
+    attempt.strategy = m.member.strategy_name;
+    if (k > 0 && stop_requested()) {
+      attempt.termination = "not_run";
+      attempt.message = out_of_time ? "the time limit was used up before it started"
+                                    : "interrupted before it started";
+      attempts.push_back(attempt);
+      results.emplace_back();
+      continue;
+    }
+    if (observer && portfolio) observer->on_member_started(k, members.size(), attempt.label());
+    const double member_start = elapsed();
+    TimedReducer timed(*m.reducer, *solver);
+    const Index offset = static_cast<Index>(history.records().size());
+    bool pruned = false;
+    StrategyContext ctx;
+    ctx.reducer = &timed;
+    ctx.reducer_info = m.info;
+    ctx.estimator = &estimator;
+    ctx.tolerance = config.tolerance;
+    ctx.verify_factor = config.verify_factor;
+    ctx.start = start;
+    ctx.counters = [&] { return solver->counters(); };
+    ctx.full_evaluations = [&] { return cache.size(); };
+    ctx.stop_requested = stop_requested;
+    ctx.on_iteration = [&](const IterationRecord& rec) {
+      IterationRecord r = rec;
+      r.iteration += offset;  // one numbering over all members
+      r.diagnostics["peak_memory_mb"] = peak_memory_mb();
+      if (portfolio) {
+        r.diagnostics["portfolio_member"] = static_cast<double>(k + 1);
+        r.note = "[" + attempt.label() + "] " + r.note;
+      }
+      history.append(r);
+      const bool go_on = observer ? observer->on_iteration(r) : true;
+      // A grow_order member's order only grows: once it reaches the smallest order that met the
+      // target without meeting it, it cannot win.
+      if (portfolio && config.portfolio_prune && m.member.strategy_name == "grow_order" &&
+          smallest_met_order > 0 && r.order >= smallest_met_order && !r.meets_tolerance) {
+        pruned = true;
+        return false;
+      }
+      return !time_is_up() && go_on;
+    };
+
+    StrategyResult result;
+    try {
+      m.reducer->setup(ReductionContext{&model, solver.get(), config.band});
+      result = m.strategy->run(ctx);
+    } catch (const std::exception& e) {
+      if (!portfolio) throw;  // a plain run reports its error as before
+      // The next member may well do the job (e.g. balanced truncation refuses an undamped
+      // model that modal reduction handles): record the failure and go on.
+      result = StrategyResult{};
+      result.termination = Termination::Failed;
+      result.message = e.what();
+      IterationRecord r;
+      r.iteration = static_cast<Index>(history.records().size()) + 1;
+      r.phase = "failed";
+      r.band_error = std::numeric_limits<double>::quiet_NaN();
+      r.seconds = elapsed();
+      r.step_seconds = elapsed() - member_start;
+      r.counters = solver->counters();
+      r.full_evaluations = cache.size();
+      r.note = "[" + attempt.label() + "] failed: " + e.what();
+      r.diagnostics["portfolio_member"] = static_cast<double>(k + 1);
+      history.append(r);
+      if (observer) observer->on_iteration(r);
+    }
+    if (out_of_time && result.termination == Termination::Interrupted) {
+      result.message = fmt::format("time limit strategy.time_limit_s = {} s used up: {}",
+                                   config.time_limit_s, result.message);
+    }
+    attempt.termination = pruned ? std::string("pruned") : to_string(result.termination);
+    attempt.message = pruned
+                          ? fmt::format(
+                                "stopped at order {} >= {}, the smallest order that met the target "
+                                "so far: {}",
+                                result.history.empty() ? 0 : result.history.back().order,
+                                smallest_met_order, result.message)
+                          : result.message;
+    attempt.has_model = result.best.has_value();
+    attempt.order = attempt.has_model ? result.best->V.cols() : 0;
+    attempt.band_error = attempt.has_model ? result.best_error.sup_relative : 0.0;
+    attempt.met = result.met();
+    attempt.seconds = elapsed() - member_start;
+    attempt.reducer_seconds = timed.seconds();
+    attempt.iterations = static_cast<Index>(result.history.size());
+    if (attempt.met && (smallest_met_order == 0 || attempt.order < smallest_met_order)) {
+      smallest_met_order = attempt.order;
+    }
+    reducer_seconds += timed.seconds();
+    reducer_calls += timed.calls();
+    reducer_counters += timed.counters();
+    attempts.push_back(attempt);
+    results.push_back(std::move(result));
+  }
+
+  const int winner = select_winner(attempts);
+  StrategyResult result;
+  if (winner >= 0) {
+    attempts[static_cast<std::size_t>(winner)].selected = true;
+    result = std::move(results[static_cast<std::size_t>(winner)]);
+  } else {
+    // No model at all: the first failure (plain run: the only attempt) says why.
+    result = results.empty() ? StrategyResult{} : std::move(results.front());
+  }
+  if (portfolio) {
+    std::size_t met = 0;
+    std::vector<std::string> failures;
+    for (const PortfolioAttempt& a : attempts) {
+      met += a.met ? 1 : 0;
+      if (a.termination == "failed") failures.push_back(a.label() + ": " + a.message);
+    }
+    if (winner >= 0) {
+      const PortfolioAttempt& w = attempts[static_cast<std::size_t>(winner)];
+      result.message = fmt::format("portfolio: {} of {} members met the target; {} reported: {}",
+                                   met, attempts.size(), w.label(), result.message);
+    } else {
+      result.termination = Termination::Failed;
+      result.message =
+          fmt::format("portfolio: no member produced a model ({})", fmt::join(failures, "; "));
+    }
+    // A stop request ends the whole run as interrupted, even when a member already met the
+    // target: the members after it did not run, so "smallest" is not established.
+    if ((user_stop || out_of_time) && winner >= 0) {
+      for (const PortfolioAttempt& a : attempts) {
+        if (a.termination == "not_run" || a.termination == "interrupted") {
+          result.termination = Termination::Interrupted;
+          result.message = (out_of_time ? fmt::format("time limit strategy.time_limit_s = {} s "
+                                                      "used up; ",
+                                                      config.time_limit_s)
+                                        : std::string("interrupted; ")) +
+                           result.message;
+          break;
+        }
+      }
+    }
   }
 
   RunSummary summary;
@@ -172,7 +349,15 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   summary.message = result.message;
   summary.tolerance = config.tolerance;
   summary.output_dir = config.output_dir;
-  summary.iterations = static_cast<Index>(result.history.size());
+  summary.iterations = static_cast<Index>(history.records().size());
+  summary.attempts = attempts;
+  if (winner >= 0) {
+    summary.reducer = attempts[static_cast<std::size_t>(winner)].reducer;
+    summary.strategy = attempts[static_cast<std::size_t>(winner)].strategy;
+  } else {
+    summary.reducer = config.reducer_name;
+    summary.strategy = config.strategy_name;
+  }
   summary.load_seconds = load_seconds;
   summary.full_order = size_of(model);
 
@@ -194,8 +379,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
     summary.hinf_absolute = verified.hinf_absolute;
     summary.h2_absolute = verified.h2_absolute;
     summary.stable = all_poles_stable(best.model);
-    if (summary.termination == Termination::Converged &&
-        verified.sup_relative > config.tolerance) {
+    if (summary.termination == Termination::Converged && verified.sup_relative > config.tolerance) {
       // Cannot happen for strategies that verify before accepting; guard the contract anyway.
       summary.termination = Termination::Failed;
       summary.message = "reported model fails the independent re-check: " + result.message;
@@ -208,9 +392,9 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
     }
   }
   summary.counters = solver->counters();
-  summary.reducer_seconds = timed.seconds();
-  summary.reducer_calls = timed.calls();
-  summary.reducer_counters = timed.counters();
+  summary.reducer_seconds = reducer_seconds;
+  summary.reducer_calls = reducer_calls;
+  summary.reducer_counters = reducer_counters;
   summary.full_response_seconds = cache.seconds();
   summary.full_evaluations = cache.size();
   summary.seconds = elapsed();
@@ -241,6 +425,28 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
                 {"outputs", outputs_of(model)}};
   j["reducer"] = config.reducer_name;
   j["strategy"] = config.strategy_name;
+  if (portfolio) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const PortfolioAttempt& a : attempts) {
+      list.push_back({{"reducer", a.reducer},
+                      {"strategy", a.strategy},
+                      {"termination", a.termination},
+                      {"message", a.message},
+                      {"target_met", a.met},
+                      {"has_model", a.has_model},
+                      {"order", a.order},
+                      {"band_error", a.band_error},
+                      {"seconds", a.seconds},
+                      {"reducer_seconds", a.reducer_seconds},
+                      {"iterations", a.iterations},
+                      {"selected", a.selected}});
+    }
+    j["portfolio"] = {
+        {"winner", winner >= 0 ? nlohmann::json(summary.reducer + "/" + summary.strategy)
+                               : nlohmann::json(nullptr)},
+        {"prune", config.portfolio_prune},
+        {"members", list}};
+  }
   j["iterations"] = summary.iterations;
   j["seconds"] = {{"total", summary.seconds},
                   {"load", summary.load_seconds},

@@ -736,5 +736,64 @@ TEST_F(Cli, BenchRejectsAToleranceOutsideZeroOne) {
   EXPECT_ERROR(run({"bench", config().string(), "-t", "1e-2,2"}), "tolerance 2", "(0, 1)");
 }
 
+// ---------------------------------------------------------------- ecmor check
+
+TEST_F(Cli, CheckPassesAMetTargetAndFailsAMissedOne) {
+  // A directory of two configs: lf10 at 1e-3 is met; at 1e-12 with at most 4 modes it cannot be.
+  const fs::path dir = m_dir / "configs";
+  fs::create_directories(dir);
+  write_text(dir / "a_met.yaml", lf10_yaml(output(), 1e-3, "{name: grow_order}"));
+  write_text(dir / "b_missed.yaml", lf10_yaml(output(), 1e-12, "{name: grow_order, max_order: 4}"));
+  write_text(dir / "notes.txt", "not a config");
+  const fs::path out = m_dir / "check";
+  const Result r = run({"check", dir.string(), "-o", out.string()});
+  EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("| a_met.yaml | lf10 | modal/grow_order | 0.001 |"), std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("1 of 2 configurations passed"), std::string::npos) << r.out;
+  const nlohmann::json rows = read_json(out / "check.json");
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_TRUE(rows[0]["passed"].get<bool>());
+  EXPECT_LE(rows[0]["verified_band_error"].get<double>(), 1e-3);
+  EXPECT_FALSE(rows[1]["passed"].get<bool>());
+  EXPECT_NE(rows[1]["failures"][0].get<std::string>().find("target not met (max_order_reached"),
+            std::string::npos)
+      << rows[1]["failures"];
+  // Each config's run keeps its outputs under its own name.
+  EXPECT_TRUE(fs::is_regular_file(out / "a_met" / "summary.json"));
+  EXPECT_TRUE(fs::is_regular_file(out / "b_missed" / "summary.json"));
+}
+
+TEST_F(Cli, CheckEnforcesTheStoredOrderBudget) {
+  const std::string base = lf10_yaml(output(), 1e-3, "{name: grow_order}");
+  const fs::path out = m_dir / "check";
+  write_text(config(), base + "check:    {max_order: 100}\n");
+  const Result pass = run({"check", config().string(), "-q", "-o", out.string()});
+  ASSERT_EQ(pass.exit_code, 0) << pass.out << pass.err;
+  const Index order = read_json(out / "check.json")[0]["order"].get<Index>();
+  ASSERT_GE(order, 2);  // so that order - 1 is a valid budget
+  write_text(config(), base + "check:    {max_order: " + std::to_string(order - 1) + "}\n");
+  const Result fail = run({"check", config().string(), "-q", "-o", out.string()});
+  EXPECT_EQ(fail.exit_code, 1) << fail.out << fail.err;
+  EXPECT_NE(fail.out.find("order " + std::to_string(order) + " > check.max_order " + std::to_string(order - 1)),
+            std::string::npos)
+      << fail.out;
+}
+
+TEST_F(Cli, CheckReadsEveryConfigBeforeRunningAny) {
+  const fs::path dir = m_dir / "configs";
+  fs::create_directories(dir);
+  write_text(dir / "a_good.yaml", lf10_yaml(output(), 1e-3, "{name: grow_order}"));
+  write_text(dir / "b_bad.yaml",
+             lf10_yaml(output(), 1e-3, "{name: grow_order}") + "check:    {max_ordr: 3}\n");
+  const fs::path out = m_dir / "check";
+  EXPECT_ERROR(run({"check", dir.string(), "-o", out.string()}), (dir / "b_bad.yaml").string() + ":7:",
+               "unknown key 'max_ordr'", "did you mean 'max_order'");
+  EXPECT_FALSE(fs::exists(out / "check.json"));
+  const fs::path empty = m_dir / "empty";
+  fs::create_directories(empty);
+  EXPECT_ERROR(run({"check", empty.string()}), empty.string(), "no *.yaml configuration");
+}
+
 }  // namespace
 }  // namespace ecmor

@@ -12,6 +12,18 @@
 ///   solver:   {threads: 0}                               # optional
 ///   output:   {dir: out/tc451}
 ///   plugins:  [path/to/libmy_plugin.so, path/to/dir]     # optional: extra plugins
+///   check:    {max_order: 48, max_seconds: 600}          # optional: budgets for `ecmor check`
+///
+/// A portfolio run races several reducer/strategy pairs on the same model (no top-level
+/// `reducer` section then):
+///
+///   strategy:
+///     name: portfolio
+///     prune: true                                        # optional (default true)
+///     members:
+///       - reducer:  {name: modal}
+///       - reducer:  {name: krylov, points: [0.0]}
+///         strategy: {name: greedy_points, max_order: 80}  # default: grow_order
 ///
 /// Relative paths (model.dir, output.dir, plugins) are resolved against the current working
 /// directory, like paths given on a command line.
@@ -26,6 +38,16 @@
 #include "ecmor/shifted_solver.hpp"
 
 namespace ecmor {
+
+/// One reducer/strategy pair of a portfolio run (strategy.members[k]).
+struct PortfolioMember {
+  std::string reducer_name;
+  ParameterMap reducer_params{"reducer"};
+  std::string strategy_name = "grow_order";
+  ParameterMap strategy_params{"strategy"};
+  /// "reducer/strategy", for tables and messages.
+  std::string label() const { return reducer_name + "/" + strategy_name; }
+};
 
 struct RunConfig {
   std::filesystem::path source;      ///< the YAML file
@@ -47,6 +69,16 @@ struct RunConfig {
   int threads = 0;                   ///< 0: OpenMP default
   std::filesystem::path output_dir;
   std::vector<std::filesystem::path> plugins;
+  /// Non-empty for `strategy: {name: portfolio, members: [...]}`; reducer_name and strategy_name
+  /// are then both "portfolio" and the members carry the real ones.
+  std::vector<PortfolioMember> portfolio;
+  /// Portfolio only: stop a grow_order member once its order reaches the smallest order that met
+  /// the target so far without meeting it (it can then no longer win).
+  bool portfolio_prune = true;
+  /// Regression budgets checked by `ecmor check` (YAML `check: {max_order, max_seconds}`; 0: none).
+  /// `ecmor reduce` ignores them.
+  Index check_max_order = 0;
+  double check_max_seconds = 0.0;
 };
 
 /// Parses and validates a run configuration.

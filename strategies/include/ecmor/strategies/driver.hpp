@@ -9,12 +9,29 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "ecmor/config.hpp"
 #include "ecmor/registry.hpp"
 #include "ecmor/strategies/strategy.hpp"
 
 namespace ecmor {
+
+/// One member's run in a portfolio (a plain run has one attempt too).
+struct PortfolioAttempt {
+  std::string reducer, strategy;
+  std::string termination;  ///< to_string(Termination), or "pruned", "failed", "not_run"
+  std::string message;
+  bool has_model = false;
+  Index order = 0;             ///< of the member's best model
+  double band_error = 0.0;     ///< the member's best band error (estimator grid)
+  bool met = false;
+  double seconds = 0.0;        ///< wall time of the member (setup and strategy)
+  double reducer_seconds = 0.0;
+  Index iterations = 0;
+  bool selected = false;       ///< this member's model is the run's result
+  std::string label() const { return reducer + "/" + strategy; }
+};
 
 /// What a run reports (also written as summary.json).
 struct RunSummary {
@@ -45,6 +62,11 @@ struct RunSummary {
   double peak_memory_mb = 0.0;
   Index iterations = 0;
   std::filesystem::path output_dir;
+  /// Reducer and strategy that produced the reported model (a portfolio's winner; for a plain run
+  /// the configured ones).
+  std::string reducer, strategy;
+  /// Every member of a portfolio in configuration order (one entry for a plain run).
+  std::vector<PortfolioAttempt> attempts;
 
   /// 0: target met; 2: usable model, target not met; 1: no usable model.
   int exit_code() const;
@@ -55,6 +77,9 @@ class RunObserver {
  public:
   virtual ~RunObserver() = default;
   virtual void on_model_loaded(const RunConfig&, const Model&, double /*seconds*/) {}
+  /// Portfolio runs: member `index` (0-based) of `count` starts.
+  virtual void on_member_started(std::size_t /*index*/, std::size_t /*count*/,
+                                 const std::string& /*label*/) {}
   /// Return false to stop the run (it then ends as Interrupted and still writes its outputs).
   virtual bool on_iteration(const IterationRecord&) { return true; }
   /// Polled often during a run (between records too); return true to stop it as Interrupted.
@@ -62,7 +87,12 @@ class RunObserver {
   virtual void on_finished(const RunSummary&) {}
 };
 
-/// Runs one configured reduction. Errors in the input (model files, configuration, plugin
+/// Runs one configured reduction; a portfolio (config.portfolio non-empty) runs its members one
+/// after the other on the same solver and full-response cache, so full-model responses computed
+/// for one member are reused by the next; it reports the smallest model that meets the target
+/// (ties: the member that took less time), else the most accurate one. A member that throws is a
+/// failed attempt and the next one runs; every attempt is in the history and in summary.json.
+/// Errors in the input (model files, configuration, plugin
 /// parameters) throw; everything after the reducer is set up ends in a RunSummary.
 RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserver* observer = nullptr);
 

@@ -1,0 +1,261 @@
+// The portfolio strategy: several reducer/strategy pairs raced on one model.
+//
+// The reference for "smallest model meeting the target" is each member run on its own (a plain
+// run through the same driver); the portfolio must report the smallest of their orders, and its
+// model must meet the target on the driver's independent re-check. Failing members must not stop
+// the others; every attempt must be in summary.json and the history.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "common/test_support.hpp"
+#include "ecmor/config.hpp"
+#include "ecmor/error.hpp"
+#include "ecmor/strategies/driver.hpp"
+
+namespace fs = std::filesystem;
+
+namespace ecmor {
+namespace {
+
+// iss_so (N = 270), a band with 43 modes: modal, second-order BT and greedy Krylov all meet 1e-2,
+// at different orders, in a few seconds each.
+const std::string kHead = R"(
+model:  {dir: ../shared/models/iss_so}
+band:   {f_min_hz: 0.0159, f_max_hz: 2.0}
+target: {tolerance: 1.0e-2, norm: spectral}
+)";
+const std::string kModal = "    - reducer: {name: modal}\n";
+const std::string kBalanced =
+    "    - reducer: {name: balanced, structure: second_order, variant: pv}\n";
+const std::string kKrylov =
+    "    - reducer: {name: krylov}\n      strategy: {name: greedy_points, moments: 2}\n";
+
+void fill_registry(Registry& registry) {
+  for (const char* lib : {"libecmor_modal.so", "libecmor_balanced.so", "libecmor_krylov.so"}) {
+    registry.load_plugin(fs::path(ECMOR_TEST_PLUGIN_DIR) / lib);
+  }
+  // A reducer that fails in setup, as a real one does on a model it cannot handle.
+  ReducerFactory failing;
+  failing.info.name = "test_fails_in_setup";
+  failing.info.description = "throws NumericalError from setup()";
+  failing.info.second_order = true;
+  failing.info.descriptor = true;
+  failing.create = [](const ParameterMap&) -> std::unique_ptr<Reducer> {
+    struct Failing final : Reducer {
+      void setup(const ReductionContext&) override {
+        throw NumericalError("test_fails_in_setup: factorisation failed at shift 0");
+      }
+      ReducerResult reduce(const ReductionRequest&) override { return {}; }
+      Index max_order() const override { return 0; }
+    };
+    return std::make_unique<Failing>();
+  };
+  registry.add(std::move(failing));
+}
+
+std::string portfolio_yaml(const std::string& members, const fs::path& out,
+                           const std::string& extra = "") {
+  return kHead + "strategy:\n  name: portfolio\n" + extra + "  members:\n" + members +
+         "output: {dir: " + out.string() + "}\n";
+}
+
+RunSummary run_yaml(const std::string& yaml, Registry& registry, RunObserver* observer = nullptr) {
+  return run_reduction(parse_run_config(yaml, "portfolio.yaml"), registry, observer);
+}
+
+nlohmann::json read_json(const fs::path& p) {
+  std::ifstream in(p);
+  return nlohmann::json::parse(in);
+}
+
+void expect_config_error(const std::string& yaml, const std::vector<std::string>& parts) {
+  try {
+    parse_run_config(yaml, "portfolio.yaml");
+    ADD_FAILURE() << "no ConfigError for:\n" << yaml;
+  } catch (const ConfigError& e) {
+    for (const std::string& p : parts)
+      EXPECT_NE(std::string(e.what()).find(p), std::string::npos)
+          << "'" << p << "' not in: " << e.what();
+  }
+}
+
+TEST(PortfolioConfig, ParsesMembersWithTheirParameters) {
+  const RunConfig c = parse_run_config(
+      portfolio_yaml(kModal + kKrylov, "out/x", "  prune: false\n"), "portfolio.yaml");
+  EXPECT_EQ(c.reducer_name, "portfolio");
+  EXPECT_EQ(c.strategy_name, "portfolio");
+  EXPECT_FALSE(c.portfolio_prune);
+  ASSERT_EQ(c.portfolio.size(), 2u);
+  EXPECT_EQ(c.portfolio[0].label(), "modal/grow_order");
+  EXPECT_EQ(c.portfolio[1].label(), "krylov/greedy_points");
+  EXPECT_EQ(c.portfolio[1].strategy_params.get_int("moments", 0), 2);
+}
+
+TEST(PortfolioConfig, BadShapesAreErrorsWithTheirLine) {
+  expect_config_error(kHead + "reducer: {name: modal}\nstrategy:\n  name: portfolio\n  members:\n" +
+                          kModal + "output: {dir: o}\n",
+                      {"portfolio.yaml:5", "remove the top-level 'reducer' section"});
+  expect_config_error(kHead + "strategy: {name: portfolio}\noutput: {dir: o}\n",
+                      {"needs 'members'"});
+  expect_config_error(kHead + "strategy: {name: portfolio, members: modal}\noutput: {dir: o}\n",
+                      {"strategy.members must be a list", "found a scalar"});
+  expect_config_error(kHead + "strategy: {name: portfolio, members: []}\noutput: {dir: o}\n",
+                      {"found an empty list"});
+  expect_config_error(portfolio_yaml("    - strategy: {name: grow_order}\n", "o"),
+                      {"missing required key 'strategy.members[1].reducer'"});
+  expect_config_error(
+      portfolio_yaml(kModal + "    - reducer: {name: modal}\n      strategy: "
+                              "{name: portfolio}\n",
+                     "o"),
+      {"portfolio.yaml:10", "strategy.members[2].strategy", "cannot be a portfolio"});
+  expect_config_error(
+      portfolio_yaml("    - reducer: {name: modal}\n      strategy: {time_limit_s: 5}\n", "o"),
+      {"strategy.members[1].strategy.time_limit_s", "give it as strategy.time_limit_s"});
+  expect_config_error(portfolio_yaml("    - reducer: {name: modal}\n      strategi: {}\n", "o"),
+                      {"unknown key 'strategi'", "did you mean 'strategy'"});
+  expect_config_error(portfolio_yaml(kModal, "o", "  prune: maybe\n"),
+                      {"strategy.prune = maybe: must be true or false"});
+  expect_config_error(portfolio_yaml(kModal, "o", "  tolerance: 3\n"), {"unknown key 'tolerance'"});
+}
+
+TEST(Portfolio, MemberParameterErrorsAreFoundBeforeAnyRun) {
+  test::TempDir dir;
+  Registry registry;
+  fill_registry(registry);
+  try {
+    run_yaml(portfolio_yaml(kModal + "    - reducer: {name: krylov, pionts: 3}\n", dir / "out"),
+             registry);
+    ADD_FAILURE() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("strategy.members[2]"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("pionts"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir / "out" / "history.csv")) << "work started before the check";
+}
+
+// Each member alone, then all of them raced: the portfolio reports the smallest order any of them
+// reaches, with the target met on the independent re-check, and computes fewer full-model
+// responses than the separate runs together (they share the response cache).
+TEST(Portfolio, ReportsTheSmallestModelOfItsMembersAndSharesTheFullResponses) {
+  test::TempDir dir;
+  Registry registry;
+  fill_registry(registry);
+  Index smallest = 0;
+  Index separate_evaluations = 0;
+  std::string smallest_label;
+  for (const auto& [member, label] :
+       {std::pair{kModal, "modal/grow_order"}, std::pair{kBalanced, "balanced/grow_order"},
+        std::pair{kKrylov, "krylov/greedy_points"}}) {
+    const RunSummary alone = run_yaml(portfolio_yaml(member, dir / label), registry);
+    ASSERT_EQ(alone.termination, Termination::Converged) << label << ": " << alone.message;
+    separate_evaluations += alone.full_evaluations;
+    if (smallest == 0 || alone.order < smallest) {
+      smallest = alone.order;
+      smallest_label = label;
+    }
+  }
+  const RunSummary s = run_yaml(
+      portfolio_yaml(kModal + kBalanced + kKrylov, dir / "all", "  prune: false\n"), registry);
+  ASSERT_EQ(s.termination, Termination::Converged) << s.message;
+  EXPECT_EQ(s.order, smallest);
+  EXPECT_EQ(s.reducer + "/" + s.strategy, smallest_label);
+  EXPECT_LE(s.verified_band_error, 1e-2);
+  EXPECT_LT(s.full_evaluations, separate_evaluations);
+  ASSERT_EQ(s.attempts.size(), 3u);
+  int selected = 0;
+  for (const PortfolioAttempt& a : s.attempts) {
+    EXPECT_TRUE(a.met) << a.label() << ": " << a.message;
+    EXPECT_GE(a.order, s.order) << a.label();
+    selected += a.selected ? 1 : 0;
+  }
+  EXPECT_EQ(selected, 1);
+
+  const nlohmann::json j = read_json(dir / "all" / "summary.json");
+  EXPECT_EQ(j["reducer"], "portfolio");
+  EXPECT_EQ(j["portfolio"]["winner"], smallest_label);
+  ASSERT_EQ(j["portfolio"]["members"].size(), 3u);
+  EXPECT_EQ(j["final_order"], smallest);
+}
+
+// Pruning: with the best member first, a later grow_order member stops as soon as its order
+// reaches the winner's without meeting the target, and the result is the same as without pruning.
+TEST(Portfolio, PruningStopsMembersThatCannotWinWithoutChangingTheResult) {
+  test::TempDir dir;
+  Registry registry;
+  fill_registry(registry);
+  const RunSummary pruned = run_yaml(portfolio_yaml(kBalanced + kModal, dir / "p"), registry);
+  const RunSummary full =
+      run_yaml(portfolio_yaml(kBalanced + kModal, dir / "f", "  prune: false\n"), registry);
+  ASSERT_EQ(pruned.termination, Termination::Converged) << pruned.message;
+  EXPECT_EQ(pruned.order, full.order);
+  EXPECT_EQ(pruned.reducer, full.reducer);
+  ASSERT_EQ(pruned.attempts.size(), 2u);
+  EXPECT_EQ(pruned.attempts[1].termination, "pruned") << pruned.attempts[1].message;
+  EXPECT_EQ(full.attempts[1].termination, "converged");
+  EXPECT_LT(pruned.attempts[1].iterations, full.attempts[1].iterations);
+}
+
+TEST(Portfolio, AFailingMemberIsRecordedAndTheNextOneRuns) {
+  test::TempDir dir;
+  Registry registry;
+  fill_registry(registry);
+  const RunSummary s =
+      run_yaml(portfolio_yaml("    - reducer: {name: test_fails_in_setup}\n" + kModal, dir / "out"),
+               registry);
+  ASSERT_EQ(s.termination, Termination::Converged) << s.message;
+  EXPECT_EQ(s.reducer, "modal");
+  ASSERT_EQ(s.attempts.size(), 2u);
+  EXPECT_EQ(s.attempts[0].termination, "failed");
+  EXPECT_NE(s.attempts[0].message.find("factorisation failed at shift 0"), std::string::npos);
+  EXPECT_FALSE(s.attempts[0].has_model);
+  // The history has the failure as a record of its own, before the modal records.
+  std::ifstream in(dir / "out" / "history.jsonl");
+  std::string first;
+  std::getline(in, first);
+  const nlohmann::json rec = nlohmann::json::parse(first);
+  EXPECT_EQ(rec["phase"], "failed");
+  EXPECT_NE(rec["note"].get<std::string>().find("test_fails_in_setup"), std::string::npos);
+}
+
+TEST(Portfolio, NoMemberWithAModelIsAFailedRunNamingEveryFailure) {
+  test::TempDir dir;
+  Registry registry;
+  fill_registry(registry);
+  const RunSummary s = run_yaml(portfolio_yaml("    - reducer: {name: test_fails_in_setup}\n"
+                                               "    - reducer: {name: test_fails_in_setup}\n",
+                                               dir / "out"),
+                                registry);
+  EXPECT_EQ(s.termination, Termination::Failed);
+  EXPECT_FALSE(s.has_model);
+  EXPECT_EQ(s.exit_code(), 1);
+  EXPECT_NE(s.message.find("no member produced a model"), std::string::npos) << s.message;
+  EXPECT_FALSE(fs::exists(dir / "out" / "V.mtx"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "summary.json"));
+}
+
+// A stop request (Ctrl-C) during the first member ends the portfolio: the others are "not_run",
+// the run is interrupted and keeps its best model.
+TEST(Portfolio, AStopRequestEndsTheWholePortfolio) {
+  struct StopAfterFirstRecords final : RunObserver {
+    int records = 0;
+    bool on_iteration(const IterationRecord&) override { return ++records < 3; }
+    bool stop_requested() override { return records >= 3; }
+  } observer;
+  test::TempDir dir;
+  Registry registry;
+  fill_registry(registry);
+  const RunSummary s =
+      run_yaml(portfolio_yaml(kModal + kBalanced, dir / "out"), registry, &observer);
+  EXPECT_EQ(s.termination, Termination::Interrupted) << s.message;
+  ASSERT_EQ(s.attempts.size(), 2u);
+  EXPECT_EQ(s.attempts[0].termination, "interrupted");
+  EXPECT_EQ(s.attempts[1].termination, "not_run");
+  EXPECT_TRUE(s.has_model);
+  EXPECT_EQ(s.exit_code(), 2);
+}
+
+}  // namespace
+}  // namespace ecmor
