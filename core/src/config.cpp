@@ -440,7 +440,7 @@ RunConfig Parser::parse(const std::string& yaml) {
   const YAML::Node error =
       section(m_root, "error",
               {"grid_points", "pole_samples", "max_pole_samples", "refine_peaks",
-               "refine_evaluations", "zero_threshold", "verify_factor"});
+               "refine_evaluations", "zero_threshold", "verify_factor", "hinf_dense_states"});
   BandErrorOptions& eo = config.error;
   eo.norm = config.norm;
   if (auto v = integer(error, "error", "grid_points", 2)) eo.grid_points = *v;
@@ -456,6 +456,12 @@ RunConfig Parser::parse(const std::string& yaml) {
   }
   // The re-check grid must be denser than the estimator's to be a check at all.
   if (auto v = integer(error, "error", "verify_factor", 2)) config.verify_factor = *v;
+  if (auto v = integer(error, "error", "hinf_dense_states", 0)) {
+    if (*v > 6000)
+      fail(at(error["hinf_dense_states"]),
+           fmt::format("error.hinf_dense_states = {}: must be <= 6000 (dense eigenproblems)", *v));
+    config.hinf_dense_states = *v;
+  }
 
   const YAML::Node solver =
       section(m_root, "solver", {"threads", "use_cholesky", "symmetry_tol", "singular_rcond"});

@@ -46,6 +46,12 @@ struct RunSummary {
   double verified_f_peak_hz = 0.0;
   double hinf_absolute = 0.0;    ///< band H-infinity of the error (verify grid)
   double h2_absolute = 0.0;      ///< band H2 of the error (verify grid)
+  /// H-infinity norm of the error system H - Hr: over all frequencies by the level-set method
+  /// when the full model is small enough to be dense (<= RunConfig::hinf_dense_states first-order
+  /// stable; YAML error.hinf_dense_states), else the band supremum of the re-check grid.
+  /// hinf_method says which, in words.
+  double hinf_error = 0.0;
+  std::string hinf_method;
   bool stable = false;
   double tolerance = 0.0;
   double seconds = 0.0;
