@@ -162,7 +162,7 @@ std::string gp_number(double x) { return fmt::format("{}", x); }
 
 // bench_chart.csv and the two charts. The numbers are bench.csv's, with the same rounding, so a
 // chart row can be matched to its table row as text. The Pareto front is over (total seconds,
-// verified error) of the runs that did not fail.
+// verified error) of the runs that did not fail, one front per model.
 class BenchCharts {
  public:
   BenchCharts(std::filesystem::path out, bool quiet) : m_out(std::move(out)), m_quiet(quiet) {}
@@ -179,7 +179,22 @@ class BenchCharts {
       points.push_back(
           {rows[i].seconds, rows[i].verified_error, chart_status(rows[i]) != "failed"});
     }
-    const std::vector<bool> front = pareto_front(points);
+    // One front per model: a fast run on a small model is no trade-off against a slow one on a
+    // large model.
+    std::vector<bool> front(rows.size(), false);
+    std::set<std::string> models;
+    for (const BenchRow& r : rows) models.insert(r.model);
+    for (const std::string& model : models) {
+      std::vector<std::size_t> members;
+      std::vector<TradeoffPoint> subset;
+      for (std::size_t i = 0; i < rows.size(); ++i) {
+        if (rows[i].model != model) continue;
+        members.push_back(i);
+        subset.push_back(points[i]);
+      }
+      const std::vector<bool> f = pareto_front(subset);
+      for (std::size_t k = 0; k < members.size(); ++k) front[members[k]] = f[k];
+    }
 
     std::string csv =
         "run,series,label,model,reducer,strategy,tolerance,status,order,verified_band_error,"
@@ -251,7 +266,7 @@ class BenchCharts {
       if (with_front && on_front > 0) {
         parts.push_back(fmt::format(
             "'bench_chart.csv' skip 1 using ($13 == 1 ? {} : NaN):10 with points pt 6 ps 2.8 "
-            "lw 2 lc rgb '#000000' title 'Pareto front (time, error)'",
+            "lw 2 lc rgb '#000000' title 'Pareto front (time, error; per model)'",
             x));
       }
       if (missed > 0) {
