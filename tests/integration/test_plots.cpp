@@ -242,9 +242,11 @@ Eigen::MatrixXcd dense_response(const ReducedModel& model, Complex s) {
   return ds.C.cast<Complex>() * P.fullPivLu().solve(ds.B.cast<Complex>());
 }
 
-TEST_F(Plots, SigmaCsvHoldsTheRunsFullAndAnIndependentReducedSigmaMax) {
-  const auto sigma = read_csv(s_run / "sigma.csv");
-  const auto band = read_csv(s_run / "band_error.csv");
+// sigma.csv of `run`: the run's own full-model sigma_max and a reduced one that matches a dense
+// evaluation of the written reduced model at the first, middle and last frequency.
+void expect_sigma_csv_of(const fs::path& run) {
+  const auto sigma = read_csv(run / "sigma.csv");
+  const auto band = read_csv(run / "band_error.csv");
   ASSERT_EQ(sigma.size(), band.size());
   ASSERT_GE(sigma.size(), 3u);
   for (std::size_t k = 0; k < sigma.size(); ++k) {
@@ -255,7 +257,7 @@ TEST_F(Plots, SigmaCsvHoldsTheRunsFullAndAnIndependentReducedSigmaMax) {
     EXPECT_EQ(number(sigma[k].at("error_sigma_max")), number(band[k].at("absolute_spectral")))
         << "row " << k;
   }
-  const ReducedModel reduced = read_reduced_model(s_run);
+  const ReducedModel reduced = read_reduced_model(run);
   for (const std::size_t k : {std::size_t{0}, sigma.size() / 2, sigma.size() - 1}) {
     const double f_hz = number(sigma[k].at("f_hz"));
     const Eigen::MatrixXcd H = dense_response(reduced, Complex(0.0, kTwoPi * f_hz));
@@ -268,6 +270,24 @@ TEST_F(Plots, SigmaCsvHoldsTheRunsFullAndAnIndependentReducedSigmaMax) {
     EXPECT_LE(std::abs(full - got), number(sigma[k].at("error_sigma_max")) + 1e-9 * full)
         << "f = " << f_hz << " Hz";
   }
+}
+
+TEST_F(Plots, SigmaCsvHoldsTheRunsFullAndAnIndependentReducedSigmaMax) {
+  // lf10: a second-order reduced model, one input and output.
+  ASSERT_TRUE(std::holds_alternative<ReducedSecondOrderModel>(read_reduced_model(s_run)));
+  expect_sigma_csv_of(s_run);
+}
+
+TEST_F(Plots, SigmaCsvOfAFirstOrderMimoRun) {
+  // rail_371: a descriptor model with 7 inputs and 6 outputs, where sigma_max is a real SVD.
+  const fs::path run = m_dir / "rail";
+  const Result r = run_ecmor(m_dir, {"reduce", "configs/rail_371.yaml", "-o", run.string(), "-q"});
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const ReducedModel reduced = read_reduced_model(run);
+  ASSERT_TRUE(std::holds_alternative<ReducedDescriptorModel>(reduced));
+  ASSERT_GT(inputs_of(reduced), 1);
+  ASSERT_GT(outputs_of(reduced), 1);
+  expect_sigma_csv_of(run);
 }
 
 TEST_F(Plots, ConvergenceCsvIsTheHistory) {
