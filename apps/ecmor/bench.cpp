@@ -5,10 +5,13 @@
 #include <fmt/core.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <algorithm>
+#include <cmath>
 #include <csignal>
+#include <functional>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
@@ -20,6 +23,8 @@
 #include "ecmor/error.hpp"
 #include "ecmor/registry.hpp"
 #include "ecmor/strategies/driver.hpp"
+#include "pareto.hpp"
+#include "plot.hpp"
 
 namespace ecmor::app {
 namespace {
@@ -129,6 +134,212 @@ std::string to_markdown(const std::vector<BenchRow>& rows) {
   return out;
 }
 
+// How a run shows on the charts. Failed: the run threw, the strategy reported `failed` (which
+// includes a model failing its independent re-check), or it left no model with a finite error.
+std::string chart_status(const BenchRow& r) {
+  if (r.termination == "error" || r.termination == "failed" || r.order <= 0 ||
+      !std::isfinite(r.verified_error)) {
+    return "failed";
+  }
+  return r.met ? "met" : "missed";
+}
+
+// The series a run belongs to: reducer / strategy, prefixed by the model when the bench has more
+// than one (a point of one model is no trade-off against another's).
+std::vector<std::string> chart_labels(const std::vector<BenchRow>& rows) {
+  std::set<std::string> models;
+  for (const BenchRow& r : rows) models.insert(r.model);
+  std::vector<std::string> labels;
+  for (const BenchRow& r : rows) {
+    const std::string rs = r.reducer + " / " + r.strategy;
+    labels.push_back(models.size() > 1 ? r.model + ": " + rs : rs);
+  }
+  return labels;
+}
+
+// Gnuplot's number syntax for a finite double.
+std::string gp_number(double x) { return fmt::format("{}", x); }
+
+// bench_chart.csv and the two charts. The numbers are bench.csv's, with the same rounding, so a
+// chart row can be matched to its table row as text. The Pareto front is over (total seconds,
+// verified error) of the runs that did not fail, one front per model.
+class BenchCharts {
+ public:
+  BenchCharts(std::filesystem::path out, bool quiet) : m_out(std::move(out)), m_quiet(quiet) {}
+
+  void write(const std::vector<BenchRow>& rows) {
+    const std::vector<std::string> labels = chart_labels(rows);
+    std::vector<std::string> series;  // distinct labels in order of appearance
+    std::vector<std::size_t> series_of;
+    std::vector<TradeoffPoint> points;
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      auto it = std::find(series.begin(), series.end(), labels[i]);
+      if (it == series.end()) it = series.insert(series.end(), labels[i]);
+      series_of.push_back(static_cast<std::size_t>(it - series.begin()) + 1);
+      points.push_back(
+          {rows[i].seconds, rows[i].verified_error, chart_status(rows[i]) != "failed"});
+    }
+    // One front per model: a fast run on a small model is no trade-off against a slow one on a
+    // large model.
+    std::vector<bool> front(rows.size(), false);
+    std::set<std::string> models;
+    for (const BenchRow& r : rows) models.insert(r.model);
+    for (const std::string& model : models) {
+      std::vector<std::size_t> members;
+      std::vector<TradeoffPoint> subset;
+      for (std::size_t i = 0; i < rows.size(); ++i) {
+        if (rows[i].model != model) continue;
+        members.push_back(i);
+        subset.push_back(points[i]);
+      }
+      const std::vector<bool> f = pareto_front(subset);
+      for (std::size_t k = 0; k < members.size(); ++k) front[members[k]] = f[k];
+    }
+
+    std::string csv =
+        "run,series,label,model,reducer,strategy,tolerance,status,order,verified_band_error,"
+        "seconds,reducer_seconds,pareto\n";
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      const BenchRow& r = rows[i];
+      csv += fmt::format("{},{},{},{},{},{},{:g},{},{},{:.6e},{:.4f},{:.4f},{}\n", i + 1,
+                         series_of[i], csv_field(labels[i]), csv_field(r.model),
+                         csv_field(r.reducer), csv_field(r.strategy), r.tolerance, chart_status(r),
+                         r.order, r.verified_error, r.seconds, r.reducer_seconds, front[i] ? 1 : 0);
+    }
+    write_text_atomically(m_out / "bench_chart.csv", csv);
+
+    // Where failed runs are drawn: a row above every real value (they have no error to plot),
+    // and at a positive time on the log axis even when they failed before the clock mattered.
+    double top = 0.0, min_seconds = 0.0;
+    std::set<double> tolerances;
+    std::size_t failed = 0, missed = 0, on_front = 0;
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      tolerances.insert(rows[i].tolerance);
+      top = std::max(top, rows[i].tolerance);
+      const std::string status = chart_status(rows[i]);
+      failed += status == "failed" ? 1 : 0;
+      missed += status == "missed" ? 1 : 0;
+      on_front += front[i] ? 1 : 0;
+      if (status == "failed") continue;
+      if (rows[i].verified_error > 0.0) top = std::max(top, rows[i].verified_error);
+      if (rows[i].seconds > 0.0 && (min_seconds == 0.0 || rows[i].seconds < min_seconds)) {
+        min_seconds = rows[i].seconds;
+      }
+    }
+    const double fail_y = top > 0.0 ? std::pow(10.0, std::ceil(std::log10(top)) + 1.0) : 1.0;
+    const double fail_x = min_seconds > 0.0 ? min_seconds : 1e-2;
+
+    // Failed runs are stacked upwards from fail_y (0.3 decades apart) so that their labels never
+    // overlap, each a red cross with "label tol t" beside it.
+    auto failed_y = [&](std::size_t rank) {
+      return fail_y * std::pow(10.0, 0.3 * static_cast<double>(rank));
+    };
+    // Shared series: one per label that has a run with an error to draw, the markers for the
+    // Pareto front and for missed runs, the tolerance ladder; failed runs as labels with a point
+    // and one key entry. `x` is the gnuplot expression of the abscissa for a non-failed run,
+    // `failed_x` the abscissa of failed run i.
+    auto plot_command = [&](const std::string& x,
+                            const std::function<double(std::size_t)>& failed_x, bool with_front) {
+      std::string labels_cmd;
+      std::size_t rank = 0;
+      for (std::size_t i = 0; i < rows.size(); ++i) {
+        if (chart_status(rows[i]) != "failed") continue;
+        labels_cmd += fmt::format(
+            "set label {} {} at {},{} left point pt 2 ps 2.5 lc rgb '#d62728' offset char 1.2,0 "
+            "tc rgb '#d62728' front\n",
+            rank + 1, gnuplot_string(fmt::format("{} tol {:g}", labels[i], rows[i].tolerance)),
+            gp_number(failed_x(i)), gp_number(failed_y(rank)));
+        ++rank;
+      }
+      std::vector<std::string> parts;
+      for (std::size_t k = 0; k < series.size(); ++k) {
+        bool drawable = false;
+        for (std::size_t i = 0; i < rows.size(); ++i) {
+          drawable = drawable || (series_of[i] == k + 1 && chart_status(rows[i]) != "failed");
+        }
+        if (!drawable) continue;
+        parts.push_back(fmt::format(
+            "'bench_chart.csv' skip 1 using (($2 == {0} && strcol(8) ne 'failed') ? {1} : NaN):10 "
+            "with linespoints lw 1.5 pt {2} ps 1.3 lc {0} title {3}",
+            k + 1, x, 5 + 2 * (k % 4), gnuplot_string(series[k])));
+      }
+      if (with_front && on_front > 0) {
+        parts.push_back(fmt::format(
+            "'bench_chart.csv' skip 1 using ($13 == 1 ? {} : NaN):10 with points pt 6 ps 2.8 "
+            "lw 2 lc rgb '#000000' title 'Pareto front (time, error; per model)'",
+            x));
+      }
+      if (missed > 0) {
+        parts.push_back(fmt::format(
+            "'bench_chart.csv' skip 1 using (strcol(8) eq 'missed' ? {} : NaN):10 with points "
+            "pt 3 ps 2 lw 1.5 lc rgb '#ff7f0e' title 'target missed (model kept)'",
+            x));
+      }
+      if (failed > 0) {
+        // Key entry only: the crosses themselves are the labels' points.
+        parts.push_back(fmt::format(
+            "NaN with points pt 2 ps 2.5 lc rgb '#d62728' title {}",
+            gnuplot_string(fmt::format("FAILED ({} run{}): crosses at the top, no error", failed,
+                                       failed == 1 ? "" : "s"))));
+      }
+      bool first = true;
+      for (double t : tolerances) {
+        parts.push_back(fmt::format("{} with lines dt 2 lw 1 lc rgb '#555555' {}", gp_number(t),
+                                    first ? "title 'tolerance ladder'" : "notitle"));
+        first = false;
+      }
+      std::string cmd = labels_cmd + "plot ";
+      for (std::size_t i = 0; i < parts.size(); ++i) {
+        cmd += (i > 0 ? ", \\\n     " : "") + parts[i];
+      }
+      return cmd + "\n";
+    };
+    const std::string common = fmt::format(
+        "set logscale y\n"
+        "set grid\n"
+        "set key outside right top\n"
+        "set format y '%g'\n"
+        "set yrange [*:{}]\n"
+        "set ylabel 'verified band error (independent re-check)'\n",
+        gp_number(3.0 * failed_y(failed > 0 ? failed - 1 : 0)));
+    std::vector<PlotScript> scripts;
+    scripts.push_back(
+        {"bench_time_error",
+         common +
+             "set logscale x\n"
+             "set format x '%g'\n"
+             "set xlabel 'total run time [s] (wall clock, load to summary)'\n"
+             "set title 'ecmor bench: run time vs achieved band error (circled: Pareto front)'\n" +
+             plot_command(
+                 "$11",
+                 [&](std::size_t i) { return rows[i].seconds > 0.0 ? rows[i].seconds : fail_x; },
+                 true),
+         1200, 650});
+    scripts.push_back({"bench_order_error",
+                       common +
+                           "set xlabel 'reduced order'\n"
+                           "set xrange [0:*]\n"
+                           "set title 'ecmor bench: reduced order vs achieved band error'\n" +
+                           plot_command(
+                               "$9", [&](std::size_t i) { return double(rows[i].order); }, false),
+                       1200, 650});
+    try {
+      render_plots(m_out, scripts, PlotFormat::Both);
+    } catch (const GnuplotNotFound& e) {
+      if (!m_noted && !m_quiet) fmt::print("note: {}\n", e.what());
+      m_noted = true;
+    } catch (const Error& e) {
+      if (!m_noted) fmt::print(stderr, "ecmor: warning: bench charts not rendered: {}\n", e.what());
+      m_noted = true;
+    }
+  }
+
+ private:
+  std::filesystem::path m_out;
+  bool m_quiet;
+  bool m_noted = false;  // one note per bench, not one per run
+};
+
 }  // namespace
 
 int bench(const BenchOptions& options, const CommonOptions& common) {
@@ -153,6 +364,10 @@ int bench(const BenchOptions& options, const CommonOptions& common) {
     std::set<std::string> used_names;
     bool all_met = true;
     const auto start = std::chrono::steady_clock::now();
+    auto elapsed = [&] {
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    };
+    BenchCharts charts(out, common.quiet);
     for (const RunConfig& base : configs) {
       std::vector<double> ladder = options.tolerances;
       if (ladder.empty()) ladder.push_back(base.tolerance);
@@ -176,8 +391,9 @@ int bench(const BenchOptions& options, const CommonOptions& common) {
         row.strategy = base.strategy_name;
         row.tolerance = tol;
         ++done;
-        fmt::print("[{}/{}] {} ({} / {}) tolerance {:g} ... ", done, total, row.model,
-                   row.reducer, row.strategy, tol);
+        // The elapsed time since the bench started shows while a run goes on.
+        fmt::print("[{}/{} {:.1f} s] {} ({} / {}) tolerance {:g} ... ", done, total, elapsed(),
+                   row.model, row.reducer, row.strategy, tol);
         std::fflush(stdout);
         try {
           Registry registry;
@@ -207,14 +423,14 @@ int bench(const BenchOptions& options, const CommonOptions& common) {
           row.reducer_calls = s.reducer_calls;
           row.iterations = s.iterations;
           row.peak_memory_mb = s.peak_memory_mb;
-          fmt::print("{} order {} error {:.2e}, {:.2f} s (reducer {:.3f} s)\n",
+          fmt::print("{} order {} error {:.2e}, {:.2f} s (reducer {:.3f} s), {:.1f} s elapsed\n",
                      row.met ? "met," : row.termination + ",", row.order, row.verified_error,
-                     row.seconds, row.reducer_seconds);
+                     row.seconds, row.reducer_seconds, elapsed());
         } catch (const std::exception& e) {
           // A failing run is a row of the table, not a missing one.
           row.termination = "error";
           row.message = e.what();
-          fmt::print("error: {}\n", e.what());
+          fmt::print("error: {} ({:.1f} s elapsed)\n", e.what(), elapsed());
         }
         all_met = all_met && row.met;
         rows.push_back(row);
@@ -224,10 +440,10 @@ int bench(const BenchOptions& options, const CommonOptions& common) {
         for (const BenchRow& r : rows) j.push_back(to_json(r));
         write_text_atomically(out / "bench.json", j.dump(2) + "\n");
         write_text_atomically(out / "bench.md", to_markdown(rows));
+        charts.write(rows);
       }
     }
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double seconds = elapsed();
     fmt::print("\n{}\n{} runs in {:.1f} s; results in {}\n", to_markdown(rows), rows.size(),
                seconds, out.string());
     if (g_bench_interrupted.load()) return 130;

@@ -17,6 +17,7 @@
 #include "ecmor/model_io.hpp"
 #include "ecmor/registry.hpp"
 #include "ecmor/strategies/driver.hpp"
+#include "plot.hpp"
 
 namespace ecmor::app {
 namespace {
@@ -97,38 +98,16 @@ class TablePrinter final : public RunObserver {
   bool m_quiet;
 };
 
-// Renders error.png from band_error.csv with gnuplot, run as an external program: the relative
-// errors over the band on the independent re-check grid, with the tolerance line (the seed's
-// Figure 3), and the full model's sigma_max for orientation. A missing gnuplot is a note, not an
-// error: the numbers are all in band_error.csv.
-void plot_error(const RunSummary& s, const RunConfig& config, bool quiet) {
-  const std::filesystem::path dir = s.output_dir;
-  if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
-    if (!quiet) fmt::print("note: gnuplot not found; error.png not rendered (data in band_error.csv)\n");
-    return;
-  }
-  const std::filesystem::path script = dir / "error_plot.gp";
-  write_text_atomically(
-      script,
-      fmt::format(
-          "set terminal pngcairo size 1000,600 noenhanced\n"
-          "set output '{0}/error.png'\n"
-          "set datafile separator ','\n"
-          "set logscale xy\nset grid\nset key bottom right\nset xrange [{4:g}:{5:g}]\nset format x '%g'\n"
-          "set xlabel 'f [Hz]'\nset ylabel 'relative error'\nset y2label '||H||_2'\n"
-          "set logscale y2\nset ytics nomirror\nset y2tics\n"
-          "set title 'order {1}: sup eps = {2:.3e} (tolerance {3:g}), band [{4:g}, {5:g}] Hz'\n"
-          "plot '{0}/band_error.csv' skip 1 using 1:2 with lines lw 2 title 'eps_2(f) (Eq. 22)', \\\n"
-          "     '' skip 1 using 1:3 with lines dt 2 title 'eps_F(f) (Eq. 23)', \\\n"
-          "     {3:g} with lines lc rgb 'red' title 'tolerance', \\\n"
-          "     '' skip 1 using 1:5 axes x1y2 with lines lc rgb 'gray' title '||H||_2 (right axis)'\n",
-          dir.string(), s.order, s.verified_band_error, config.tolerance, config.band.f_min_hz,
-          config.band.f_max_hz));
-  const std::string cmd = "gnuplot '" + script.string() + "' >/dev/null 2>&1";
-  if (std::system(cmd.c_str()) != 0) {
-    fmt::print(stderr, "ecmor: warning: gnuplot failed on {}\n", script.string());
-  } else if (!quiet) {
-    fmt::print("error plot: {}\n", (dir / "error.png").string());
+// The plots of a finished run (plot.hpp). A reduction that worked is not failed by its pictures:
+// a missing gnuplot is a one-line note, a failing gnuplot a warning; the exit code is the run's.
+void plot_after_run(const std::filesystem::path& dir, bool quiet) {
+  try {
+    plot_run(dir, PlotFormat::Both);
+    if (!quiet) fmt::print("plots: sigma, error, convergence (.png, .svg) in {}\n", dir.string());
+  } catch (const GnuplotNotFound& e) {
+    if (!quiet) fmt::print("note: {}\n", e.what());
+  } catch (const Error& e) {
+    fmt::print(stderr, "ecmor: warning: plots not rendered: {}\n", e.what());
   }
 }
 
@@ -180,10 +159,19 @@ int reduce(const std::filesystem::path& config_path, const CommonOptions& common
     std::signal(SIGTERM, on_signal);
     TablePrinter printer(common.quiet);
     const RunSummary summary = run_reduction(config, registry, &printer);
-    if (summary.has_model && !common.no_plot) plot_error(summary, config, common.quiet);
+    if (summary.has_model && !common.no_plot) plot_after_run(summary.output_dir, common.quiet);
     // 130 only for a signal; a run stopped by its time limit missed its target like any budget.
     if (summary.termination == Termination::Interrupted && g_interrupted.load()) return 130;
     return summary.exit_code();
+  });
+}
+
+int plot(const std::filesystem::path& run_dir, const std::string& format) {
+  return guarded([&] {
+    const PlotFormat f = parse_plot_format(format);
+    // A missing gnuplot is an error here: rendering is all this command does.
+    for (const auto& file : plot_run(run_dir, f)) fmt::print("{}\n", file.string());
+    return 0;
   });
 }
 

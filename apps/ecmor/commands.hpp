@@ -18,7 +18,7 @@ struct CommonOptions {
   bool no_default_plugins = false;                  ///< --no-default-plugins
   bool quiet = false;                               ///< --quiet
   std::filesystem::path output_dir;                 ///< --output: overrides output.dir
-  bool no_plot = false;                             ///< --no-plot: skip error.png
+  bool no_plot = false;                             ///< --no-plot: skip the plots
 };
 
 /// Runs a command body; an ecmor::Error (or any exception) becomes a message on stderr and exit 1.
@@ -31,6 +31,10 @@ void load_plugins(Registry& registry, const CommonOptions& common,
 
 /// `ecmor reduce CONFIG`: 0 target met, 2 usable model but target missed, 1 error, 130 interrupted.
 int reduce(const std::filesystem::path& config, const CommonOptions& common);
+/// `ecmor plot RUN_DIR [--format png|svg|both]`: sigma, error and convergence plots of a finished
+/// run (plot.hpp). 0 when rendered; 1 when a file is missing, the format is unknown or gnuplot is
+/// missing or fails.
+int plot(const std::filesystem::path& run_dir, const std::string& format);
 /// `ecmor plugins`: list the registered reducers with library, version and parameters.
 int plugins(const CommonOptions& common);
 /// Options of `ecmor bench`.

@@ -34,8 +34,16 @@ int main(int argc, char** argv) {
   reduce->add_option("config", config, "YAML run configuration")->required();
   reduce->add_option("-o,--output", common.output_dir, "output directory (overrides output.dir)");
   reduce->add_flag("--no-plot", common.no_plot,
-                   "do not render error.png (needs gnuplot; skipped with a note if it is missing)");
+                   "do not render the plots (sigma, error, convergence; needs gnuplot, skipped "
+                   "with a note if it is missing)");
   add_common(reduce);
+
+  std::filesystem::path run_dir;
+  std::string plot_format = "both";
+  auto* plot = cli.add_subcommand(
+      "plot", "render sigma, error and convergence plots of a finished run (needs gnuplot)");
+  plot->add_option("run_dir", run_dir, "output directory of an `ecmor reduce` run")->required();
+  plot->add_option("--format", plot_format, "png, svg or both (default both)");
 
   auto* plugins = cli.add_subcommand("plugins", "list the loaded reducers and their parameters");
   add_common(plugins);
@@ -89,6 +97,7 @@ int main(int argc, char** argv) {
   if (*reduce) return ecmor::app::reduce(config, common);
   if (*bench) return ecmor::app::bench(bench_options, common);
   if (*check) return ecmor::app::check(check_options, common);
+  if (*plot) return ecmor::app::plot(run_dir, plot_format);
   if (*plugins) return ecmor::app::plugins(common);
   if (*info) return ecmor::app::info(model_dir, eigenfrequencies, common);
   return 1;
