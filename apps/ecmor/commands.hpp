@@ -60,4 +60,21 @@ int check(const CheckOptions& options, const CommonOptions& common);
 /// `ecmor info MODEL_DIR`: sizes, nnz, symmetry, definiteness, lowest eigenfrequencies.
 int info(const std::filesystem::path& model_dir, int eigenfrequencies, const CommonOptions& common);
 
+/// Options of `ecmor simulate` (0 / empty: the default derived from the run's band).
+struct SimulateOptions {
+  static constexpr long kMaxDefaultSteps = 200000;  ///< cap of the default --steps
+  std::filesystem::path run_dir;
+  std::string input = "step";  ///< step | impulse | chirp
+  long input_index = -1;       ///< 0-based column of B; -1: all inputs at once
+  double amplitude = 1.0;
+  double t_end = 0.0;              ///< 0: 5 periods of the lowest frequency
+  long steps = 0;                  ///< 0: 20 per period of the highest frequency (capped)
+  std::string scheme = "newmark";  ///< newmark | generalized-alpha
+  double rho_inf = 1.0;
+  std::vector<double> chirp_hz;  ///< empty: the band [f_min, f_max]
+};
+/// `ecmor simulate RUN_DIR`: time-domain outputs of the full and the reduced model of a run and
+/// the output error y - yr (time_response.csv, time_error.json). 0 on success, 1 on an error.
+int simulate(const SimulateOptions& options, const CommonOptions& common);
+
 }  // namespace ecmor::app

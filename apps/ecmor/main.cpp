@@ -89,6 +89,34 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 1000));
   add_common(info);
 
+  ecmor::app::SimulateOptions sim;
+  auto* simulate = cli.add_subcommand(
+      "simulate", "simulate the full and the reduced model of a reduce run (RUN_DIR) for a step, "
+                  "impulse or chirp input; writes time_response.csv and time_error.json (output "
+                  "error y - yr, L2 and max norms)");
+  simulate->add_option("run_dir", sim.run_dir, "output directory of `ecmor reduce`")->required();
+  simulate->add_option("--input", sim.input, "step | impulse | chirp (default step)");
+  simulate->add_option("--input-index", sim.input_index,
+                       "0-based input (column of B) driven; default -1: all inputs at once");
+  simulate->add_option("--amplitude", sim.amplitude, "input amplitude (default 1)");
+  simulate->add_option("--t-end", sim.t_end,
+                       "end time [s] (default: 5 periods of the band's f_min, or of the chirp's "
+                       "lowest frequency if lower)");
+  simulate->add_option("--steps", sim.steps,
+                       "time steps (default: 20 per period of the band's f_max, or of the chirp's "
+                       "highest frequency if higher; at least 100, at most 200000)");
+  simulate->add_option("--scheme", sim.scheme,
+                       "newmark (average acceleration; trapezoidal rule for descriptor models; "
+                       "default) | generalized-alpha");
+  simulate->add_option("--rho-inf", sim.rho_inf,
+                       "generalized-alpha spectral radius at infinity in [0, 1] (default 1)");
+  simulate->add_option("--chirp-hz", sim.chirp_hz,
+                       "chirp start and end frequency F0,F1 in Hz, linear sweep (default: the "
+                       "band's f_min,f_max)")
+      ->delimiter(',');
+  // No plugins are involved: only --quiet of the common options applies.
+  simulate->add_flag("-q,--quiet", common.quiet, "print only the output-error line");
+
   try {
     cli.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -100,5 +128,6 @@ int main(int argc, char** argv) {
   if (*plot) return ecmor::app::plot(run_dir, plot_format);
   if (*plugins) return ecmor::app::plugins(common);
   if (*info) return ecmor::app::info(model_dir, eigenfrequencies, common);
+  if (*simulate) return ecmor::app::simulate(sim, common);
   return 1;
 }

@@ -1,0 +1,201 @@
+// `ecmor simulate RUN_DIR`: simulates the full model and the reduced model of a finished
+// `ecmor reduce` run for a step, impulse or chirp input and writes the outputs and the output
+// error y - yr (seed Eq. 11). The numerics are in core (time_domain.hpp); this file picks the
+// defaults from the run's band, reads and writes files and prints.
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "commands.hpp"
+#include "ecmor/atomic_file.hpp"
+#include "ecmor/error.hpp"
+#include "ecmor/model_io.hpp"
+#include "ecmor/shifted_solver.hpp"
+#include "ecmor/time_domain.hpp"
+
+namespace ecmor::app {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RunInfo {
+  fs::path model_dir;
+  double f_min_hz = 0.0, f_max_hz = 0.0;
+};
+
+RunInfo read_run(const fs::path& run_dir) {
+  const fs::path path = run_dir / "summary.json";
+  if (!fs::is_directory(run_dir)) {
+    throw InputError(
+        fmt::format("{}: no such run directory (expected the output directory of "
+                    "`ecmor reduce`)",
+                    run_dir.string()));
+  }
+  std::ifstream in(path);
+  if (!in) {
+    throw InputError(
+        fmt::format("{}: missing: RUN_DIR must be the output directory of a finished "
+                    "`ecmor reduce` run",
+                    path.string()));
+  }
+  nlohmann::json j;
+  try {
+    in >> j;
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(fmt::format("{}: not valid JSON ({})", path.string(), e.what()));
+  }
+  RunInfo info;
+  try {
+    info.model_dir = j.at("model").at("dir").get<std::string>();
+    info.f_min_hz = j.at("band").at("f_min_hz").get<double>();
+    info.f_max_hz = j.at("band").at("f_max_hz").get<double>();
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(fmt::format("{}: needs model.dir, band.f_min_hz and band.f_max_hz ({})",
+                                 path.string(), e.what()));
+  }
+  if (!(info.f_min_hz > 0.0 && info.f_max_hz > info.f_min_hz && std::isfinite(info.f_max_hz))) {
+    throw InputError(fmt::format("{}: band [{:g}, {:g}] Hz: must satisfy 0 < f_min_hz < f_max_hz",
+                                 path.string(), info.f_min_hz, info.f_max_hz));
+  }
+  // A relative model dir (hand-written summaries) is taken relative to the run directory.
+  if (info.model_dir.is_relative() && !fs::exists(info.model_dir))
+    info.model_dir = run_dir / info.model_dir;
+  return info;
+}
+
+nlohmann::json response_json(const TimeResponse& r) {
+  return {{"factorizations", r.factorizations},
+          {"solves", r.solves},
+          {"seconds", r.seconds},
+          {"scheme", r.scheme}};
+}
+
+}  // namespace
+
+int simulate(const SimulateOptions& o, const CommonOptions& common) {
+  return guarded([&] {
+    const RunInfo run = read_run(o.run_dir);
+    InputSignal input;
+    input.kind = parse_input_kind(o.input);
+    input.input = o.input_index;
+    input.amplitude = o.amplitude;
+    input.f0_hz = run.f_min_hz;
+    input.f1_hz = run.f_max_hz;
+    if (!o.chirp_hz.empty()) {
+      if (o.chirp_hz.size() != 2)
+        throw ConfigError(
+            fmt::format("--chirp-hz: {} value(s): must be two, F0,F1", o.chirp_hz.size()));
+      input.f0_hz = o.chirp_hz[0];
+      input.f1_hz = o.chirp_hz[1];
+    }
+    TimeIntegrationOptions ti;
+    ti.scheme = parse_scheme(o.scheme);
+    ti.rho_inf = o.rho_inf;
+    // Defaults: 5 periods of the band's lowest frequency; 20 steps per period of the highest
+    // frequency (of the band, or of the chirp if higher), capped.
+    const double f_low = std::min(run.f_min_hz, input.kind == InputSignal::Kind::Chirp
+                                                    ? std::min(input.f0_hz, input.f1_hz)
+                                                    : run.f_min_hz);
+    const double f_high = input.kind == InputSignal::Kind::Chirp
+                              ? std::max({run.f_max_hz, input.f0_hz, input.f1_hz})
+                              : run.f_max_hz;
+    // An explicit value (even an invalid one, which validate() then names) wins over the default.
+    ti.t_end = o.t_end != 0.0 ? o.t_end : 5.0 / f_low;
+    bool capped = false;
+    if (o.steps != 0) {
+      ti.steps = o.steps;
+    } else {
+      const double wanted = std::ceil(20.0 * f_high * ti.t_end);
+      capped = !(wanted <= static_cast<double>(SimulateOptions::kMaxDefaultSteps));
+      ti.steps = capped ? SimulateOptions::kMaxDefaultSteps
+                        : std::max<Index>(100, static_cast<Index>(wanted));
+    }
+    input.validate();
+    ti.validate();
+
+    const Model model = load_model(run.model_dir);
+    const ReducedModel reduced = read_reduced_model(o.run_dir);
+    auto solver = make_shifted_solver(model);
+    const TimeResponse y = simulate(model, *solver, input, ti);
+    const TimeResponse yr = simulate(reduced, input, ti);
+    const OutputError e = output_error(y, yr);
+
+    const Index p = y.y.rows();
+    std::string csv = "t";
+    for (Index i = 1; i <= p; ++i) csv += fmt::format(",y{}", i);
+    for (Index i = 1; i <= p; ++i) csv += fmt::format(",yr{}", i);
+    csv += "\n";
+    for (Index k = 0; k < y.y.cols(); ++k) {
+      csv += fmt::format("{:.17g}", y.t[static_cast<std::size_t>(k)]);
+      for (Index i = 0; i < p; ++i) csv += fmt::format(",{:.17g}", y.y(i, k));
+      for (Index i = 0; i < p; ++i) csv += fmt::format(",{:.17g}", yr.y(i, k));
+      csv += "\n";
+    }
+    write_text_atomically(o.run_dir / "time_response.csv", csv);
+
+    auto finite_or_null = [](double x) -> nlohmann::json {
+      return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr);
+    };
+    nlohmann::json j;
+    j["input"] = {{"kind", to_string(input.kind)},
+                  {"input_index", input.input},
+                  {"amplitude", input.amplitude}};
+    if (input.kind == InputSignal::Kind::Chirp) {
+      j["input"]["chirp"] = {{"f0_hz", input.f0_hz}, {"f1_hz", input.f1_hz}, {"sweep", "linear"}};
+    }
+    j["scheme"] = to_string(ti.scheme);
+    j["scheme_description"] = y.scheme;
+    j["rho_inf"] = ti.rho_inf;
+    j["t_end"] = ti.t_end;
+    j["steps"] = ti.steps;
+    j["dt"] = y.dt;
+    j["steps_capped"] = capped;
+    j["error"] = {{"l2", e.l2},
+                  {"max", e.max},
+                  {"t_at_max", e.t_max},
+                  {"relative_l2", finite_or_null(e.relative_l2)},
+                  {"relative_max", finite_or_null(e.relative_max)},
+                  {"relative_defined", e.relative_defined},
+                  {"y_l2", e.y_l2},
+                  {"y_max", e.y_max},
+                  {"norms",
+                   "l2: sqrt(int ||e(t)||_2^2 dt), trapezoidal rule; max: max over "
+                   "samples and outputs of |e_i(t_k)|"}};
+    j["full"] = response_json(y);
+    j["full"]["N"] = size_of(model);
+    j["reduced"] = response_json(yr);
+    j["reduced"]["n"] = size_of(reduced);
+    write_text_atomically(o.run_dir / "time_error.json", j.dump(2) + "\n");
+
+    if (capped && !common.quiet) {
+      fmt::print(
+          "note: default steps capped at {} (20 steps per period of {:g} Hz would need "
+          "more); pass --steps to resolve the highest frequency\n",
+          SimulateOptions::kMaxDefaultSteps, f_high);
+    }
+    if (!common.quiet) {
+      fmt::print("{} input{}, t in [0, {:g}] s, {} steps of {:.3e} s, {}\n", to_string(input.kind),
+                 input.input < 0 ? std::string(" (all inputs)") : fmt::format(" {}", input.input),
+                 ti.t_end, ti.steps, y.dt, y.scheme);
+      fmt::print("full    N = {:>7}  {:.3f} s  {} factorisations  {} solves\n", size_of(model),
+                 y.seconds, y.factorizations, y.solves);
+      fmt::print("reduced n = {:>7}  {:.3f} s  {} factorisations  {} solves\n", size_of(reduced),
+                 yr.seconds, yr.factorizations, yr.solves);
+    }
+    fmt::print(
+        "output error y - yr: L2 {:.3e} (relative {:.3e}), max {:.3e} (relative {:.3e}) "
+        "at t = {:.4g} s\n",
+        e.l2, e.relative_l2, e.max, e.relative_max, e.t_max);
+    if (!common.quiet) {
+      fmt::print("outputs in {} and {}\n", (o.run_dir / "time_response.csv").string(),
+                 (o.run_dir / "time_error.json").string());
+    }
+    return 0;
+  });
+}
+
+}  // namespace ecmor::app

@@ -1,0 +1,190 @@
+// End-to-end tests of `ecmor simulate RUN_DIR`: the real executable on run directories built by
+// hand (summary.json with the model dir and the band, a reduced model written with
+// write_reduced_model), so no reducer plugin is needed. A full-order "reduction" must give an
+// output error at round-off level; a truncated model a visible one; the defaults follow the band;
+// bad run directories and options exit 1 with a message naming the problem.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "ecmor/model_io.hpp"
+#include "ecmor/projection.hpp"
+
+namespace fs = std::filesystem;
+
+namespace ecmor {
+namespace {
+
+const fs::path kBuildSo = "../shared/models/build_so";
+
+struct Result {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), {});
+}
+
+std::string quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+class SimulateCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    m_dir = fs::temp_directory_path() /
+            ("ecmor_simulate_cli_" + std::to_string(::getpid()) + "_" + info->name());
+    fs::remove_all(m_dir);
+    fs::create_directories(m_dir);
+  }
+  void TearDown() override {
+    if (!HasFailure()) fs::remove_all(m_dir);
+  }
+
+  Result run(const std::vector<std::string>& args) {
+    const fs::path out = m_dir / "stdout.txt";
+    const fs::path err = m_dir / "stderr.txt";
+    std::string cmd = "env -u ECMOR_PLUGIN_PATH ";
+    cmd.append(quote(std::string(ECMOR_TEST_BINARY_DIR) + "/bin/ecmor"));
+    for (const std::string& a : args) cmd.append(" ").append(quote(a));
+    cmd.append(" </dev/null >").append(quote(out.string()));
+    cmd.append(" 2>").append(quote(err.string()));
+    const int status = std::system(cmd.c_str());
+    Result r;
+    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = read_text(out);
+    r.err = read_text(err);
+    return r;
+  }
+
+  // A run directory for build_so with the band [0.1, 2] Hz and the model projected on the first
+  // `order` unit vectors (order = N: the full-order "reduction").
+  fs::path make_run(Index order) {
+    const fs::path run_dir = m_dir / "run";
+    fs::create_directories(run_dir);
+    const Model full = load_model(kBuildSo);
+    const Matrix V = Matrix::Identity(size_of(full), order);
+    write_reduced_model(run_dir, project(full, V, V));
+    nlohmann::json j;
+    j["model"] = {{"dir", fs::absolute(kBuildSo).string()}};
+    j["band"] = {{"f_min_hz", 0.1}, {"f_max_hz", 2.0}};
+    std::ofstream(run_dir / "summary.json") << j.dump(2);
+    return run_dir;
+  }
+
+  fs::path m_dir;
+};
+
+nlohmann::json read_json(const fs::path& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+std::vector<std::string> read_lines(const fs::path& path) {
+  std::ifstream in(path);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+TEST_F(SimulateCli, FullOrderReductionHasRoundOffErrorForEveryInput) {
+  const fs::path run_dir = make_run(24);
+  for (const char* input : {"step", "impulse", "chirp"}) {
+    const Result r = run({"simulate", run_dir.string(), "--input", input, "--t-end", "10",
+                          "--steps", "2000", "--chirp-hz", "0.05,2"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const std::vector<std::string> lines = read_lines(run_dir / "time_response.csv");
+    ASSERT_EQ(lines.size(), 2002u);
+    EXPECT_EQ(lines[0], "t,y1,yr1");
+    const nlohmann::json j = read_json(run_dir / "time_error.json");
+    SCOPED_TRACE(input);
+    EXPECT_EQ(j["input"]["kind"], input);
+    EXPECT_EQ(j["steps"], 2000);
+    EXPECT_DOUBLE_EQ(j["dt"].get<double>(), 10.0 / 2000);
+    EXPECT_TRUE(j["error"]["relative_defined"].get<bool>());
+    EXPECT_LT(j["error"]["relative_max"].get<double>(), 1e-12);
+    EXPECT_LT(j["error"]["relative_l2"].get<double>(), 1e-12);
+    EXPECT_GT(j["error"]["y_max"].get<double>(), 0.0);
+    EXPECT_EQ(j["full"]["factorizations"], 2);
+    EXPECT_EQ(j["full"]["N"], 24);
+    EXPECT_EQ(j["reduced"]["n"], 24);
+    EXPECT_NE(r.out.find("output error y - yr"), std::string::npos) << r.out;
+  }
+}
+
+TEST_F(SimulateCli, TruncatedModelShowsTheErrorAndDefaultsFollowTheBand) {
+  const fs::path run_dir = make_run(6);
+  const Result r =
+      run({"simulate", run_dir.string(), "--scheme", "generalized-alpha", "--rho-inf", "0.8"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = read_json(run_dir / "time_error.json");
+  // 5 periods of f_min = 0.1 Hz; 20 steps per period of f_max = 2 Hz over 50 s.
+  EXPECT_DOUBLE_EQ(j["t_end"].get<double>(), 50.0);
+  EXPECT_EQ(j["steps"], 2000);
+  EXPECT_EQ(j["scheme"], "generalized-alpha");
+  EXPECT_EQ(j["input"]["kind"], "step");
+  EXPECT_GT(j["error"]["relative_max"].get<double>(), 1e-6);
+  EXPECT_EQ(j["reduced"]["n"], 6);
+  // The CSV holds y and yr: recompute the max error from it (printed with 17 digits).
+  const std::vector<std::string> lines = read_lines(run_dir / "time_response.csv");
+  double max_e = 0.0;
+  for (std::size_t k = 1; k < lines.size(); ++k) {
+    std::stringstream ss(lines[k]);
+    std::string t, y, yr;
+    std::getline(ss, t, ',');
+    std::getline(ss, y, ',');
+    std::getline(ss, yr, ',');
+    max_e = std::max(max_e, std::abs(std::stod(y) - std::stod(yr)));
+  }
+  EXPECT_NEAR(max_e, j["error"]["max"].get<double>(), 1e-15 + 1e-12 * max_e);
+}
+
+TEST_F(SimulateCli, BadRunDirectoriesAndOptionsAreNamed) {
+  Result r = run({"simulate", (m_dir / "nothing").string()});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("no such run directory"), std::string::npos) << r.err;
+
+  fs::create_directories(m_dir / "empty");
+  r = run({"simulate", (m_dir / "empty").string()});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("summary.json: missing"), std::string::npos) << r.err;
+
+  std::ofstream(m_dir / "empty" / "summary.json") << R"({"band": {"f_min_hz": 1, "f_max_hz": 2}})";
+  r = run({"simulate", (m_dir / "empty").string()});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("needs model.dir"), std::string::npos) << r.err;
+
+  const fs::path run_dir = make_run(24);
+  r = run({"simulate", run_dir.string(), "--input", "ramp"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("input = 'ramp': must be one of step, impulse, chirp"), std::string::npos)
+      << r.err;
+  r = run({"simulate", run_dir.string(), "--steps", "-5"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("steps = -5: must be in [1, 1e9]"), std::string::npos) << r.err;
+  r = run({"simulate", run_dir.string(), "--input-index", "3"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("InputSignal::input = 3"), std::string::npos) << r.err;
+  r = run({"simulate", run_dir.string(), "--input", "chirp", "--chirp-hz", "1,0"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("InputSignal::f1_hz = 0: must be finite and > 0"), std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(run_dir / "time_error.json")) << "an error must not look like a result";
+}
+
+}  // namespace
+}  // namespace ecmor
