@@ -116,6 +116,8 @@ int main(int argc, char** argv) {
       ->delimiter(',');
   // No plugins are involved: only --quiet of the common options applies.
   simulate->add_flag("-q,--quiet", common.quiet, "print only the output-error line");
+  simulate->add_flag("--no-plot", common.no_plot,
+                     "do not render time_response.png/.svg (needs gnuplot)");
 
   try {
     cli.parse(argc, argv);

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "ecmor/error.hpp"
+#include "ecmor/types.hpp"
 
 namespace ecmor::app {
 
@@ -71,5 +72,14 @@ std::vector<std::filesystem::path> render_plots(const std::filesystem::path& dir
 ///         first); IoError when gnuplot fails.
 std::vector<std::filesystem::path> plot_run(const std::filesystem::path& run_dir,
                                             PlotFormat format = PlotFormat::Both);
+
+/// time_response.{png,svg} of `ecmor simulate` in `run_dir`, from time_response.csv
+/// (t,y1..yp,yr1..yrp): the full (solid) and reduced (dashed) outputs over time, at most the first
+/// `max_outputs` of them, and below them the output error y_i - yr_i (Eq. 11). `title` heads it.
+/// \throws GnuplotNotFound; IoError when gnuplot fails.
+std::vector<std::filesystem::path> plot_time_response(const std::filesystem::path& run_dir,
+                                                      Index outputs, const std::string& title,
+                                                      PlotFormat format = PlotFormat::Both,
+                                                      Index max_outputs = 4);
 
 }  // namespace ecmor::app

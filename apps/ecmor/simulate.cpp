@@ -16,6 +16,7 @@
 #include "ecmor/model_io.hpp"
 #include "ecmor/shifted_solver.hpp"
 #include "ecmor/time_domain.hpp"
+#include "plot.hpp"
 
 namespace ecmor::app {
 namespace {
@@ -193,6 +194,23 @@ int simulate(const SimulateOptions& o, const CommonOptions& common) {
     if (!common.quiet) {
       fmt::print("outputs in {} and {}\n", (o.run_dir / "time_response.csv").string(),
                  (o.run_dir / "time_error.json").string());
+    }
+    if (!common.no_plot) {
+      // A missing gnuplot is a note, a failing one a warning: the numbers are all in the CSV.
+      try {
+        plot_time_response(o.run_dir, p,
+                           fmt::format("{} response: full N = {}, reduced n = {}; max |y - yr| = "
+                                       "{:.3e} (relative {:.3e})",
+                                       to_string(input.kind), size_of(model), size_of(reduced),
+                                       e.max, e.relative_max));
+        if (!common.quiet) {
+          fmt::print("plot: {}\n", (o.run_dir / "time_response.png").string());
+        }
+      } catch (const GnuplotNotFound& err) {
+        if (!common.quiet) fmt::print("note: {}\n", err.what());
+      } catch (const Error& err) {
+        fmt::print(stderr, "ecmor: warning: time_response plot not rendered: {}\n", err.what());
+      }
     }
     return 0;
   });

@@ -367,7 +367,9 @@ RunConfig Parser::parse(const std::string& yaml) {
                                  fmt::join(kSections, ", "), node_kind(m_root)));
   check_keys(m_root, "the configuration", kSections);
   const YAML::Node strategy_node = m_root["strategy"];
-  const bool portfolio = strategy_node.IsMap() && strategy_node["name"].IsScalar() &&
+  // (A missing key reads as an invalid node, whose IsScalar() throws: test IsDefined() first.)
+  const bool portfolio = strategy_node.IsMap() && strategy_node["name"].IsDefined() &&
+                         strategy_node["name"].IsScalar() &&
                          strategy_node["name"].Scalar() == "portfolio";
   for (const char* required : {"model", "band", "target", "reducer", "output"}) {
     if (portfolio && std::string(required) == "reducer") continue;

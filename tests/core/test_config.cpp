@@ -7,8 +7,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "ecmor/config.hpp"
 #include "common/test_support.hpp"
+#include "ecmor/config.hpp"
 #include "ecmor/error.hpp"
 
 namespace fs = std::filesystem;
@@ -160,6 +160,33 @@ TEST(RunConfig, DefaultsOfOptionalSections) {
   EXPECT_EQ(c.output_dir, (fs::current_path() / "out/lf10").lexically_normal());
   // Integer-valued band limits are numbers too.
   EXPECT_EQ(c.band.f_max_hz, 100.0);
+  EXPECT_EQ(c.hinf_dense_states, 250);
+  EXPECT_EQ(c.check_max_order, 0);
+  EXPECT_EQ(c.check_max_seconds, 0.0);
+  EXPECT_TRUE(c.portfolio.empty());
+}
+
+TEST(RunConfig, StrategySectionWithoutNameKeepsTheDefault) {
+  const RunConfig c = parse_run_config(kMinimal + "strategy: {max_order: 7}\n", "run.yaml");
+  EXPECT_EQ(c.strategy_name, "grow_order");
+  EXPECT_EQ(c.strategy_params.get_int("max_order", 0), 7);
+}
+
+TEST(RunConfig, CheckSectionAndHinfDenseStates) {
+  const RunConfig c = parse_run_config(
+      kMinimal + "check: {max_order: 12, max_seconds: 30}\nerror: {hinf_dense_states: 0}\n",
+      "run.yaml");
+  EXPECT_EQ(c.check_max_order, 12);
+  EXPECT_EQ(c.check_max_seconds, 30.0);
+  EXPECT_EQ(c.hinf_dense_states, 0);
+  EXPECT_NE(
+      parse_error(kMinimal + "check: {max_order: 0}\n").find("check.max_order = 0: must be >= 1"),
+      std::string::npos);
+  EXPECT_NE(parse_error(kMinimal + "check: {max_seconds: -1}\n")
+                .find("check.max_seconds = -1: must be > 0"),
+            std::string::npos);
+  EXPECT_NE(parse_error(kMinimal + "error: {hinf_dense_states: 7000}\n").find("must be <= 6000"),
+            std::string::npos);
 }
 
 TEST(RunConfig, ExampleInTheHeaderParses) {
@@ -209,9 +236,9 @@ TEST(RunConfig, UnknownKeysSuggestTheNearest) {
   // Every unknown key is listed, not just the first.
   EXPECT_EQ(parse_error(kMinimal + "colour: red\nverbose: true\n"),
             "run.yaml:12: unknown key 'colour' in the configuration (valid: model, band, target, "
-            "reducer, strategy, error, solver, output, plugins); run.yaml:13: unknown key "
+            "reducer, strategy, error, solver, output, plugins, check); run.yaml:13: unknown key "
             "'verbose' in the configuration (valid: model, band, target, reducer, strategy, "
-            "error, solver, output, plugins)");
+            "error, solver, output, plugins, check)");
 }
 
 TEST(RunConfig, DuplicateKeysAreErrors) {
@@ -370,13 +397,13 @@ TEST(RunConfig, SyntaxErrorsEmptyAndNonMappingDocuments) {
   EXPECT_EQ(bad_indent.rfind("run.yaml:3: YAML syntax error: ", 0), 0u) << bad_indent;
   EXPECT_EQ(parse_error(""),
             "run.yaml: the file is empty (expected the sections model, band, "
-            "target, reducer, strategy, error, solver, output, plugins)");
+            "target, reducer, strategy, error, solver, output, plugins, check)");
   EXPECT_EQ(parse_error("# only a comment\n\n"),
             "run.yaml: the file is empty (expected the sections model, band, target, reducer, "
-            "strategy, error, solver, output, plugins)");
+            "strategy, error, solver, output, plugins, check)");
   EXPECT_EQ(parse_error("- a\n- b\n"),
             "run.yaml:1: expected a mapping of sections (model, band, target, reducer, strategy, "
-            "error, solver, output, plugins), found a list");
+            "error, solver, output, plugins, check), found a list");
 }
 
 TEST(RunConfig, LoadFromFile) {

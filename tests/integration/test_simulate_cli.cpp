@@ -151,6 +151,23 @@ TEST_F(SimulateCli, TruncatedModelShowsTheErrorAndDefaultsFollowTheBand) {
     max_e = std::max(max_e, std::abs(std::stod(y) - std::stod(yr)));
   }
   EXPECT_NEAR(max_e, j["error"]["max"].get<double>(), 1e-15 + 1e-12 * max_e);
+  // The plot of both outputs and the error (when gnuplot is installed, as scripts/setup.sh does).
+  if (std::system("command -v gnuplot >/dev/null 2>&1") == 0) {
+    const std::string svg = read_text(run_dir / "time_response.svg");
+    const std::size_t end = svg.rfind("</svg>");
+    ASSERT_NE(end, std::string::npos) << "not an SVG";
+    EXPECT_EQ(svg.find_first_not_of(" \n", end + 6), std::string::npos) << "truncated";
+    for (const char* series : {"y1 full", "y1 reduced", "y1 - yr1"}) {
+      EXPECT_NE(svg.find(series), std::string::npos) << series;
+    }
+    std::ifstream png(run_dir / "time_response.png", std::ios::binary);
+    char magic[8] = {};
+    png.read(magic, 8);
+    EXPECT_EQ(std::string(magic + 1, 3), "PNG");
+  }
+  fs::remove(run_dir / "time_response.svg");
+  EXPECT_EQ(run({"simulate", run_dir.string(), "--no-plot", "-q"}).exit_code, 0);
+  EXPECT_FALSE(fs::exists(run_dir / "time_response.svg"));
 }
 
 TEST_F(SimulateCli, BadRunDirectoriesAndOptionsAreNamed) {
