@@ -47,6 +47,10 @@ struct BenchRow {
   Index factorizations = 0, solves = 0, reducer_factorizations = 0, reducer_solves = 0;
   Index reducer_calls = 0, iterations = 0;
   double peak_memory_mb = 0.0;
+  /// H-infinity norm of the error system and its scope ("all frequencies": dense level-set
+  /// method, "band": sampled supremum); see RunSummary::hinf_error.
+  double hinf_error = 0.0;
+  std::string hinf_scope;
 };
 
 std::atomic<bool> g_bench_interrupted{false};
@@ -88,7 +92,9 @@ nlohmann::json to_json(const BenchRow& r) {
           {"reducer_solves", r.reducer_solves},
           {"reducer_calls", r.reducer_calls},
           {"iterations", r.iterations},
-          {"peak_memory_mb", r.peak_memory_mb}};
+          {"peak_memory_mb", r.peak_memory_mb},
+          {"hinf_error", r.hinf_error},
+          {"hinf_scope", r.hinf_scope}};
 }
 
 std::string csv_field(const std::string& s) {
@@ -102,34 +108,43 @@ std::string to_csv(const std::vector<BenchRow>& rows) {
   std::string out =
       "config,model,N,reducer,strategy,tolerance,termination,target_met,order,band_error,"
       "verified_band_error,f_peak_hz,stable,seconds,reducer_seconds,full_response_seconds,"
-      "reducer_sparse_share,sparse_seconds,factorizations,solves,reducer_factorizations,reducer_solves,"
-      "reducer_calls,iterations,peak_memory_mb,message\n";
+      "reducer_sparse_share,sparse_seconds,factorizations,solves,reducer_factorizations,reducer_"
+      "solves,"
+      "reducer_calls,iterations,peak_memory_mb,hinf_error,hinf_scope,message\n";
   for (const BenchRow& r : rows) {
     out += fmt::format(
-        "{},{},{},{},{},{:g},{},{},{},{:.6e},{:.6e},{:.6e},{},{:.4f},{:.4f},{:.4f},{:.3f},{:.4f},{},{},"
-        "{},{},{},{},{:.1f},{}\n",
+        "{},{},{},{},{},{:g},{},{},{},{:.6e},{:.6e},{:.6e},{},{:.4f},{:.4f},{:.4f},{:.3f},{:.4f},{}"
+        ",{},"
+        "{},{},{},{},{:.1f},{:.6e},{},{}\n",
         csv_field(r.config), r.model, r.n_full, r.reducer, r.strategy, r.tolerance, r.termination,
         r.met ? 1 : 0, r.order, r.band_error, r.verified_error, r.f_peak_hz, r.stable ? 1 : 0,
         r.seconds, r.reducer_seconds, r.full_response_seconds, r.reducer_sparse_share,
-        r.sparse_seconds, r.factorizations, r.solves, r.reducer_factorizations, r.reducer_solves, r.reducer_calls,
-        r.iterations, r.peak_memory_mb, csv_field(r.message));
+        r.sparse_seconds, r.factorizations, r.solves, r.reducer_factorizations, r.reducer_solves,
+        r.reducer_calls, r.iterations, r.peak_memory_mb, r.hinf_error, r.hinf_scope,
+        csv_field(r.message));
   }
   return out;
 }
 
 std::string to_markdown(const std::vector<BenchRow>& rows) {
   std::string out =
-      "| model | N | reducer | strategy | tolerance | result | order | verified error | total s | "
-      "reducer s | full response s | sparse s (all threads) | sparse share of reducer | "
-      "factorisations (reducer) |\n"
-      "|---|---:|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+      "| model | N | reducer | strategy | tolerance | result | order | verified error | "
+      "H∞ error (abs.) | total s | reducer s | full response s | sparse s (all threads) | "
+      "sparse share of reducer | factorisations (reducer) |\n"
+      "|---|---:|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const BenchRow& r : rows) {
     const std::string result = r.met ? std::string("met") : r.termination;
-    out += fmt::format("| {} | {} | {} | {} | {:g} | {} | {} | {:.2e} | {:.2f} | {:.3f} | {:.2f} | {:.2f} | {:.0f}% | {} ({}) |\n",
-                       r.model, r.n_full, r.reducer, r.strategy, r.tolerance, result,
-                       r.order > 0 ? std::to_string(r.order) : std::string("-"), r.verified_error,
-                       r.seconds, r.reducer_seconds, r.full_response_seconds, r.sparse_seconds,
-                       100.0 * r.reducer_sparse_share, r.factorizations, r.reducer_factorizations);
+    // "(band)": the sampled band supremum, not the norm over all frequencies.
+    const std::string hinf =
+        r.order > 0 ? fmt::format("{:.2e}{}", r.hinf_error, r.hinf_scope == "band" ? " (band)" : "")
+                    : std::string("-");
+    out += fmt::format(
+        "| {} | {} | {} | {} | {:g} | {} | {} | {:.2e} | {} | {:.2f} | {:.3f} | "
+        "{:.2f} | {:.2f} | {:.0f}% | {} ({}) |\n",
+        r.model, r.n_full, r.reducer, r.strategy, r.tolerance, result,
+        r.order > 0 ? std::to_string(r.order) : std::string("-"), r.verified_error, hinf, r.seconds,
+        r.reducer_seconds, r.full_response_seconds, r.sparse_seconds,
+        100.0 * r.reducer_sparse_share, r.factorizations, r.reducer_factorizations);
   }
   return out;
 }
@@ -340,6 +355,57 @@ class BenchCharts {
   bool m_noted = false;  // one note per bench, not one per run
 };
 
+/// One configuration of the bench: run over the tolerance ladder under `name` (the run
+/// directories' stem).
+struct Job {
+  RunConfig config;
+  std::string name;
+};
+
+// Portfolio configs become one job per member (one chart series each) unless --portfolio-as-one;
+// --all-reducers makes one job per loaded reducer that accepts the model's kind.
+std::vector<Job> expand_jobs(const std::vector<RunConfig>& configs, const BenchOptions& options,
+                             const CommonOptions& common) {
+  std::vector<Job> jobs;
+  auto plain = [](const RunConfig& base, const PortfolioMember& m) {
+    RunConfig c = base;
+    c.portfolio.clear();
+    c.reducer_name = m.reducer_name;
+    c.reducer_params = m.reducer_params;
+    c.strategy_name = m.strategy_name;
+    c.strategy_params = m.strategy_params;
+    return c;
+  };
+  for (const RunConfig& base : configs) {
+    const std::string stem = base.source.stem().string();
+    if (options.all_reducers) {
+      Registry registry;
+      load_plugins(registry, common, base.plugins);
+      // The kind from the files present, as load_model decides it (M.mtx: second order).
+      const bool second_order = std::filesystem::exists(base.model_dir / "M.mtx");
+      for (const Registry::Entry& e : registry.entries()) {
+        if (second_order ? !e.info.second_order : !e.info.descriptor) continue;
+        PortfolioMember m;
+        m.reducer_name = e.info.name;
+        m.reducer_params = ParameterMap("reducer '" + e.info.name + "'");
+        m.strategy_name = "grow_order";
+        m.strategy_params = base.strategy_name == "grow_order"
+                                ? base.strategy_params
+                                : ParameterMap("strategy 'grow_order'");
+        jobs.push_back({plain(base, m), stem + "_" + e.info.name});
+      }
+    } else if (!base.portfolio.empty() && !options.portfolio_as_one) {
+      for (const PortfolioMember& m : base.portfolio) {
+        jobs.push_back({plain(base, m), stem + "_" + m.reducer_name + "_" + m.strategy_name});
+      }
+    } else {
+      jobs.push_back({base, stem});
+    }
+  }
+  if (jobs.empty()) throw ConfigError("ecmor bench: no loaded reducer accepts the models given");
+  return jobs;
+}
+
 }  // namespace
 
 int bench(const BenchOptions& options, const CommonOptions& common) {
@@ -351,8 +417,9 @@ int bench(const BenchOptions& options, const CommonOptions& common) {
       }
     }
     // Load every config first: a typo in the last one must not surface after an hour of runs.
-    std::vector<RunConfig> configs;
-    for (const auto& path : options.configs) configs.push_back(load_run_config(path));
+    std::vector<RunConfig> loaded;
+    for (const auto& path : options.configs) loaded.push_back(load_run_config(path));
+    const std::vector<Job> configs = expand_jobs(loaded, options, common);
     std::signal(SIGINT, on_bench_signal);
     std::signal(SIGTERM, on_bench_signal);
 
@@ -368,7 +435,8 @@ int bench(const BenchOptions& options, const CommonOptions& common) {
       return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     };
     BenchCharts charts(out, common.quiet);
-    for (const RunConfig& base : configs) {
+    for (const Job& job : configs) {
+      const RunConfig& base = job.config;
       std::vector<double> ladder = options.tolerances;
       if (ladder.empty()) ladder.push_back(base.tolerance);
       for (double tol : ladder) {
@@ -378,9 +446,9 @@ int bench(const BenchOptions& options, const CommonOptions& common) {
         if (options.time_limit_s > 0.0) config.time_limit_s = options.time_limit_s;
         // One directory per run: configs with the same file name in different folders, or a
         // tolerance given twice, get a numbered suffix instead of overwriting a run's outputs.
-        std::string run_name = base.source.stem().string() + "_tol" + tol_tag(tol);
+        std::string run_name = job.name + "_tol" + tol_tag(tol);
         for (int k = 2; used_names.count(run_name) > 0; ++k) {
-          run_name = base.source.stem().string() + "_tol" + tol_tag(tol) + "_" + std::to_string(k);
+          run_name = job.name + "_tol" + tol_tag(tol) + "_" + std::to_string(k);
         }
         used_names.insert(run_name);
         config.output_dir = out / "runs" / run_name;
@@ -423,6 +491,8 @@ int bench(const BenchOptions& options, const CommonOptions& common) {
           row.reducer_calls = s.reducer_calls;
           row.iterations = s.iterations;
           row.peak_memory_mb = s.peak_memory_mb;
+          row.hinf_error = s.hinf_error;
+          row.hinf_scope = s.hinf_scope;
           fmt::print("{} order {} error {:.2e}, {:.2f} s (reducer {:.3f} s), {:.1f} s elapsed\n",
                      row.met ? "met," : row.termination + ",", row.order, row.verified_error,
                      row.seconds, row.reducer_seconds, elapsed());

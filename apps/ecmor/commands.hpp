@@ -43,6 +43,11 @@ struct BenchOptions {
   std::vector<double> tolerances;            ///< empty: each config's own tolerance
   std::filesystem::path output_dir = "out/bench";
   double time_limit_s = 0.0;                 ///< > 0: wall-clock limit of every run (overrides YAML)
+  /// Run a portfolio config as one run (default: each member on its own, one series each).
+  bool portfolio_as_one = false;
+  /// Replace each config's reducer by every loaded reducer that accepts the model's kind, with
+  /// default parameters (and grow_order, keeping the config's grow_order parameters).
+  bool all_reducers = false;
 };
 /// `ecmor bench CONFIG...`: runs every config at every tolerance of the ladder, records order,
 /// errors, times and counters per run; writes bench.csv, bench.json and bench.md (a table).

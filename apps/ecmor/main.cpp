@@ -56,6 +56,11 @@ int main(int argc, char** argv) {
   bench->add_option("-t,--tolerances", bench_options.tolerances,
                     "tolerance ladder, e.g. 1e-2,1e-3,1e-4 (default: each config's own)")
       ->delimiter(',');
+  bench->add_flag("--portfolio-as-one", bench_options.portfolio_as_one,
+                  "bench a portfolio config as one run (default: each member on its own)");
+  bench->add_flag("--all-reducers", bench_options.all_reducers,
+                  "run every loaded reducer that accepts the model (default parameters, "
+                  "grow_order) instead of the config's reducer");
   bench->add_option("-o,--output", bench_options.output_dir,
                     "output directory (default out/bench)");
   bench->add_option("--time-limit", bench_options.time_limit_s,

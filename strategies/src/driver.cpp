@@ -424,6 +424,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
     const double hinf_seconds = elapsed() - hinf_start;
     summary.hinf_error = hinf.value;
     summary.hinf_method = hinf.method;
+    summary.hinf_scope = hinf.scope;
     j["hinf_error"] = {{"value", hinf.value},
                        {"scope", hinf.scope},
                        {"certified", hinf.certified},

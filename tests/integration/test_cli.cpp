@@ -724,8 +724,8 @@ TEST_F(Cli, BenchNeverLetsOneRunOverwriteAnother) {
   // Tolerances that print alike at one digit, and the same config twice: four directories.
   write_text(config(), lf10_yaml(output(), 1e-2, "{name: grow_order}"));
   const fs::path out = m_dir / "bench";
-  const Result r = run({"bench", config().string(), config().string(), "-t", "2e-3,2.5e-3", "-o",
-                        out.string()});
+  const Result r =
+      run({"bench", config().string(), config().string(), "-t", "2e-3,2.5e-3", "-o", out.string()});
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   Index dirs = 0;
   for (const auto& e : fs::directory_iterator(out / "runs")) dirs += e.is_directory() ? 1 : 0;
@@ -736,6 +736,60 @@ TEST_F(Cli, BenchNeverLetsOneRunOverwriteAnother) {
 TEST_F(Cli, BenchRejectsAToleranceOutsideZeroOne) {
   write_text(config(), lf10_yaml(output(), 1e-2, "{name: grow_order}"));
   EXPECT_ERROR(run({"bench", config().string(), "-t", "1e-2,2"}), "tolerance 2", "(0, 1)");
+}
+
+TEST_F(Cli, BenchRunsEachPortfolioMemberOnItsOwnOrThePortfolioAsOne) {
+  std::string yaml = lf10_yaml(output(), 1e-3, "{name: grow_order}");
+  yaml.replace(yaml.find("reducer:  {name: modal, static_correction: true}\n"),
+               std::string("reducer:  {name: modal, static_correction: true}\n").size(), "");
+  yaml.replace(yaml.find("strategy: {name: grow_order}"),
+               std::string("strategy: {name: grow_order}").size(),
+               "strategy:\n  name: portfolio\n  members:\n    - reducer: {name: modal}\n"
+               "    - reducer: {name: krylov}\n      strategy: {name: grow_order, max_order: 18}");
+  write_text(config(), yaml);
+  const fs::path out = m_dir / "bench";
+  const Result r = run({"bench", config().string(), "-o", out.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const nlohmann::json rows = read_json(out / "bench.json");
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_EQ(rows[0]["reducer"], "modal");
+  EXPECT_EQ(rows[1]["reducer"], "krylov");
+  EXPECT_TRUE(fs::is_regular_file(out / "runs" / "run_modal_grow_order_tol0.001" / "summary.json"));
+  // Small full model: the H-infinity error is the dense level-set value over all frequencies.
+  EXPECT_EQ(rows[0]["hinf_scope"], "all frequencies");
+  EXPECT_GT(rows[0]["hinf_error"].get<double>(), 0.0);
+
+  const fs::path one = m_dir / "bench_one";
+  ASSERT_EQ(run({"bench", config().string(), "--portfolio-as-one", "-o", one.string()}).exit_code,
+            0);
+  const nlohmann::json single = read_json(one / "bench.json");
+  ASSERT_EQ(single.size(), 1u);
+  EXPECT_EQ(single[0]["reducer"], "portfolio");
+  // The portfolio reports the smaller of its members' orders.
+  EXPECT_EQ(single[0]["order"].get<Index>(),
+            std::min(rows[0]["order"].get<Index>(), rows[1]["order"].get<Index>()));
+}
+
+TEST_F(Cli, BenchAllReducersRunsEveryLoadedReducerThatAcceptsTheModel) {
+  write_text(config(), lf10_yaml(output(), 1e-2, "{name: grow_order, max_order: 18}"));
+  const fs::path out = m_dir / "bench";
+  const Result r = run({"bench", config().string(), "--all-reducers", "-o", out.string()});
+  EXPECT_NE(r.exit_code, 1) << r.out << r.err;
+  const nlohmann::json rows = read_json(out / "bench.json");
+  const Result listed = run({"plugins"});
+  std::size_t second_order = 0;  // reducers whose listing says they take second-order models
+  for (std::size_t at = 0; (at = listed.out.find("(version ", at)) != std::string::npos; ++at) {
+    const std::size_t eol = listed.out.find('\n', at);
+    if (listed.out.substr(at, eol - at).find("second-order") != std::string::npos) ++second_order;
+  }
+  ASSERT_GE(second_order, 1u) << listed.out;
+  ASSERT_EQ(rows.size(), second_order) << listed.out;
+  bool has_modal = false;
+  for (const auto& row : rows) {
+    EXPECT_EQ(row["strategy"], "grow_order");
+    has_modal = has_modal || row["reducer"] == "modal";
+  }
+  EXPECT_TRUE(has_modal);
 }
 
 // ---------------------------------------------------------------- ecmor check
@@ -777,7 +831,8 @@ TEST_F(Cli, CheckEnforcesTheStoredOrderBudget) {
   write_text(config(), base + "check:    {max_order: " + std::to_string(order - 1) + "}\n");
   const Result fail = run({"check", config().string(), "-q", "-o", out.string()});
   EXPECT_EQ(fail.exit_code, 1) << fail.out << fail.err;
-  EXPECT_NE(fail.out.find("order " + std::to_string(order) + " > check.max_order " + std::to_string(order - 1)),
+  EXPECT_NE(fail.out.find("order " + std::to_string(order) + " > check.max_order " +
+                          std::to_string(order - 1)),
             std::string::npos)
       << fail.out;
 }
@@ -789,8 +844,9 @@ TEST_F(Cli, CheckReadsEveryConfigBeforeRunningAny) {
   write_text(dir / "b_bad.yaml",
              lf10_yaml(output(), 1e-3, "{name: grow_order}") + "check:    {max_ordr: 3}\n");
   const fs::path out = m_dir / "check";
-  EXPECT_ERROR(run({"check", dir.string(), "-o", out.string()}), (dir / "b_bad.yaml").string() + ":7:",
-               "unknown key 'max_ordr'", "did you mean 'max_order'");
+  EXPECT_ERROR(run({"check", dir.string(), "-o", out.string()}),
+               (dir / "b_bad.yaml").string() + ":7:", "unknown key 'max_ordr'",
+               "did you mean 'max_order'");
   EXPECT_FALSE(fs::exists(out / "check.json"));
   const fs::path empty = m_dir / "empty";
   fs::create_directories(empty);

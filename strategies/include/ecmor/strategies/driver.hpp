@@ -51,6 +51,7 @@ struct RunSummary {
   /// stable; YAML error.hinf_dense_states), else the band supremum of the re-check grid.
   /// hinf_method says which, in words.
   double hinf_error = 0.0;
+  std::string hinf_scope;  ///< "all frequencies" or "band"
   std::string hinf_method;
   bool stable = false;
   double tolerance = 0.0;
