@@ -16,23 +16,17 @@
 #include "ecmor/lyapunov.hpp"
 #include "ecmor/reduced_response.hpp"
 #include "gauss_kronrod.hpp"
+#include "model_checks.hpp"
 #include "number_text.hpp"
 
 namespace ecmor {
 using detail::kNodes;
 using detail::nodes_of;
 using detail::Piece;
+using detail::require_same_io;
 using detail::rule;
 
 namespace {
-
-void require_same_io(const ReducedModel& a, const ReducedModel& b, std::string_view origin) {
-  if (inputs_of(a) != inputs_of(b) || outputs_of(a) != outputs_of(b))
-    throw InputError(std::string(origin) + ": the models have " + std::to_string(outputs_of(a)) +
-                     " x " + std::to_string(inputs_of(a)) + " and " +
-                     std::to_string(outputs_of(b)) + " x " + std::to_string(inputs_of(b)) +
-                     " transfer matrices (outputs x inputs): they must be equal");
-}
 
 /// The pieces of ||Ga - Gb||^2 = na + nb - 2 <Ga, Gb> that a caller needs.
 struct H2Parts {

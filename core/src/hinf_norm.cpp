@@ -12,12 +12,14 @@
 #include <string>
 #include <string_view>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
 #include "ecmor/lyapunov.hpp"
 #include "ecmor/reduced_response.hpp"
+#include "model_checks.hpp"
 #include "number_text.hpp"
 
 namespace ecmor {
@@ -26,10 +28,22 @@ namespace {
 constexpr double kEps = std::numeric_limits<double>::epsilon();
 const char* const kMethod = "level set (Bruinsma-Steinbuch)";
 
-/// x' = F x + G u, y = L x.
-struct StateSpace {
-  Matrix F, G, L;
+/// E x' = A x + B u, y = C x (E nonsingular). When E is diagonal, E^-1 A and E^-1 B are row
+/// scalings, exact to rounding in every entry, and the realisation is kept in that form
+/// (E = I, e_identity = true) for the cheaper standard eigensolver; otherwise E stays in the
+/// pencil: E^-1 A formed by a solve loses accuracy with cond(E) (measured on lf10, cond(M) = 2e6:
+/// the static gain through M^-1 K came out 1.8e-5 too large).
+struct Pencil {
+  Matrix E, A, B, C;
+  bool e_identity = false;
 };
+
+bool is_diagonal(const Matrix& X) {
+  for (Index j = 0; j < X.cols(); ++j)
+    for (Index i = 0; i < X.rows(); ++i)
+      if (i != j && X(i, j) != 0.0) return false;
+  return true;
+}
 
 /// Refuses a model with a pole of real part >= 0 (or NaN), naming the worst one.
 void require_stable(const ReducedModel& model, std::string_view origin) {
@@ -47,9 +61,8 @@ void require_stable(const ReducedModel& model, std::string_view origin) {
                      "); the H-infinity norm needs an asymptotically stable model");
 }
 
-/// The standard state space of a dense model (E removed by LU; fine for the small dense models
-/// this is meant for), after the stability check.
-StateSpace state_space(const ReducedModel& model, std::string_view origin) {
+/// The first-order pencil of a dense model, after the checks (E nonsingular, stable).
+Pencil pencil_of(const ReducedModel& model, std::string_view origin) {
   validate(model, origin);
   const ReducedDescriptorModel r = first_order_realization(model);
   const Eigen::PartialPivLU<Matrix> lu(r.E);
@@ -63,18 +76,47 @@ StateSpace state_space(const ReducedModel& model, std::string_view origin) {
         " is numerically singular (reciprocal condition " + detail::number_text(rcond) +
         "): descriptor models (DAEs) are not supported by the H-infinity norm");
   require_stable(model, origin);
-  return StateSpace{lu.solve(r.A), lu.solve(r.B), r.C};
+  if (!is_diagonal(r.E)) return Pencil{r.E, r.A, r.B, r.C, false};
+  const Vector inv = r.E.diagonal().cwiseInverse();
+  const Index n = r.E.rows();
+  return Pencil{Matrix::Identity(n, n), inv.asDiagonal() * r.A, inv.asDiagonal() * r.B, r.C, true};
 }
 
-void require_same_io(const ReducedModel& a, const ReducedModel& b, std::string_view origin) {
-  if (inputs_of(a) != inputs_of(b) || outputs_of(a) != outputs_of(b))
-    throw InputError(std::string(origin) + ": the models have " + std::to_string(outputs_of(a)) +
-                     " x " + std::to_string(inputs_of(a)) + " and " +
-                     std::to_string(outputs_of(b)) + " x " + std::to_string(inputs_of(b)) +
-                     " transfer matrices (outputs x inputs): they must be equal");
-}
+/// G(s) of one model. Laub's Hessenberg method (ReducedResponse, O(n^2) per frequency) when it
+/// forms E^-1 A (M^-1 K, M^-1 D) exactly, i.e. E (M) diagonal; otherwise a dense LU of
+/// s^2 M + s D + K (second order) or s E - A per frequency, O(n^3) but without the inverse of a
+/// possibly ill-conditioned E (M). For second-order models that is an n x n LU against the
+/// Hamiltonian of size 4n per iteration, so it costs less than the level-set iterations.
+class Response {
+ public:
+  explicit Response(const ReducedModel& model) : m_model(model) {
+    if (const auto* s = std::get_if<ReducedSecondOrderModel>(&model))
+      m_direct = !is_diagonal(s->M);
+    else
+      m_direct = !is_diagonal(std::get<ReducedDescriptorModel>(model).E);
+    if (!m_direct) m_hessenberg.emplace(model);
+  }
+  ComplexMatrix operator()(Complex s) const {
+    if (!m_direct) return (*m_hessenberg)(s);
+    if (const auto* m = std::get_if<ReducedSecondOrderModel>(&m_model)) {
+      const ComplexMatrix P =
+          (s * s) * m->M.cast<Complex>() + s * m->D.cast<Complex>() + m->K.cast<Complex>();
+      ComplexMatrix C = m->C.cast<Complex>();
+      if (m->has_velocity_output()) C += s * m->Cv.cast<Complex>();
+      return C * P.partialPivLu().solve(m->B.cast<Complex>());
+    }
+    const auto& d = std::get<ReducedDescriptorModel>(m_model);
+    const ComplexMatrix P = s * d.E.cast<Complex>() - d.A.cast<Complex>();
+    return d.C.cast<Complex>() * P.partialPivLu().solve(d.B.cast<Complex>());
+  }
 
-/// sigma_max of Ga(i w) (- Gb(i w)), both by Laub's Hessenberg method.
+ private:
+  ReducedModel m_model;
+  bool m_direct = false;
+  std::optional<ReducedResponse> m_hessenberg;
+};
+
+/// sigma_max of Ga(i w) (- Gb(i w)).
 class Sigma {
  public:
   Sigma(const ReducedModel& a, const ReducedModel* b) : m_a(a) {
@@ -91,25 +133,52 @@ class Sigma {
   Index count() const { return m_count; }
 
  private:
-  ReducedResponse m_a;
-  std::optional<ReducedResponse> m_b;
+  Response m_a;
+  std::optional<Response> m_b;
   Index m_count = 0;
 };
 
-/// The imaginary parts of the eigenvalues of H(gamma) that lie on the imaginary axis.
-std::vector<double> imaginary_eigenvalues(const StateSpace& ss, double gamma) {
-  const Index n = ss.F.rows();
+/// The imaginary parts of the eigenvalues of the Hamiltonian pencil
+///     s [[E, 0], [0, E']] - [[A, B B' / gamma], [-C' C / gamma, -A']]
+/// that lie on the imaginary axis: [x; lambda] with (s E - A) x = B B' lambda / gamma and
+/// (-s E' - A') lambda = C' C x / gamma gives gamma^2 u = G(-s)' G(s) u for u = B' lambda / gamma,
+/// so i omega is an eigenvalue exactly when gamma is a singular value of G(i omega). With E = I
+/// this is the Hamiltonian matrix of F = E^-1 A (standard eigensolver); otherwise real QZ on the
+/// pencil, so that E is never inverted.
+std::vector<double> imaginary_eigenvalues(const Pencil& ss, double gamma) {
+  const Index n = ss.A.rows();
   Matrix H(2 * n, 2 * n);
-  H.topLeftCorner(n, n) = ss.F;
-  H.topRightCorner(n, n) = ss.G * ss.G.transpose() / gamma;
-  H.bottomLeftCorner(n, n) = -ss.L.transpose() * ss.L / gamma;
-  H.bottomRightCorner(n, n) = -ss.F.transpose();
-  const Eigen::EigenSolver<Matrix> es(H, false);
-  if (es.info() != Eigen::Success)
-    throw NumericalError("H-infinity norm: the eigenvalue iteration on the Hamiltonian of size " +
-                         std::to_string(2 * n) + " at level " + detail::number_text(gamma) +
-                         " did not converge");
-  // The eigensolver does not preserve the Hamiltonian structure, so eigenvalues on the axis come
+  H.topLeftCorner(n, n) = ss.A;
+  H.topRightCorner(n, n) = ss.B * ss.B.transpose() / gamma;
+  H.bottomLeftCorner(n, n) = -ss.C.transpose() * ss.C / gamma;
+  H.bottomRightCorner(n, n) = -ss.A.transpose();
+  const auto failed = [&] {
+    return NumericalError("H-infinity norm: the eigenvalue iteration on the Hamiltonian of size " +
+                          std::to_string(2 * n) + " at level " + detail::number_text(gamma) +
+                          " did not converge");
+  };
+  ComplexVector lambda;
+  double scale = H.lpNorm<1>();
+  if (ss.e_identity) {
+    const Eigen::EigenSolver<Matrix> es(H, false);
+    if (es.info() != Eigen::Success) throw failed();
+    lambda = es.eigenvalues();
+  } else {
+    Matrix N = Matrix::Zero(2 * n, 2 * n);
+    N.topLeftCorner(n, n) = ss.E;
+    N.bottomRightCorner(n, n) = ss.E.transpose();
+    const Eigen::GeneralizedEigenSolver<Matrix> qz(H, N, false);
+    if (qz.info() != Eigen::Success) throw failed();
+    // E is nonsingular (checked), so every beta is nonzero in exact arithmetic; a rounding-size
+    // beta would stand for an eigenvalue beyond any frequency of interest.
+    const double beta_floor = 100.0 * kEps * N.lpNorm<1>();
+    std::vector<Complex> finite;
+    for (Index i = 0; i < qz.betas().size(); ++i)
+      if (std::abs(qz.betas()(i)) > beta_floor) finite.push_back(qz.alphas()(i) / qz.betas()(i));
+    lambda = Eigen::Map<ComplexVector>(finite.data(), static_cast<Index>(finite.size()));
+    scale /= N.lpNorm<1>();
+  }
+  // Neither eigensolver preserves the Hamiltonian structure, so eigenvalues on the axis come
   // back with rounding-size real parts (measured: 4e-12 relative on cdplayer), larger where two
   // crossings nearly coincide (gamma just below a peak). A crossing missed here could end the
   // iteration early; an off-axis eigenvalue admitted wrongly only adds midpoints to evaluate,
@@ -118,15 +187,15 @@ std::vector<double> imaginary_eigenvalues(const StateSpace& ss, double gamma) {
   // too. (Just above a sharp peak the off-axis quadruple sits at only ~sqrt(2 tol) zeta |lambda|,
   // 2e-7 relative on cdplayer: no threshold separates it from a crossing, the midpoint test does.)
   constexpr double tau = 1e-4;
-  const double floor = 100.0 * kEps * H.lpNorm<1>();
+  const double floor = 100.0 * kEps * scale;
   std::vector<double> omegas;
-  for (const Complex& z : es.eigenvalues())
+  for (const Complex& z : lambda)
     if (std::abs(z.real()) <= tau * std::abs(z) + floor) omegas.push_back(z.imag());
   std::sort(omegas.begin(), omegas.end());
   return omegas;
 }
 
-HinfResult level_set(StateSpace ss, const ReducedModel& a, const ReducedModel* b,
+HinfResult level_set(Pencil ss, const ReducedModel& a, const ReducedModel* b,
                      const HinfOptions& options) {
   options.validate();
   HinfResult result;
@@ -135,13 +204,15 @@ HinfResult level_set(StateSpace ss, const ReducedModel& a, const ReducedModel* b
   // Test frequencies for the first lower bound (Bruinsma-Steinbuch take 0 and the least damped
   // pole's |lambda|): 0 and, for every pole, Im(lambda) and |lambda|. At O(n^2) per evaluation this
   // costs less than one Hamiltonian iteration and usually starts next to the global peak.
-  const Eigen::EigenSolver<Matrix> es(ss.F, false);
   std::vector<double> tests{0.0};
-  if (es.info() == Eigen::Success)
-    for (const Complex& z : es.eigenvalues()) {
+  const auto add_tests = [&](const ReducedModel& model) {
+    for (const Complex& z : poles(model)) {
       if (z.imag() > 0.0) tests.push_back(z.imag());
       if (z.imag() >= 0.0) tests.push_back(std::abs(z));
     }
+  };
+  add_tests(a);
+  if (b != nullptr) add_tests(*b);
   double lower = 0.0, omega_lower = 0.0;
   for (double w : tests) {
     const double v = sigma(w);
@@ -170,11 +241,11 @@ HinfResult level_set(StateSpace ss, const ReducedModel& a, const ReducedModel* b
 
   // Balancing G against L leaves the transfer matrix unchanged and keeps the two off-diagonal
   // blocks of the Hamiltonian of similar size (better conditioned eigenvalues).
-  const double gn = ss.G.norm(), ln = ss.L.norm();
+  const double gn = ss.B.norm(), ln = ss.C.norm();
   if (gn > 0.0 && ln > 0.0) {
     const double alpha = std::sqrt(ln / gn);
-    ss.G *= alpha;
-    ss.L /= alpha;
+    ss.B *= alpha;
+    ss.C /= alpha;
   }
 
   const double tol = options.relative_tolerance;
@@ -228,22 +299,25 @@ void HinfOptions::validate() const {
 
 HinfResult hinf_norm(const ReducedModel& model, const HinfOptions& options) {
   options.validate();
-  return level_set(state_space(model, "hinf_norm"), model, nullptr, options);
+  return level_set(pencil_of(model, "hinf_norm"), model, nullptr, options);
 }
 
 HinfResult hinf_error_norm(const ReducedModel& a, const ReducedModel& b,
                            const HinfOptions& options) {
   options.validate();
-  require_same_io(a, b, "hinf_error_norm");
-  const StateSpace sa = state_space(a, "hinf_error_norm: first model");
-  const StateSpace sb = state_space(b, "hinf_error_norm: second model");
-  const Index na = sa.F.rows(), nb = sb.F.rows();
-  StateSpace e{Matrix::Zero(na + nb, na + nb), Matrix(na + nb, sa.G.cols()),
-               Matrix(sa.L.rows(), na + nb)};
-  e.F.topLeftCorner(na, na) = sa.F;
-  e.F.bottomRightCorner(nb, nb) = sb.F;
-  e.G << sa.G, sb.G;
-  e.L << sa.L, -sb.L;
+  detail::require_same_io(a, b, "hinf_error_norm");
+  const Pencil pa = pencil_of(a, "hinf_error_norm: first model");
+  const Pencil pb = pencil_of(b, "hinf_error_norm: second model");
+  const Index na = pa.A.rows(), nb = pb.A.rows();
+  Pencil e{Matrix::Zero(na + nb, na + nb), Matrix::Zero(na + nb, na + nb),
+           Matrix(na + nb, pa.B.cols()), Matrix(pa.C.rows(), na + nb),
+           pa.e_identity && pb.e_identity};
+  e.E.topLeftCorner(na, na) = pa.E;
+  e.E.bottomRightCorner(nb, nb) = pb.E;
+  e.A.topLeftCorner(na, na) = pa.A;
+  e.A.bottomRightCorner(nb, nb) = pb.A;
+  e.B << pa.B, pb.B;
+  e.C << pa.C, -pb.C;
   return level_set(std::move(e), a, &b, options);
 }
 

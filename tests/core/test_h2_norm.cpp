@@ -7,13 +7,16 @@
 #include <Eigen/LU>
 #include <Eigen/QR>
 #include <Eigen/SVD>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <string>
 #include <variant>
+#include <vector>
 
 #include "common/dense_balanced_truncation.hpp"
+#include "common/small_models.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
@@ -26,30 +29,13 @@
 namespace ecmor {
 namespace {
 
+using test::first_order;
 using test::message_of;
+using test::oscillator;
 
 const std::string kModels = "../shared/models/";
 
 SparseMatrix sparse(const Matrix& X) { return X.sparseView(0.0, 0.0).eval(); }
-
-ReducedDescriptorModel first_order(double e, double a, double b, double c) {
-  ReducedDescriptorModel m;
-  m.E = Matrix::Constant(1, 1, e);
-  m.A = Matrix::Constant(1, 1, a);
-  m.B = Matrix::Constant(1, 1, b);
-  m.C = Matrix::Constant(1, 1, c);
-  return m;
-}
-
-ReducedSecondOrderModel oscillator(double m, double d, double k) {
-  ReducedSecondOrderModel s;
-  s.M = Matrix::Constant(1, 1, m);
-  s.D = Matrix::Constant(1, 1, d);
-  s.K = Matrix::Constant(1, 1, k);
-  s.B = Matrix::Ones(1, 1);
-  s.C = Matrix::Ones(1, 1);
-  return s;
-}
 
 /// <G1, G2>_H2 for Gi = 1 / (s^2 + di s + ki), by the residues of G1(-s) G2(s) in the left
 /// half-plane (derived by hand, checked by a 2e6-point quadrature: 0.210526315789 for
@@ -199,7 +185,73 @@ TEST_P(H2Residues, AgreesWithGramianFormula) {
   EXPECT_LT(rel(by_gramian, by_residues), 1e-8);
 }
 
-INSTANTIATE_TEST_SUITE_P(SharedModels, H2Residues, ::testing::Values("build", "cdplayer", "iss"));
+// Not here: lf10 (mass matrix of condition 2e6). This reference forms E^-1 A = [[0, I],
+// [-M^-1 K, -M^-1 D]] and its eigenvectors, and disagrees with the Gramians by 4.3e-5 relative
+// (measured); the Gramians work on the pencil without inverting M, so the reference is the
+// suspect, but no independent reference for lf10 is in place yet.
+INSTANTIATE_TEST_SUITE_P(SharedModels, H2Residues,
+                         ::testing::Values("build", "cdplayer", "iss", "build_so", "iss_so", "beam",
+                                           "random200"));
+
+/// The band H2 norm squared, (1/pi) int_{w1}^{w2} ||G(i w)||_F^2 dw, from the modal expansion
+/// G(s) = sum_k c_k b_k^T / (s - lambda_k) (Eigen's EigenSolver on E^-1 A, nothing of the
+/// library): with 1 / ((i w - a)(-i w - conj b)) = -(1 / (a + conj b)) (1 / (i w - a) +
+/// 1 / (-i w - conj b)) every pair integrates in closed form to logarithms (both arguments keep a
+/// positive real part for stable poles, so the principal branch is continuous on the band).
+double band_h2_squared_by_modes(const ReducedDescriptorModel& m, double w1, double w2) {
+  const Eigen::PartialPivLU<Matrix> elu(m.E);
+  const Eigen::EigenSolver<Matrix> es(Matrix(elu.solve(m.A)));
+  const ComplexMatrix V = es.eigenvectors();
+  const ComplexMatrix CV = m.C.cast<Complex>() * V;                       // columns c_k
+  const ComplexMatrix VB = V.inverse() * elu.solve(m.B).cast<Complex>();  // rows b_k^T
+  const ComplexMatrix CC = CV.adjoint() * CV, BB = VB.conjugate() * VB.transpose();
+  const ComplexVector& lambda = es.eigenvalues();
+  const Complex i(0.0, 1.0);
+  Complex sum = 0.0;
+  for (Index k = 0; k < V.cols(); ++k)
+    for (Index l = 0; l < V.cols(); ++l) {
+      const Complex a = lambda(l), bc = std::conj(lambda(k));
+      const Complex integral = -i * (std::log(i * w2 - a) - std::log(i * w1 - a)) +
+                               i * (std::log(-i * w2 - bc) - std::log(-i * w1 - bc));
+      sum += CC(k, l) * BB(k, l) * (-integral / (a + bc));
+    }
+  EXPECT_LT(std::abs(sum.imag()), 1e-8 * std::abs(sum.real()));
+  return sum.real() / kPi;
+}
+
+class BandH2Modes : public ::testing::TestWithParam<const char*> {};
+
+// The band quadrature (h2_error_quadrature with options.band) against the modal closed form on a
+// band around the median pole magnitude, [|lambda|_med / 3, 3 |lambda|_med].
+TEST_P(BandH2Modes, QuadratureAgreesWithModalClosedForm) {
+  const Model full = load_model(kModels + GetParam());
+  const ReducedDescriptorModel dense = first_order_realization(densify(full));
+  const ComplexVector p = poles(ReducedModel(dense));
+  std::vector<double> mag;
+  for (const Complex& z : p) mag.push_back(std::abs(z));
+  std::nth_element(mag.begin(), mag.begin() + mag.size() / 2, mag.end());
+  const double w_med = mag[mag.size() / 2];
+  const Band band{w_med / 3.0 / kTwoPi, 3.0 * w_med / kTwoPi};
+  const double ref =
+      band_h2_squared_by_modes(dense, kTwoPi * band.f_min_hz, kTwoPi * band.f_max_hz);
+  H2QuadratureOptions o;
+  o.band = band;
+  o.max_evaluations = 12000;
+  const auto solver = make_shifted_solver(full);
+  const H2Result q = h2_error_quadrature(full, *solver, nullptr, o);
+  std::printf(
+      "[ band h2  ] %s band [%.4g, %.4g] Hz: quadrature %.15g (%ld evals), modes %.15g, "
+      "rel diff %.2e\n",
+      GetParam(), band.f_min_hz, band.f_max_hz, q.integral, static_cast<long>(q.evaluations), ref,
+      rel(q.integral, ref));
+  EXPECT_TRUE(q.converged) << q.method;
+  EXPECT_LT(rel(q.integral, ref), 1e-8) << q.method;
+}
+
+// Not here: lf10, for the reason given at H2Residues (measured: the quadrature, by sparse solves
+// of the pencil, differs from this modal reference through M^-1 K by 3.2e-4 on its band).
+INSTANTIATE_TEST_SUITE_P(SharedModels, BandH2Modes,
+                         ::testing::Values("build", "cdplayer", "iss", "build_so", "iss_so"));
 
 /// A stable reduced model of a shared model built here with Eigen:
 ///  * first order with unsymmetric A (build, cdplayer, iss): Galerkin projection onto the

@@ -15,6 +15,11 @@
 /// until no interval is left, which converges quadratically. With no feedthrough the transfer
 /// matrix vanishes at omega -> infinity (second-order models too: (C + s Cv) (s^2 M + s D + K)^-1 B
 /// decays like Cv M^-1 B / s), so the supremum is attained at a finite omega >= 0.
+/// E (M) is never inverted unless it is diagonal (then E^-1 A is an exact row scaling): otherwise
+/// the imaginary eigenvalues come from real QZ on the pencil
+///     s [[E, 0], [0, E']] - [[A, B B' / gamma], [-C' C / gamma, -A']]
+/// and sigma_max from a dense LU of s^2 M + s D + K (s E - A) per frequency, which keeps models
+/// with an ill-conditioned mass matrix accurate (lf10, cond(M) = 2e6: 1.8e-5 -> 7e-14).
 /// Dense O(n^3) per iteration (an eigenvalue problem of size 2n): for reduced models and small
 /// full models through densify().
 
