@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iomanip>
 #include <limits>
+#include <optional>
 #include <nlohmann/json.hpp>
 
 #include "ecmor/atomic_file.hpp"
@@ -220,7 +221,15 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   BandErrorOptions error_options = config.error;
   error_options.norm = config.norm;
   BandErrorEstimator estimator(cache, config.band, error_options);
-  HistoryWriter history(config.output_dir);
+  // Created at the first record: a reducer that refuses the model in setup() leaves no output
+  // directory behind (bad input is reported before anything is written).
+  std::optional<HistoryWriter> history;
+  Index recorded = 0;
+  auto record = [&](const IterationRecord& r) {
+    if (!history) history.emplace(config.output_dir);
+    history->append(r);
+    ++recorded;
+  };
 
   // The time limit acts as an interrupt: strategies poll stop_requested() and finish with the
   // best model so far; the message then says which of the two ended the run.
@@ -257,7 +266,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
     if (observer && portfolio) observer->on_member_started(k, members.size(), attempt.label());
     const double member_start = elapsed();
     TimedReducer timed(*m.reducer, *solver);
-    const Index offset = static_cast<Index>(history.records().size());
+    const Index offset = recorded;
     bool pruned = false;
     StrategyContext ctx;
     ctx.reducer = &timed;
@@ -277,7 +286,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
         r.diagnostics["portfolio_member"] = static_cast<double>(k + 1);
         r.note = "[" + attempt.label() + "] " + r.note;
       }
-      history.append(r);
+      record(r);
       const bool go_on = observer ? observer->on_iteration(r) : true;
       // A grow_order member's order only grows: once it reaches the smallest order that met the
       // target without meeting it, it cannot win.
@@ -301,7 +310,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
       result.termination = Termination::Failed;
       result.message = e.what();
       IterationRecord r;
-      r.iteration = static_cast<Index>(history.records().size()) + 1;
+      r.iteration = recorded + 1;
       r.phase = "failed";
       r.band_error = std::numeric_limits<double>::quiet_NaN();
       r.seconds = elapsed();
@@ -310,7 +319,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
       r.full_evaluations = cache.size();
       r.note = "[" + attempt.label() + "] failed: " + e.what();
       r.diagnostics["portfolio_member"] = static_cast<double>(k + 1);
-      history.append(r);
+      record(r);
       if (observer) observer->on_iteration(r);
     }
     if (out_of_time && result.termination == Termination::Interrupted) {
@@ -389,7 +398,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   summary.message = result.message;
   summary.tolerance = config.tolerance;
   summary.output_dir = config.output_dir;
-  summary.iterations = static_cast<Index>(history.records().size());
+  summary.iterations = recorded;
   summary.attempts = attempts;
   if (winner >= 0) {
     summary.reducer = attempts[static_cast<std::size_t>(winner)].reducer;

