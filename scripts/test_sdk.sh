@@ -1,0 +1,102 @@
+#!/usr/bin/env bash
+# The SDK end to end, as a researcher does it: install an already-built ecmor into a temporary
+# prefix, check the installed layout and driver, then configure, build and test the plugin template
+# (examples/plugin-template) as a separate project against that prefix only.
+# Usage: scripts/test_sdk.sh [BUILD_DIR]      (default: $BUILD_DIR, else build; relative to the root)
+# Environment: JOBS (default: number of cores), KEEP_SDK_TEST=1 keeps the temporary directory.
+# The temporary directory is created under BUILD_DIR and removed on success; on failure it is kept
+# and named, so the logs can be read. Nothing outside it is written; runs are independent.
+set -euo pipefail
+
+root=$(cd "$(dirname "$0")/.." && pwd)
+build_arg=${1:-${BUILD_DIR:-build}}
+jobs=${JOBS:-$(nproc)}
+
+say() { printf 'test_sdk: %s\n' "$*"; }
+die() { printf 'test_sdk: FAILED: %s\n' "$*" >&2; exit 1; }
+
+case $build_arg in
+  /*) build_dir=$build_arg ;;
+  *) build_dir=$root/$build_arg ;;
+esac
+[ -f "$build_dir/CMakeCache.txt" ] ||
+  die "$build_dir is not a configured build tree (build first: bash scripts/build.sh)"
+build_dir=$(cd "$build_dir" && pwd)
+
+# What the install copies must exist: the driver and the four bundled plugins.
+bundled=(modal krylov irka balanced)
+[ -x "$build_dir/bin/ecmor" ] || die "$build_dir/bin/ecmor is missing (build the 'ecmor' target)"
+for name in "${bundled[@]}"; do
+  [ -f "$build_dir/lib/ecmor/plugins/libecmor_$name.so" ] ||
+    die "$build_dir/lib/ecmor/plugins/libecmor_$name.so is missing (build 'ecmor_$name')"
+done
+
+work=$(mktemp -d "$build_dir/sdk-test.XXXXXX")
+prefix=$work/prefix
+finish() {
+  local status=$?
+  if [ "$status" -eq 0 ] && [ "${KEEP_SDK_TEST:-0}" != 1 ]; then
+    rm -rf "$work"
+  else
+    say "logs and files kept in $work"
+  fi
+}
+trap finish EXIT
+
+say "installing $build_dir into $prefix"
+cmake --install "$build_dir" --prefix "$prefix" >"$work/install.log" 2>&1 ||
+  die "cmake --install failed, see $work/install.log"
+
+for file in bin/ecmor lib/cmake/ecmor/ecmorConfig.cmake lib/cmake/ecmor/ecmorConfigVersion.cmake \
+            lib/cmake/ecmor/ecmorTargets.cmake lib/cmake/ecmor/EcmorPlugin.cmake \
+            include/ecmor/plugin.hpp include/ecmor/export.hpp include/ecmor/version.hpp; do
+  [ -e "$prefix/$file" ] || die "the install has no $file"
+done
+ls "$prefix"/lib/libecmor_core.so* >/dev/null 2>&1 || die "the install has no lib/libecmor_core.so"
+
+# Every installed binary resolves its libraries, libecmor_core from the prefix (RPATH), not from
+# the build tree.
+for binary in "$prefix/bin/ecmor" "$prefix"/lib/ecmor/plugins/*.so; do
+  deps=$(ldd "$binary") || die "ldd $binary failed"
+  if grep -q 'not found' <<<"$deps"; then
+    die "$binary: unresolved libraries: $(grep 'not found' <<<"$deps" | tr -s ' \t' ' ')"
+  fi
+  core=$(awk '/libecmor_core/ {print $3}' <<<"$deps")
+  case $core in
+    "$prefix"/*) ;;
+    *) die "$binary loads libecmor_core from '${core:-nowhere}', not from $prefix/lib" ;;
+  esac
+done
+
+# The installed driver finds the bundled plugins next to itself (no environment help).
+listing=$(env -u ECMOR_PLUGIN_PATH "$prefix/bin/ecmor" plugins 2>&1) ||
+  die "the installed 'ecmor plugins' failed: $listing"
+for name in "${bundled[@]}"; do
+  grep -Eq "(^|[^a-z_])$name([^a-z_]|$)" <<<"$listing" ||
+    die "the installed 'ecmor plugins' does not list '$name':"$'\n'"$listing"
+done
+say "installed driver lists ${bundled[*]}"
+
+generator=()
+if command -v ninja >/dev/null 2>&1; then generator=(-G Ninja); fi
+template=$root/examples/plugin-template
+say "configuring $template against $prefix"
+env -u ECMOR_PLUGIN_PATH cmake -S "$template" -B "$work/template" "${generator[@]}" \
+  -DCMAKE_PREFIX_PATH="$prefix" -DECMOR_EXAMPLE_RUN_DIR="$root" >"$work/configure.log" 2>&1 ||
+  die "configuring the template failed, see $work/configure.log"
+grep -q "ecmor_DIR:PATH=$prefix/lib/cmake/ecmor" "$work/template/CMakeCache.txt" ||
+  die "the template found another ecmor: $(grep ecmor_DIR "$work/template/CMakeCache.txt")"
+
+# The YAML example must be among the tests (it is skipped when the shared models are not found).
+tests=$(cd "$work/template" && ctest -N) || die "ctest -N failed in $work/template"
+grep -q 'pod_snapshots.reduce_iss_so' <<<"$tests" ||
+  die "the template's YAML test is not configured: no $root/../shared/models/iss_so?"
+
+say "building the template"
+cmake --build "$work/template" -j "$jobs" >"$work/build.log" 2>&1 ||
+  die "building the template failed, see $work/build.log"
+
+say "running the template's tests"
+(cd "$work/template" && env -u ECMOR_PLUGIN_PATH ctest --output-on-failure --timeout 300) ||
+  die "the template's tests failed (output above)"
+say "passed"
