@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "ecmor/types.hpp"
+
 namespace ecmor {
 class Registry;
 }
@@ -40,9 +42,9 @@ int plugins(const CommonOptions& common);
 /// Options of `ecmor bench`.
 struct BenchOptions {
   std::vector<std::filesystem::path> configs;
-  std::vector<double> tolerances;            ///< empty: each config's own tolerance
+  std::vector<double> tolerances;  ///< empty: each config's own tolerance
   std::filesystem::path output_dir = "out/bench";
-  double time_limit_s = 0.0;                 ///< > 0: wall-clock limit of every run (overrides YAML)
+  double time_limit_s = 0.0;  ///< > 0: wall-clock limit of every run (overrides YAML)
   /// Run a portfolio config as one run (default: each member on its own, one series each).
   bool portfolio_as_one = false;
   /// Replace each config's reducer by every loaded reducer that accepts the model's kind, with
@@ -81,5 +83,20 @@ struct SimulateOptions {
 /// `ecmor simulate RUN_DIR`: time-domain outputs of the full and the reduced model of a run and
 /// the output error y - yr (time_response.csv, time_error.json). 0 on success, 1 on an error.
 int simulate(const SimulateOptions& options, const CommonOptions& common);
+
+/// Options of `ecmor conform`.
+struct ConformOptions {
+  std::string reducer;                ///< the reducer's YAML name
+  std::vector<std::string> settings;  ///< --set key=value: the reducer's parameters
+  std::vector<Index> orders;          ///< empty: the suite's default (2, 4, 8)
+  double tolerance = 0.0;             ///< 0: the suite's default (1e-8)
+  std::filesystem::path model_dir;    ///< a model of the user's, instead of the built-in ones
+  std::vector<double> band_hz;        ///< its band F_MIN,F_MAX (Hz), required with model_dir
+  bool with_builtin = false;          ///< run the built-in models as well as model_dir
+  std::filesystem::path json;         ///< also write the report as JSON
+};
+/// `ecmor conform --reducer NAME`: the conformance suite (conformance.hpp) on one reducer; prints
+/// one row per check. 0 when no check failed, 1 otherwise or on an error.
+int conform(const ConformOptions& options, const CommonOptions& common);
 
 }  // namespace ecmor::app

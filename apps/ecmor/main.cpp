@@ -94,6 +94,28 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 1000));
   add_common(info);
 
+  ecmor::app::ConformOptions conform_options;
+  auto* conform = cli.add_subcommand(
+      "conform", "run the reducer conformance suite on one reducer (dimensions, projection, "
+                 "full order, determinism, growth, band, points, bad input); exit 1 on a failure");
+  conform->add_option("--reducer", conform_options.reducer, "the reducer's name")->required();
+  conform->add_option("--set", conform_options.settings,
+                      "a reducer parameter key=value (repeatable), as in the YAML reducer section");
+  conform->add_option("--orders", conform_options.orders,
+                      "ascending orders of the dimension/growth checks (default 2,4,8)")
+      ->delimiter(',');
+  conform->add_option("--tolerance", conform_options.tolerance,
+                      "relative agreement of transfer functions (default 1e-8)")
+      ->check(CLI::PositiveNumber);
+  conform->add_option("--model", conform_options.model_dir,
+                      "run on this model directory instead of the built-in models (needs --band)");
+  conform->add_option("--band", conform_options.band_hz, "F_MIN,F_MAX in Hz for --model")
+      ->delimiter(',');
+  conform->add_flag("--with-builtin", conform_options.with_builtin,
+                    "with --model: run the built-in models too");
+  conform->add_option("--json", conform_options.json, "also write the report to this JSON file");
+  add_common(conform);
+
   ecmor::app::SimulateOptions sim;
   auto* simulate = cli.add_subcommand(
       "simulate", "simulate the full and the reduced model of a reduce run (RUN_DIR) for a step, "
@@ -136,5 +158,6 @@ int main(int argc, char** argv) {
   if (*plugins) return ecmor::app::plugins(common);
   if (*info) return ecmor::app::info(model_dir, eigenfrequencies, common);
   if (*simulate) return ecmor::app::simulate(sim, common);
+  if (*conform) return ecmor::app::conform(conform_options, common);
   return 1;
 }

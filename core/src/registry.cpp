@@ -18,6 +18,7 @@
 
 #include "ecmor/error.hpp"
 #include "ecmor/plugin.hpp"
+#include "reducer_guard.hpp"
 
 namespace ecmor {
 
@@ -232,6 +233,8 @@ std::shared_ptr<Reducer> Registry::create(const std::string& name,
     throw PluginError(fmt::format("reducer '{}' from {}: create() returned no reducer", name,
                                   describe_library(item.path)));
   params.check_unused();
+  // Every call into the plugin goes through the boundary checks (reducer_guard.hpp).
+  reducer = detail::guard_reducer(std::move(reducer), name, item.path);
   // The deleter runs the plugin's destructor, then releases its copy of the library handle: the
   // code stays mapped for as long as the reducer lives, even after the Registry is gone.
   Library library = item.library;

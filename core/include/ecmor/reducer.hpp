@@ -102,4 +102,15 @@ struct ReducerFactory {
   std::function<std::unique_ptr<Reducer>(const ParameterMap&)> create;
 };
 
+/// The rules every ReducerResult obeys at the plugin boundary (the registry checks each result of
+/// every reducer it created; the conformance suite relies on them):
+///  * V is N x n, or 2N x n for a second-order model reduced through its first-order realisation
+///    x = [q; q'] (then the reduced model is a descriptor model); W has V's shape; n >= 1;
+///  * the reduced model has n states and the full model's inputs and outputs;
+///  * V, W and the reduced matrices are finite.
+/// \throws PluginError naming `reducer`, the request and the rule broken (shapes), NumericalError
+///         for a NaN or Inf.
+ECMOR_API void check_reducer_result(const Model& full, const ReductionRequest& request,
+                                    const ReducerResult& result, const std::string& reducer);
+
 }  // namespace ecmor
