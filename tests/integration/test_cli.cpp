@@ -794,6 +794,51 @@ TEST_F(Cli, BenchAllReducersRunsEveryLoadedReducerThatAcceptsTheModel) {
 
 // ---------------------------------------------------------------- ecmor check
 
+TEST_F(Cli, ConformPassesABundledReducerAndWritesItsReport) {
+  const fs::path json = m_dir / "conform.json";
+  const Result r = run({"conform", "--reducer", "krylov", "--json", json.string()});
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("PASS: 17 passed, 0 failed, 0 skipped"), std::string::npos) << r.out;
+  const nlohmann::json report = read_json(json);
+  EXPECT_TRUE(report["passed"].get<bool>());
+  EXPECT_EQ(report["checks"].size(), 17u);
+}
+
+TEST_F(Cli, ConformFailsAPathDependentReducerAndTakesParameters) {
+  // irka's default warm start makes order r depend on the orders before (growth check); cold
+  // starts, passed as --set warm_start=false, conform.
+  const Result warm = run({"conform", "--reducer", "irka", "-q"});
+  EXPECT_EQ(warm.exit_code, 1) << warm.out << warm.err;
+  EXPECT_NE(warm.out.find("growth"), std::string::npos) << warm.out;
+  const Result cold = run({"conform", "--reducer", "irka", "--set", "warm_start=false", "-q"});
+  EXPECT_EQ(cold.exit_code, 0) << cold.out << cold.err;
+}
+
+TEST_F(Cli, ConformNamesBadParametersAndUnknownReducers) {
+  Result r = run({"conform", "--reducer", "modal", "--set", "batch_size=abc"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--set batch_size=abc: reducer 'modal': batch_size"), std::string::npos)
+      << r.err;
+  r = run({"conform", "--reducer", "moda"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("did you mean 'modal'"), std::string::npos) << r.err;
+  r = run({"conform", "--reducer", "modal", "--set", "novalue"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("expected key=value"), std::string::npos) << r.err;
+  r = run({"conform", "--reducer", "modal", "--model", kLf10.string()});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--model needs --band"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, ConformRunsOnAModelOfTheUser) {
+  // lf10 in its reference band (configs/lf10.yaml).
+  const Result r =
+      run({"conform", "--reducer", "modal", "--model", kLf10.string(), "--band", "15.9,1.59e6"});
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("lf10"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("chain_so"), std::string::npos) << r.out;
+}
+
 TEST_F(Cli, CheckPassesAMetTargetAndFailsAMissedOne) {
   // A directory of two configs: lf10 at 1e-3 is met; at 1e-12 with at most 4 modes it cannot be.
   const fs::path dir = m_dir / "configs";
