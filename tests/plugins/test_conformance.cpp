@@ -9,6 +9,7 @@
 #include <string>
 
 #include "common/plugin_registry.hpp"
+#include "common/test_support.hpp"
 #include "ecmor/conformance.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
@@ -281,27 +282,17 @@ std::unique_ptr<Bound> bind(const std::string& defect, bool setup = true) {
 
 TEST(PluginBoundary, WrongShapeIsAPluginErrorNamingTheReducer) {
   auto b = bind("wrong_rows");
-  try {
-    b->reducer->reduce({4, {}});
-    FAIL() << "no error";
-  } catch (const PluginError& e) {
-    const std::string what = e.what();
-    EXPECT_NE(what.find("reducer 'toy'"), std::string::npos) << what;
-    EXPECT_NE(what.find("31 rows"), std::string::npos) << what;
-    EXPECT_NE(what.find("N = 30"), std::string::npos) << what;
-  }
+  const std::string what = test::message_of<PluginError>([&] { b->reducer->reduce({4, {}}); });
+  EXPECT_NE(what.find("reducer 'toy'"), std::string::npos) << what;
+  EXPECT_NE(what.find("31 rows"), std::string::npos) << what;
+  EXPECT_NE(what.find("N = 30"), std::string::npos) << what;
 }
 
 TEST(PluginBoundary, ForeignExceptionBecomesAPluginError) {
   auto b = bind("throws");
-  try {
-    b->reducer->reduce({4, {}});
-    FAIL() << "no error";
-  } catch (const PluginError& e) {
-    const std::string what = e.what();
-    EXPECT_NE(what.find("reducer 'toy'"), std::string::npos) << what;
-    EXPECT_NE(what.find("toy: something broke"), std::string::npos) << what;
-  }
+  const std::string what = test::message_of<PluginError>([&] { b->reducer->reduce({4, {}}); });
+  EXPECT_NE(what.find("reducer 'toy'"), std::string::npos) << what;
+  EXPECT_NE(what.find("toy: something broke"), std::string::npos) << what;
 }
 
 TEST(PluginBoundary, CallsOutOfOrderAreRefused) {
