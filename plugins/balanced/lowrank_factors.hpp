@@ -54,6 +54,26 @@ inline void refuse_undamped(const FirstOrderView& view, const char* what) {
   }
 }
 
+/// A singular K of a second-order model means a pole at s = 0: a rigid-body mode of a
+/// free-floating structure. The Gramians do not exist, and computed ones (whose rounding puts that
+/// pole at +-1e-16) are dominated by it: the truncation would keep one state and report nothing
+/// wrong. One factorisation tells. (First-order models are left to the Gramian solvers, whose
+/// messages name a singular E and the unstable poles; an integrator with E regular is not caught
+/// here.)
+/// \throws InputError naming the matrix and the remedy.
+inline void refuse_pole_at_zero(FirstOrderView& view) {
+  if (!view.second_order()) return;
+  try {
+    view.solver().factorize(Complex(0.0, 0.0));
+  } catch (const NumericalError& e) {
+    throw InputError(fmt::format(
+        "balanced: the Gramians do not exist: K is singular, so the model has a pole at s = 0 "
+        "(a rigid-body mode or an integrator) and is not asymptotically stable; constrain the "
+        "model (e.g. ground the free body) or use modal or krylov ({})",
+        e.what()));
+  }
+}
+
 /// Both Gramian factors by low-rank ADI with one LowRankAdi, so the observability run reuses the
 /// shift factorisations of the controllability run. An ADI run that stops at its budget is a
 /// result (AdiSummary::converged() false, residual reported), not an exception: the caller
@@ -92,7 +112,7 @@ inline GramianFactors lowrank_gramian_factors(FirstOrderView& view, const AdiOpt
 /// right-hand sides (lowrank_band_gramians, ecmor/lowrank_adi.hpp): L_B and L_C by adaptive
 /// quadrature (one factorisation of P(i w) per node), then both ADI runs. A quadrature or ADI run
 /// that misses its tolerance is reported in `summary`, as for the plain Gramians.
-/// 	hrows as lowrank_gramian_factors, plus NumericalError for a pole on the imaginary axis in the
+/// \throws as lowrank_gramian_factors, plus NumericalError for a pole on the imaginary axis in the
 ///         band (a quadrature node's factorisation fails).
 inline GramianFactors lowrank_band_gramian_factors(FirstOrderView& view, const Band& band,
                                                    const AdiOptions& options,

@@ -64,7 +64,7 @@ class ECMOR_API SchurPencil {
   /// \param A system matrix, n x n, finite
   /// \param E descriptor matrix, n x n or empty (= I), finite and nonsingular
   /// \param origin prefix of error messages (e.g. "solve_lyapunov" or "gramians")
-  /// 	hrows InputError on wrong sizes, non-finite values or a numerically singular E;
+  /// \throws InputError on wrong sizes, non-finite values or a numerically singular E;
   ///         NumericalError if the Schur (or symmetric eigen) iteration fails.
   SchurPencil(const Matrix& A, const Matrix& E, std::string_view origin = "SchurPencil");
   /// n.
@@ -87,7 +87,7 @@ class ECMOR_API SchurPencil {
 /// Solves  A1 X F2' + E1 X A2' + Q = 0  with left = (A1, E1), right = (A2, F2) (Q and X are
 /// n1 x n2); left and right may be the same pencil (Lyapunov equation, Q symmetric: the result is
 /// then symmetrised).
-/// 	hrows InputError when Q is not n1 x n2 or not finite; NumericalError naming the eigenvalues
+/// \throws InputError when Q is not n1 x n2 or not finite; NumericalError naming the eigenvalues
 ///         when lambda_i(left) + conj(mu_j(right)) is zero to working precision.
 ECMOR_API Matrix solve_sylvester(const SchurPencil& left, const SchurPencil& right,
                                  const Matrix& Q);
