@@ -126,6 +126,9 @@ class BalancedReducer final : public Reducer {
           to_string(m_options.variant)));
     }
     if (m_options.band_limited) m_band.validate();
+    // Undamped first: its message names D = 0, the cause (K is regular there).
+    refuse_undamped(*m_view, "Gramians");
+    refuse_pole_at_zero(*m_view);
     // The one place the Gramian factors are computed: everything below uses only m_factors.
     m_adi.reset();
     m_factors.reset();

@@ -484,6 +484,27 @@ TEST(Balanced, ModelsWithoutGramiansAreRefusedByName) {
   std::get<DescriptorModel>(unstable).A *= -1.0;
   msg = message_of<InputError>([&] { make(unstable, params({}), band_of(0.1, 10.0)); });
   EXPECT_NE(msg.find("270 poles with Re >= 0"), std::string::npos) << msg;
+  // A free-floating chain (no spring to the ground): K is singular, a pole at s = 0. The
+  // computed Gramians would exist numerically and keep a single state; refused by name instead.
+  {
+    SecondOrderModel free;
+    const Index n = 6;
+    Matrix K = Matrix::Zero(n, n);
+    for (Index i = 1; i < n; ++i) {
+      K(i, i) += 100.0;
+      K(i - 1, i - 1) += 100.0;
+      K(i, i - 1) = K(i - 1, i) = -100.0;
+    }
+    free.M = Matrix::Identity(n, n).sparseView();
+    free.K = K.sparseView();
+    free.D = (0.02 * Matrix::Identity(n, n) + 2e-4 * K).sparseView();
+    free.B = Matrix::Zero(n, 1);
+    free.B(n - 1, 0) = 1.0;
+    free.C = free.B.transpose();
+    msg = message_of<InputError>([&] { make(Model(free), params({}), band_of(0.1, 10.0)); });
+    EXPECT_NE(msg.find("K is singular, so the model has a pole at s = 0"), std::string::npos)
+        << msg;
+  }
   // Too large for dense Gramians when the dense route is forced: named, with the way out
   // (gramians: auto takes the low-rank route there; test_balanced_lowrank).
   msg = message_of<InputError>([&] {
