@@ -142,9 +142,7 @@ StrategyResult GreedyPoints::run(StrategyContext& ctx) {
     if (r.points.empty()) r.points = pts;
     return r;
   };
-  auto shortfall = [&]() {
-    return "band error " + sci(run.best_error()) + " > tolerance " + sci(ctx.tolerance);
-  };
+  auto shortfall = [&]() { return run.shortfall(); };
   auto over_budget = [&](Index delivered, const std::string& what) {
     if (reducer_caps) {
       return run.finish(Termination::ReducerExhausted,

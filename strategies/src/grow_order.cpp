@@ -75,15 +75,11 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
           if (m_options.max_order < reducer.max_order()) {
             return finish(Termination::MaxOrderReached,
                           "order budget " + std::to_string(max_order) + " reached (delivered " +
-                              std::to_string(delivered) + "): band error " +
-                              sci(run.best_error()) + " > tolerance " +
-                              sci(ctx.tolerance));
+                              std::to_string(delivered) + "): " + run.shortfall());
           }
           return finish(Termination::ReducerExhausted,
                         "the reducer delivers at most order " + std::to_string(delivered) +
-                            " (requested " + std::to_string(order) + "); band error " +
-                            sci(run.best_error()) + " > tolerance " +
-                            sci(ctx.tolerance));
+                            " (requested " + std::to_string(order) + "); " + run.shortfall());
         }
         order = next_order(order);
         continue;
@@ -109,13 +105,11 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
         if (reducer.max_order() <= m_options.max_order) {
           return finish(Termination::ReducerExhausted,
                         "the reducer delivers at most order " + std::to_string(delivered) +
-                            "; band error " + sci(run.best_error()) +
-                            " > tolerance " + sci(ctx.tolerance));
+                            "; " + run.shortfall());
         }
         return finish(Termination::MaxOrderReached,
-                      "order budget " + std::to_string(max_order) + " reached: band error " +
-                          sci(run.best_error()) + " > tolerance " +
-                          sci(ctx.tolerance));
+                      "order budget " + std::to_string(max_order) + " reached: " +
+                          run.shortfall());
       }
       order = next_order(order);
     }

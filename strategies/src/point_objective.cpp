@@ -353,9 +353,7 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
                          : log_spaced(objective.lower(), objective.upper(), o.initial_points);
     Index assessments = 0;
     std::vector<double> trace;  // best assessed error after each assessment
-    auto tail = [&] {
-      return "band error " + sci(run.best_error()) + " > tolerance " + sci(ctx.tolerance);
-    };
+    auto tail = [&] { return run.shortfall(); };
     // The order budget holds for every assessed model, not only for the predicted growth: the
     // reducer may deliver more columns than p points imply at the start or at an optimum (fewer
     // deflated directions). Such a model is not assessed; the cost is its one reduction.

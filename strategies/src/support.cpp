@@ -100,6 +100,16 @@ double StrategyRun::best_error() const {
                          : std::numeric_limits<double>::infinity();
 }
 
+std::string StrategyRun::shortfall() const {
+  const double e = best_error();
+  if (m_most_accurate && !m_most_accurate->stable && e <= m_ctx.tolerance) {
+    return "band error " + sci(e) + " <= tolerance " + sci(m_ctx.tolerance) +
+           ", but the model is not asymptotically stable (poles with Re >= 0; an undamped or "
+           "unstable full model has no stable approximation)";
+  }
+  return "band error " + sci(e) + " > tolerance " + sci(m_ctx.tolerance);
+}
+
 StrategyResult StrategyRun::finish(Termination t, std::string message) {
   m_out.termination = t;
   m_out.message = std::move(message);

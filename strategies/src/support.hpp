@@ -62,6 +62,10 @@ class StrategyRun {
   const std::optional<Candidate>& most_accurate() const { return m_most_accurate; }
   /// Error of the most accurate candidate so far (+inf if none).
   double best_error() const;
+  /// Why no candidate passed, for a termination message: "band error 3.1e-02 > tolerance 1.0e-02",
+  /// or, when the most accurate model meets the tolerance but is not asymptotically stable,
+  /// "band error 3.0e-05 <= tolerance 1.0e-02, but the model is not asymptotically stable".
+  std::string shortfall() const;
 
   /// Fills and returns the result: the smallest passing candidate, else the most accurate one.
   StrategyResult finish(Termination termination, std::string message);
