@@ -335,6 +335,94 @@ TEST(MatrixMarketErrors, SizeLinePromisesTooMuch) {
   EXPECT_EQ(read_matrix_market_sparse(dir / "hostile_dense.mtx").nonZeros(), 1);
 }
 
+// The huge-header rule (docs/fuzzing.md): a header can only make the reader allocate what the file
+// backs. Entries must fit in the bytes after the size line; rows and columns are capped at 2^25
+// (a sparse result costs 4 bytes per column even when empty); a dense result read from a
+// coordinate file, whose zeros the file does not hold, at 2^25 entries (256 MiB).
+TEST(MatrixMarketErrors, HugeHeadersAreRefusedBeforeAllocating) {
+  TempDir dir{"ecmor_test_mm"};
+  const std::string kArray = "%%MatrixMarket matrix array real general\n";
+  // 10^16 doubles (80 PB) promised by a 61-byte file: refused by every reader at the size line.
+  const std::string huge_array = kArray + "100000000 100000000\n";
+  expect_error(dir, "huge_array.mtx", huge_array, 2,
+               "size 100000000 x 100000000 exceeds the supported dimension 33554432",
+               /*dense=*/true);
+  expect_error(dir, "huge_array.mtx", huge_array, 2, "exceeds the supported dimension");
+  EXPECT_THROW((void)read_matrix_market_header(dir / "huge_array.mtx"), InputError);
+  // Within the dimension limit, the entries promised must fit in the bytes that follow.
+  expect_error(dir, "big_array.mtx", kArray + "30000 30000\n", 2,
+               "expected 900000000 entries, file ends after 0 at line 2 (the size line at line 2 "
+               "promises more entries than the 0 bytes after it can hold)",
+               /*dense=*/true);
+  expect_error(dir, "big_nnz.mtx", kGeneral + "1000 1000 1000000\n1 1 1\n2 2 2\n", 4,
+               "expected 1000000 entries, file ends after 2 at line 4 (the size line at line 2 "
+               "promises more entries than the 12 bytes after it can hold)");
+  // A coordinate file with no entries and a 2 GiB dense shape (the dense reader allocated 2 GiB
+  // for these 60 bytes; fuzz_matrix_market reports it as out-of-memory): refused for a dense
+  // result ...
+  const fs::path empty = dir / "empty_16384.mtx";
+  expect_error(dir, "empty_16384.mtx", kGeneral + "16384 16384 0\n", 2,
+               "a dense 16384 x 16384 matrix is too large to read from a coordinate file (limit "
+               "33554432 entries; store it in the 'array' format, limit 268435456)",
+               /*dense=*/true);
+  // ... but read sparse, which costs one int per column.
+  const SparseMatrix S = read_matrix_market_sparse(empty);
+  EXPECT_EQ(S.rows(), 16384);
+  EXPECT_EQ(S.nonZeros(), 0);
+  // A tall, thin input matrix (B of a large model) within the budget reads dense.
+  const fs::path tall = dir / "B.mtx";
+  write_raw(tall, kGeneral + "100000 8 2\n1 1 1\n100000 8 -2\n");
+  const Matrix B = read_matrix_market_dense(tall);
+  EXPECT_EQ(B.rows(), 100000);
+  EXPECT_EQ(B(99999, 7), -2.0);
+  // A tall, nearly empty sparse matrix costs nothing per row (the previous assembly by
+  // setFromTriplets needed row-sized work arrays: 1.4 s and 370 MB natively for this 68-byte file,
+  // a timeout (> 10 s) in the sanitized fuzz target: found by fuzz_matrix_market).
+  const fs::path tall_sparse = dir / "tall_sparse.mtx";
+  write_raw(tall_sparse, kGeneral + "31361959 1000 1\n1 1 1\n");
+  const SparseMatrix T = read_matrix_market_sparse(tall_sparse);
+  EXPECT_EQ(T.rows(), 31361959);
+  EXPECT_EQ(T.nonZeros(), 1);
+  // The largest dimension, nearly empty: the sparse result costs 128 MiB for the column starts
+  // and nothing else (setFromTriplets took 400 MB and 2 s).
+  const fs::path widest = dir / "widest.mtx";
+  write_raw(widest, kGeneral + "33554432 33554432 1\n33554432 33554432 5\n");
+  const SparseMatrix W = read_matrix_market_sparse(widest);
+  EXPECT_EQ(W.cols(), 33554432);
+  EXPECT_EQ(W.nonZeros(), 1);
+  EXPECT_EQ(W.coeff(33554431, 33554431), 5.0);
+}
+
+// Finite entries whose sum overflows gave an infinite matrix entry (both readers; found by review
+// while writing fuzz_matrix_market, whose finiteness check reports it).
+TEST(MatrixMarketErrors, DuplicatesWhoseSumOverflows) {
+  TempDir dir{"ecmor_test_mm"};
+  const std::string general = kGeneral + "2 2 3\n1 1 1e308\n2 2 1\n1 1 1e308\n";
+  expect_error(dir, "sum.mtx", general, 5,
+               "the duplicate entries at (1, 1) sum to a value that overflows double precision");
+  expect_error(dir, "sum.mtx", general, 5, "the duplicate entries at (1, 1) sum", /*dense=*/true);
+  const std::string mirrored = kSymmetric + "2 2 2\n2 1 -1.5e308\n% c\n2 1 -1.5e308\n";
+  expect_error(dir, "mirrored.mtx", mirrored, 5, "the duplicate entries at (2, 1) sum");
+  expect_error(dir, "mirrored.mtx", mirrored, 5, "the duplicate entries at (2, 1) sum",
+               /*dense=*/true);
+  // The overflow is reported at its line, before later errors, by both readers (found by
+  // fuzz_matrix_market: the sparse reader summed after parsing and reported the garbage on line 5
+  // of this file instead, the dense reader the overflow on line 4).
+  const char kGarbage[] = "2 2 2\n2 1 -1.5e308\n2 1 -1.5e308\n\x01\0\0" "0";  // with NULs
+  const std::string then_garbage = kSymmetric + std::string(kGarbage, sizeof kGarbage - 1);
+  expect_error(dir, "then_garbage.mtx", then_garbage, 4, "the duplicate entries at (2, 1) sum");
+  expect_error(dir, "then_garbage.mtx", then_garbage, 4, "the duplicate entries at (2, 1) sum",
+               /*dense=*/true);
+  const std::string then_bad = kGeneral + "3 3 4\n1 1 1\n2 2 1e308\n2 2 1e308\n3 3 abc\n";
+  expect_error(dir, "then_bad.mtx", then_bad, 5, "the duplicate entries at (2, 2) sum");
+  expect_error(dir, "then_bad.mtx", then_bad, 5, "the duplicate entries at (2, 2) sum",
+               /*dense=*/true);
+  // Large sums that stay finite are fine, and so is cancellation.
+  write_raw(dir / "ok.mtx", kGeneral + "2 2 3\n1 1 1e308\n1 1 -1e308\n1 1 1e308\n");
+  EXPECT_EQ(read_matrix_market_sparse(dir / "ok.mtx").coeff(0, 0), 1e308);
+  EXPECT_EQ(read_matrix_market_dense(dir / "ok.mtx")(0, 0), 1e308);
+}
+
 TEST(MatrixMarketErrors, TruncatedData) {
   TempDir dir{"ecmor_test_mm"};
   std::string s = kGeneral + "120 1 120\n";                           // line 2

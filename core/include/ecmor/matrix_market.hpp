@@ -4,8 +4,9 @@
 /// Supported on read: `matrix coordinate|array real|integer|pattern general|symmetric|skew-symmetric`.
 /// Every malformed file gives an InputError naming the file, the line and the rule broken:
 /// bad or missing header, bad size line, truncated data, out-of-range index, duplicate entry in a
-/// symmetric file's upper triangle, non-finite value (NaN, Inf), trailing garbage, sizes that promise
-/// more than the file can hold. Writing is atomic (temporary file + rename).
+/// symmetric file's upper triangle, non-finite value (NaN, Inf), duplicate entries whose sum
+/// overflows, trailing garbage, sizes that promise more than the file can hold. Writing is atomic
+/// (temporary file + rename).
 ///
 /// Messages read "<path>: line <n>: <rule>", e.g.
 ///   "A.mtx: line 99: truncated data: expected 120 entries, file ends after 97 at line 99".
@@ -13,8 +14,11 @@
 /// endings are accepted; banner words are case-insensitive; an 'array' file holds one value per
 /// line. Sanity limits, checked before anything is allocated: rows, cols <= 2^25; the promised
 /// entry count must fit both the matrix (rows * cols, or the stored triangle) and the bytes left in
-/// the file; a dense result may have at most 2^28 entries. Values that underflow read as zero;
-/// NaN, Inf and overflowing values are errors. A missing or unreadable file is an InputError.
+/// the file (at least 2 bytes per token); a dense result may have at most 2^28 entries, and at
+/// most 2^25 when read from a coordinate file (whose zeros the file does not hold). So memory is
+/// bounded by the file's size, plus 4 bytes per column of a sparse result and at most 256 MiB of
+/// zeros of a dense one. Values that underflow read as zero; NaN, Inf and overflowing values (also
+/// sums of duplicates) are errors. A missing or unreadable file is an InputError.
 
 #include <filesystem>
 #include <string>
