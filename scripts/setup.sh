@@ -20,6 +20,7 @@ packages=(
   nlohmann-json3-dev
   libmatio-dev
   gnuplot-nox
+  clang-14 libclang-rt-14-dev   # scripts/fuzz.sh: libFuzzer and the sanitizers
 )
 
 missing=()
