@@ -32,7 +32,7 @@ esac
 
 skip() {
   echo "fuzz: SKIPPED: $*" >&2
-  echo "fuzz: install clang and libFuzzer (Debian: apt-get install clang libclang-rt-14-dev;" \
+  echo "fuzz: install clang and libFuzzer (Debian: apt-get install clang-14 libclang-rt-14-dev;" \
        "scripts/setup.sh does it)" >&2
   exit 77
 }
