@@ -11,8 +11,10 @@
 //    of a file the sparse reader accepts;
 //  * a matrix read holds a non-finite value;
 //  * writing a matrix read and reading it back does not reproduce it bitwise.
+#include <signal.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -109,7 +111,19 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
   std::error_code ec;
   const fs::path base = fs::is_directory("/dev/shm", ec) ? fs::path("/dev/shm")
                                                           : fs::temp_directory_path();
-  g_dir = base / ("ecmor_fuzz_mm_" + std::to_string(::getpid()));
+  // Directories of earlier runs that ended in a crash (no atexit then) are removed, once their
+  // process is gone.
+  const std::string prefix = "ecmor_fuzz_mm_";
+  for (const fs::directory_entry& e : fs::directory_iterator(base, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind(prefix, 0) != 0) continue;
+    const long pid = std::strtol(name.c_str() + prefix.size(), nullptr, 10);
+    if (pid > 0 && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) {
+      std::error_code ec2;
+      fs::remove_all(e.path(), ec2);
+    }
+  }
+  g_dir = base / (prefix + std::to_string(::getpid()));
   fs::create_directories(g_dir);
   g_input = g_dir / "input.mtx";
   g_sparse_copy = g_dir / "sparse.mtx";
