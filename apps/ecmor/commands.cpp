@@ -83,6 +83,7 @@ class TablePrinter final : public RunObserver {
       }
     }
     fmt::print("{}: {}\n", to_string(s.termination), s.message);
+    for (const std::string& w : s.warnings) fmt::print("warning: {}\n", w);
     if (s.has_model) {
       fmt::print(
           "order {}  band error {:.3e} (independent re-check {:.3e} at {:.4g} Hz)  {}  "

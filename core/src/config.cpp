@@ -442,7 +442,8 @@ RunConfig Parser::parse(const std::string& yaml) {
   const YAML::Node error =
       section(m_root, "error",
               {"grid_points", "pole_samples", "max_pole_samples", "refine_peaks",
-               "refine_evaluations", "zero_threshold", "verify_factor", "hinf_dense_states"});
+               "refine_evaluations", "zero_threshold", "verify_factor", "hinf_dense_states",
+               "stability_dense_states"});
   BandErrorOptions& eo = config.error;
   eo.norm = config.norm;
   if (auto v = integer(error, "error", "grid_points", 2)) eo.grid_points = *v;
@@ -463,6 +464,13 @@ RunConfig Parser::parse(const std::string& yaml) {
       fail(at(error["hinf_dense_states"]),
            fmt::format("error.hinf_dense_states = {}: must be <= 6000 (dense eigenproblems)", *v));
     config.hinf_dense_states = *v;
+  }
+  if (auto v = integer(error, "error", "stability_dense_states", 0)) {
+    if (*v > 6000)
+      fail(at(error["stability_dense_states"]),
+           fmt::format("error.stability_dense_states = {}: must be <= 6000 (dense eigenproblems)",
+                       *v));
+    config.stability_dense_states = *v;
   }
 
   const YAML::Node solver =

@@ -453,6 +453,27 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
       j["points"].push_back({{"re", p.s.real()}, {"im", p.s.imag()}, {"moments", p.moments}});
     }
   }
+  // The full model's own stability, after the reduction so that a refusal or bad configuration is
+  // reported first; dense for small models, structural (K, D inertia) for large second-order ones.
+  const double stability_start = elapsed();
+  summary.full_stability = full_model_stability(model, config.stability_dense_states);
+  const double stability_seconds = elapsed() - stability_start;
+  const StabilityReport& fs = summary.full_stability;
+  if (fs.verdict == Stability::Unstable || fs.verdict == Stability::Marginal) {
+    summary.warnings.push_back(fmt::format(
+        "the full model is {} ({}){}", to_string(fs.verdict), fs.reason,
+        summary.has_model && summary.stable
+            ? "; the reduced model is stable, so it can represent the full model in the band "
+              "only, not in the time domain"
+            : ""));
+  }
+  j["full_model_stability"] = {
+      {"verdict", to_string(fs.verdict)},
+      {"method", fs.method},
+      {"reason", fs.reason},
+      {"max_real_pole", fs.dense ? nlohmann::json(fs.max_real_pole) : nlohmann::json(nullptr)},
+      {"seconds", stability_seconds}};
+  j["warnings"] = summary.warnings;
   summary.counters = solver->counters();
   summary.reducer_seconds = reducer_seconds;
   summary.reducer_calls = reducer_calls;

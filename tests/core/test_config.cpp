@@ -161,6 +161,7 @@ TEST(RunConfig, DefaultsOfOptionalSections) {
   // Integer-valued band limits are numbers too.
   EXPECT_EQ(c.band.f_max_hz, 100.0);
   EXPECT_EQ(c.hinf_dense_states, 250);
+  EXPECT_EQ(c.stability_dense_states, 1000);
   EXPECT_EQ(c.check_max_order, 0);
   EXPECT_EQ(c.check_max_seconds, 0.0);
   EXPECT_TRUE(c.portfolio.empty());
@@ -179,11 +180,17 @@ TEST(RunConfig, CheckSectionAndHinfDenseStates) {
   EXPECT_EQ(c.check_max_order, 12);
   EXPECT_EQ(c.check_max_seconds, 30.0);
   EXPECT_EQ(c.hinf_dense_states, 0);
+  EXPECT_EQ(parse_run_config(kMinimal + "error: {stability_dense_states: 0}\n", "run.yaml")
+                .stability_dense_states,
+            0);
   EXPECT_NE(
       parse_error(kMinimal + "check: {max_order: 0}\n").find("check.max_order = 0: must be >= 1"),
       std::string::npos);
   EXPECT_NE(parse_error(kMinimal + "check: {max_seconds: -1}\n")
                 .find("check.max_seconds = -1: must be > 0"),
+            std::string::npos);
+  EXPECT_NE(parse_error(kMinimal + "error: {stability_dense_states: 7000}\n")
+                .find("error.stability_dense_states = 7000: must be <= 6000"),
             std::string::npos);
   EXPECT_NE(parse_error(kMinimal + "error: {hinf_dense_states: 7000}\n").find("must be <= 6000"),
             std::string::npos);

@@ -70,6 +70,10 @@ struct RunConfig {
   /// sampled on the band (YAML error.hinf_dense_states; 0: always sampled). Each level-set
   /// iteration solves a Hamiltonian eigenproblem of size 2 (states + order): about 5 s at 500.
   Index hinf_dense_states = 250;
+  /// The full model's own stability (stability.hpp) is decided from its dense eigenvalues when it
+  /// has at most this many first-order states (YAML error.stability_dense_states; 0: never dense),
+  /// else from the inertia of K and D (second order) or not at all. About 1 s at 1000.
+  Index stability_dense_states = 1000;
   SolverOptions solver;
   int threads = 0;                   ///< 0: OpenMP default
   std::filesystem::path output_dir;

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "ecmor/stability.hpp"
 #include "ecmor/config.hpp"
 #include "ecmor/registry.hpp"
 #include "ecmor/strategies/strategy.hpp"
@@ -54,6 +55,12 @@ struct RunSummary {
   std::string hinf_scope;  ///< "all frequencies" or "band"
   std::string hinf_method;
   bool stable = false;
+  /// The full model's own stability (stability.hpp), decided once per run: a stable reduced model
+  /// of an unstable or undamped full model matches it in the band, not in the time domain.
+  StabilityReport full_stability;
+  /// Things a user must know that do not change the termination (written to summary.json and
+  /// printed), e.g. that the full model is unstable.
+  std::vector<std::string> warnings;
   double tolerance = 0.0;
   double seconds = 0.0;
   double load_seconds = 0.0;
