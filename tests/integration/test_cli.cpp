@@ -6,9 +6,14 @@
 // ecmor::write_matrix_market and corrupted by hand where a case needs a malformed file; the
 // expected line numbers are counted from the corrupted file itself, not taken from the reader's
 // output.
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
+
+#include <chrono>
+#include <csignal>
+#include <thread>
 
 #include <Eigen/SVD>
 #include <cmath>
@@ -563,6 +568,78 @@ TEST_F(Cli, TimeLimitEndsTheRunWithItsBestModel) {
   // Stopped at the first record instead of growing to order 18.
   EXPECT_EQ(s["iterations"].get<Index>(), 1);
   expect_history_rows(output(), 1);
+}
+
+// SIGINT and SIGTERM stop a run at the next poll: the history so far, the best model and a
+// summary saying "interrupted" are written, and the process exits 130 (not 0, 1 or 2), so a batch
+// system can tell a stopped run from a finished one. The run (triplechain_mess_n1501, krylov,
+// a tolerance no model meets, order budget 1500) would take many minutes; the signal is sent once
+// the first history record exists.
+TEST_F(Cli, SignalWritesHistoryAndBestModelAndExits130) {
+  for (const int sig : {SIGTERM, SIGINT}) {
+    SCOPED_TRACE(sig == SIGTERM ? "SIGTERM" : "SIGINT");
+    const fs::path out = output() / (sig == SIGTERM ? "term" : "int");
+    write_text(config(), "model:    {dir: ../shared/models/triplechain_mess_n1501}\n"
+                         "band:     {f_min_hz: 0.001, f_max_hz: 1.0}\n"
+                         "target:   {tolerance: 1.0e-15}\n"
+                         "reducer:  {name: krylov, point_count: 4}\n"
+                         "strategy: {name: grow_order, max_order: 1500}\n"
+                         "output:   {dir: " + out.string() + "}\n");
+    const fs::path stdout_path = m_dir / "signal_stdout.txt";
+    const std::string exe = std::string(ECMOR_TEST_BINARY_DIR) + "/bin/ecmor";
+    const std::string cfg = config().string();
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      const int fd = ::open(stdout_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      ::dup2(fd, 1);
+      ::dup2(fd, 2);
+      ::unsetenv("ECMOR_PLUGIN_PATH");
+      ::execl(exe.c_str(), exe.c_str(), "reduce", cfg.c_str(), static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    // Wait for the first record (at most 120 s), then signal.
+    const auto start = std::chrono::steady_clock::now();
+    auto seconds = [&] {
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    };
+    int status = 0;
+    bool exited = false;
+    while (!fs::exists(out / "history.csv") && seconds() < 120.0) {
+      if (::waitpid(pid, &status, WNOHANG) == pid) {
+        exited = true;
+        break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    ASSERT_FALSE(exited) << "ended before the signal: " << read_text(stdout_path);
+    ASSERT_TRUE(fs::exists(out / "history.csv")) << read_text(stdout_path);
+    ASSERT_EQ(::kill(pid, sig), 0);
+    // Stopped at the next poll: well within a minute.
+    while (::waitpid(pid, &status, WNOHANG) != pid) {
+      if (seconds() > 300.0) {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, &status, 0);
+        FAIL() << "still running 300 s after the start: " << read_text(stdout_path);
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    const std::string text = read_text(stdout_path);
+    ASSERT_TRUE(WIFEXITED(status)) << "killed by the signal instead of stopping: " << text;
+    EXPECT_EQ(WEXITSTATUS(status), 130) << text;
+    const nlohmann::json s = read_json(out / "summary.json");
+    EXPECT_EQ(s["termination"].get<std::string>(), "interrupted");
+    EXPECT_TRUE(s["has_model"].get<bool>());
+    EXPECT_FALSE(s["target_met"].get<bool>());
+    const Index iterations = s["iterations"].get<Index>();
+    EXPECT_GE(iterations, 1);
+    expect_history_rows(out, iterations);
+    const ReducedModel reduced = read_reduced_model(out);
+    EXPECT_EQ(size_of(reduced), s["final_order"].get<Index>());
+    EXPECT_LT(s["final_order"].get<Index>(), 1500);
+    EXPECT_NE(text.find("interrupted"), std::string::npos) << text;
+    EXPECT_TRUE(temporary_files(out).empty());
+  }
 }
 
 // H_r(i 2 pi f) = Cr (s^2 Mr + s Dr + Kr)^-1 Br of a reduced second-order model, computed here
