@@ -1,5 +1,7 @@
 #include "support.hpp"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -119,6 +121,16 @@ StrategyResult StrategyRun::finish(Termination t, std::string message) {
     m_out.best_error = chosen->error;
   }
   return m_out;
+}
+
+std::string StrategyRun::failure(const std::string& what, bool foreign) const {
+  const std::string& name = m_ctx.reducer_info.name;
+  const bool named = name.empty() || what.rfind(name + ":", 0) == 0 ||
+                     what.rfind(name + " ", 0) == 0 ||
+                     what.find("reducer '" + name + "'") != std::string::npos;
+  return fmt::format("reduction failed in iteration {}{}{}: {}", m_iteration + 1,
+                     named ? std::string() : " (" + name + ")",
+                     foreign ? " (unexpected exception)" : "", what);
 }
 
 std::string StrategyRun::verified_phrase() const {

@@ -73,6 +73,10 @@ class StrategyRun {
   /// Message tail " (verified on a 4x denser independent grid)".
   std::string verified_phrase() const;
 
+  /// "reduction failed in iteration 4 (krylov): <what>": a breakdown named where it happened, by
+  /// the iteration it ended and the reducer (not repeated when `what` already starts with it).
+  std::string failure(const std::string& what, bool foreign = false) const;
+
  private:
   StrategyContext& m_ctx;
   StrategyResult m_out;
@@ -89,11 +93,10 @@ StrategyResult guarded(StrategyRun& run, Body&& body) {
   try {
     return body();
   } catch (const Error& e) {
-    return run.finish(Termination::Failed, std::string("reduction failed: ") + e.what());
+    return run.finish(Termination::Failed, run.failure(e.what()));
   } catch (const std::exception& e) {
     // A plugin may throw anything; the best model so far is kept and written all the same.
-    return run.finish(Termination::Failed,
-                      std::string("reduction failed (unexpected exception): ") + e.what());
+    return run.finish(Termination::Failed, run.failure(e.what(), /*foreign=*/true));
   }
 }
 

@@ -500,6 +500,9 @@ TEST(GreedyPoints, NumericalBreakdownFailsAndKeepsTheBestModel) {
   const StrategyResult r = fx.run(reducer, 1e-12, params());
   EXPECT_EQ(r.termination, Termination::Failed);
   EXPECT_NE(r.message.find("breakdown at the second request"), std::string::npos) << r.message;
+  // Named where it happened: the first request made iteration 1, the second broke down.
+  EXPECT_EQ(r.message.rfind("reduction failed in iteration 2 (interpolation): ", 0), 0u)
+      << r.message;
   EXPECT_TRUE(r.best.has_value());
 }
 

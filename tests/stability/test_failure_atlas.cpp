@@ -541,7 +541,8 @@ const std::vector<Expect> kExpected{
     {"clustered_modes", "krylov", "converged", ""},
     {"clustered_modes", "portfolio", "converged", ""},
     // An expansion point at a pole: the factorisation of P(s0) fails, named with the point.
-    {"point_at_pole", "krylov_s0_0", "failed", "s0 = 0"},
+    {"point_at_pole", "krylov_s0_0", "failed",
+     "reduction failed in iteration 1: krylov: P(s0) is singular at the expansion point s0 = 0"},
     // IRKA without restarts names its cycles; with restarts it recovers at those orders.
     {"irka_budget", "irka_3_iterations", "not converged", ""},
     // ADI out of budget: refused by name when convergence is required.
