@@ -128,10 +128,11 @@ class SymmetricSlicer {
   SymmetricSlicer(const SparseMatrix& Ks, const SparseMatrix& Ms, ShiftedSolver& solver,
                   FactorizeFn factorize, bool second_order, const Options& options,
                   const Band& band)
-      : m_M(Ms), m_solver(solver), m_factorize(std::move(factorize)),
+      : m_K(Ks), m_M(Ms), m_solver(solver), m_factorize(std::move(factorize)),
         m_second_order(second_order),
         m_options(options), m_n(Ks.rows()) {
     m_scale = spectrum_scale(Ks, Ms);
+    m_k_norm = Ks.norm();
     m_phi.resize(m_n, 0);
     const double omega_min = kTwoPi * band.f_min_hz;
     // sigma_0 < 0 so that K - sigma_0 M is SPD even for singular K (Cholesky applies); not so close
@@ -142,7 +143,12 @@ class SymmetricSlicer {
 
   Index size() const { return m_n; }
   Index known() const { return static_cast<Index>(m_lambda.size()); }
-  bool complete() const { return known() >= m_n; }
+  /// Every eigenpair is known, or the slicing is exhausted: kMaxEmptyBatches batches in a row
+  /// added nothing (the shift is above the spectrum, or ARPACK misses the copies of a multiple
+  /// eigenvalue), so more slices would only climb without end.
+  bool complete() const { return known() >= m_n || m_empty_batches >= kMaxEmptyBatches; }
+  bool exhausted() const { return known() < m_n && m_empty_batches >= kMaxEmptyBatches; }
+  Index spurious() const { return m_spurious; }
   double rigid_threshold() const { return m_options.rigid_tolerance * m_scale; }
   bool is_rigid(double lambda) const { return std::abs(lambda) <= rigid_threshold(); }
   double frequency(double lambda) const {
@@ -215,9 +221,11 @@ class SymmetricSlicer {
       }
       m_factorizations.push_back(F);
       m_shifts.push_back(sigma);
+      const Index known_before = known();
       for (Index j = 0; j < r.eigenvalues.size(); ++j) {
         if (dist[j] <= t) add(r.eigenvalues[j], r.eigenvectors.col(j));
       }
+      m_empty_batches = known() > known_before ? 0 : m_empty_batches + 1;
       // Covered now: every eigenvalue in [sigma - t, sigma + t].
       m_lambda_cov = m_batches == 0 ? sigma + t : std::max(m_lambda_cov, sigma + t);
       ++m_batches;
@@ -245,6 +253,14 @@ class SymmetricSlicer {
   // eigenvalue is M-orthogonalised against the known copies.
   void add(double lambda, const Vector& phi_in) {
     Vector phi = phi_in;
+    // A Ritz pair that is not an eigenpair (ARPACK past the top of the spectrum, or mixing the
+    // copies of a multiple eigenvalue) is dropped: relative residual above the admissible one.
+    const double residual = (m_K * phi - lambda * (m_M * phi)).norm() /
+                            (std::max(m_k_norm, 1e-300) * std::max(phi.norm(), 1e-300));
+    if (!(residual <= std::max(1e-6, 100.0 * m_options.tolerance))) {
+      ++m_spurious;
+      return;
+    }
     const double tol = 1e-8 * std::max(std::abs(lambda), rigid_threshold());
     std::vector<Index> same;
     for (Index j = 0; j < known(); ++j) {
@@ -270,7 +286,12 @@ class SymmetricSlicer {
     m_phi.col(m_phi.cols() - 1) = phi;
   }
 
+  static constexpr Index kMaxEmptyBatches = 3;
+  const SparseMatrix& m_K;
   const SparseMatrix& m_M;
+  double m_k_norm = 1.0;
+  Index m_empty_batches = 0;
+  Index m_spurious = 0;
   ShiftedSolver& m_solver;
   FactorizeFn m_factorize;
   bool m_second_order;
@@ -621,6 +642,7 @@ class ModalReducer final : public Reducer {
     result.diagnostics["batches"] = static_cast<double>(s.batches());
     result.diagnostics["operator_applications"] = static_cast<double>(s.operator_applications());
     result.diagnostics["duplicates_removed"] = static_cast<double>(s.duplicates());
+    result.diagnostics["spurious_removed"] = static_cast<double>(s.spurious());
     result.diagnostics["orthogonality_loss"] = orthogonality_loss(V, InnerProduct{&M});
     if (modes > 0 && f_hi > 0.0) {
       result.diagnostics["f_lowest_hz"] = f_lo;
@@ -637,6 +659,15 @@ class ModalReducer final : public Reducer {
     if (m_path != "symmetric") note += "; " + m_path + " eigenproblem";
     if (V.cols() < order) {
       note += fmt::format("; order {} requested, {} available", order, V.cols());
+      if (s.exhausted()) {
+        note += fmt::format(" (spectrum slicing found {} of {} eigenpairs and then nothing new in "
+                            "3 slices: ARPACK misses copies of an eigenvalue of high multiplicity"
+                            "{})",
+                            s.known(), m_n,
+                            s.spurious() > 0
+                                ? fmt::format("; {} spurious Ritz pairs dropped", s.spurious())
+                                : std::string());
+      }
     } else if (m_options.static_correction && static_cols == 0 && m_static_rank > 0) {
       note += fmt::format("; static correction omitted (needs order > {})", m_static_rank);
     }
