@@ -2,9 +2,12 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/QR>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
@@ -28,27 +31,51 @@ std::string to_string(Stability s) {
 
 namespace {
 
-// Relative size below which a real part counts as zero: eigenvalues of an undamped or
-// free-floating model come out with real parts of order N eps max|p|, of either sign.
+// A computed pole counts as on the imaginary axis when its real part is below kAxisTolerance of
+// its own modulus: an undamped oscillation, whose real part rounding leaves at eps |p| of either
+// sign. A pole at s = 0 cannot be told from a slow real pole by its size (descriptor models spread
+// their poles over many decades: mna1 from 5.7e4 to 4.5e20, all stable), so it is found
+// structurally: s = 0 is a pole exactly when A is singular. With d = n - rank(A) (rank-revealing
+// QR of the equilibrated A), the d poles of least modulus, and any below kZeroTolerance of the
+// largest (the second pole of a Jordan block at 0 comes out near sqrt(eps)), are poles at s = 0.
 constexpr double kAxisTolerance = 1e-9;
+constexpr double kZeroTolerance = 1e-6;
+
+// Rank deficiency of A after scaling its rows and columns by powers of two (rank is invariant).
+Index rank_deficiency(Matrix A) {
+  const Index n = A.rows();
+  if (n == 0) return 0;
+  auto scale = [](double m) { return m > 0.0 ? std::exp2(-std::round(std::log2(m))) : 1.0; };
+  for (int sweep = 0; sweep < 5; ++sweep) {
+    for (Index i = 0; i < n; ++i) A.row(i) *= scale(A.row(i).cwiseAbs().maxCoeff());
+    for (Index j = 0; j < n; ++j) A.col(j) *= scale(A.col(j).cwiseAbs().maxCoeff());
+  }
+  Eigen::ColPivHouseholderQR<Matrix> qr(A);
+  qr.setThreshold(1e3 * static_cast<double>(n) * std::numeric_limits<double>::epsilon());
+  return n - qr.rank();
+}
 
 StabilityReport dense_check(const Model& model, Index states) {
   StabilityReport r;
   r.dense = true;
   r.method = fmt::format("dense eigenvalues of the {0} x {0} first-order pencil", states);
   ComplexVector p;
+  Index zero_poles = 0;
   try {
-    p = poles(densify(model));
+    const ReducedModel dense = densify(model);
+    p = poles(dense);
+    zero_poles = rank_deficiency(first_order_realization(dense).A);
   } catch (const Error& e) {
     r.verdict = Stability::Unknown;
     r.reason = std::string("dense eigenvalue computation failed: ") + e.what();
     r.max_real_pole = std::numeric_limits<double>::quiet_NaN();
     return r;
   }
-  double scale = 0.0, max_re = -std::numeric_limits<double>::infinity();
+  double max_re = -std::numeric_limits<double>::infinity();
   Index i_max = -1;
+  std::vector<double> modulus;
   for (Index i = 0; i < p.size(); ++i) {
-    scale = std::max(scale, std::abs(p(i)));
+    modulus.push_back(std::abs(p(i)));
     if (p(i).real() > max_re) {
       max_re = p(i).real();
       i_max = i;
@@ -60,26 +87,46 @@ StabilityReport dense_check(const Model& model, Index states) {
     r.reason = "no finite pole";
     return r;
   }
-  r.max_real_pole = max_re;
-  const double axis = kAxisTolerance * std::max(1.0, scale);
-  Index right = 0, on_axis = 0;
-  for (Index i = 0; i < p.size(); ++i) {
-    if (p(i).real() > axis)
-      ++right;
-    else if (p(i).real() >= -axis)
-      ++on_axis;
+  // The zero_poles poles of least modulus, and any tiny next to the largest, are at s = 0.
+  std::vector<Index> order(static_cast<std::size_t>(p.size()));
+  for (Index i = 0; i < p.size(); ++i) order[static_cast<std::size_t>(i)] = i;
+  std::sort(order.begin(), order.end(), [&](Index a, Index b) {
+    return modulus[static_cast<std::size_t>(a)] < modulus[static_cast<std::size_t>(b)];
+  });
+  const double largest = modulus[static_cast<std::size_t>(order.back())];
+  std::vector<bool> at_zero(static_cast<std::size_t>(p.size()), false);
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const std::size_t i = static_cast<std::size_t>(order[k]);
+    if (zero_poles > 0 && (static_cast<Index>(k) < zero_poles ||
+                           modulus[i] <= kZeroTolerance * largest))
+      at_zero[i] = true;
   }
-  const Complex worst = p(i_max);
+  auto on_axis = [&](Index i) {
+    return at_zero[static_cast<std::size_t>(i)] ||
+           std::abs(p(i).real()) <= kAxisTolerance * std::abs(p(i));
+  };
+  r.max_real_pole = max_re;
+  Index right = 0, axis = 0;
+  Complex worst_right(0.0, 0.0), worst_axis(0.0, 0.0);
+  for (Index i = 0; i < p.size(); ++i) {
+    if (on_axis(i)) {
+      if (axis++ == 0) worst_axis = p(i);
+    } else if (p(i).real() > 0.0) {
+      if (right++ == 0 || p(i).real() > worst_right.real()) worst_right = p(i);
+    }
+  }
   if (right > 0) {
     r.verdict = Stability::Unstable;
     r.reason = fmt::format("{} pole(s) in the right half-plane, the largest real part {:.4g} "
                            "(pole {:.4g}{:+.4g}i)",
-                           right, max_re, worst.real(), worst.imag());
-  } else if (on_axis > 0) {
+                           right, worst_right.real(), worst_right.real(), worst_right.imag());
+  } else if (axis > 0) {
     r.verdict = Stability::Marginal;
-    r.reason = fmt::format("{} pole(s) on the imaginary axis (|Re p| <= {:.1e} max|p|), e.g. "
-                           "{:.4g}{:+.4g}i: undamped modes or rigid-body motion",
-                           on_axis, kAxisTolerance, worst.real(), worst.imag());
+    r.reason = fmt::format("{} pole(s) on the imaginary axis ({} at s = 0: A has rank "
+                           "deficiency {}), e.g. {:.4g}{:+.4g}i: undamped modes or rigid-body "
+                           "motion",
+                           axis, std::count(at_zero.begin(), at_zero.end(), true), zero_poles,
+                           worst_axis.real(), worst_axis.imag());
   } else {
     r.verdict = Stability::Asymptotic;
     r.reason = fmt::format("every pole has Re < 0; the largest real part is {:.4g}", max_re);

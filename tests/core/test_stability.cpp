@@ -54,6 +54,10 @@ std::vector<Case> cases() {
       {"damped", chain(30, 20.0, 50.0, 0.05, 1e-3), Stability::Asymptotic, "every mode is damped"},
       {"undamped", chain(30, 20.0, 50.0, 0.0, 0.0), Stability::Marginal, "D = 0"},
       {"free_floating", chain(30, 0.0, 50.0, 0.05, 1e-3), Stability::Marginal, "K is singular"},
+      // D = beta K leaves the rigid-body mode undamped: a double pole at s = 0 (Jordan block),
+      // whose second copy comes out near sqrt(eps), of either sign.
+      {"free_floating_stiffness_damping", chain(30, 0.0, 50.0, 0.0, 1e-3), Stability::Marginal,
+       "K is singular"},
       {"negative_spring", chain(30, 20.0, -40.0, 0.05, 1e-3), Stability::Unstable,
        "K is indefinite"},
   };
@@ -107,6 +111,38 @@ TEST(FullModelStability, UnsymmetricDampingOrLargeDescriptorIsUnknown) {
   EXPECT_EQ(full_model_stability(Model(d), 4).verdict, Stability::Asymptotic);
 }
 
+// Poles spread over twenty decades are each judged on their own scale: none of -1, -1e10, -1e20
+// is "on the axis" (a tolerance relative to the largest pole would put -1 there).
+TEST(FullModelStability, PolesOverManyDecadesAreJudgedOnTheirOwnScale) {
+  DescriptorModel d;
+  d.E = SparseMatrix(3, 3);
+  d.E.setIdentity();
+  d.A = SparseMatrix(3, 3);
+  d.A.insert(0, 0) = -1.0;
+  d.A.insert(1, 1) = -1e10;
+  d.A.insert(2, 2) = -1e20;
+  d.B = Matrix::Ones(3, 1);
+  d.C = Matrix::Ones(1, 3);
+  const StabilityReport r = full_model_stability(Model(d), 100);
+  EXPECT_EQ(r.verdict, Stability::Asymptotic) << r.reason;
+  EXPECT_DOUBLE_EQ(r.max_real_pole, -1.0);
+  // An undamped pair +-i w next to them is on the axis; a pole at +1e-3 is unstable.
+  DescriptorModel osc;
+  osc.E = SparseMatrix(4, 4);
+  osc.E.setIdentity();
+  osc.A = SparseMatrix(4, 4);
+  osc.A.insert(0, 1) = 5.0;
+  osc.A.insert(1, 0) = -5.0;
+  osc.A.insert(2, 2) = -1e10;
+  osc.A.insert(3, 3) = -1e20;
+  osc.B = Matrix::Ones(4, 1);
+  osc.C = Matrix::Ones(1, 4);
+  EXPECT_EQ(full_model_stability(Model(osc), 100).verdict, Stability::Marginal);
+  osc.A.coeffRef(0, 0) = 1e-3;
+  osc.A.coeffRef(1, 1) = 1e-3;
+  EXPECT_EQ(full_model_stability(Model(osc), 100).verdict, Stability::Unstable);
+}
+
 // The shared peec model: a singular E and a badly scaled pencil on which Eigen's QZ does not
 // converge until the pencil is equilibrated; it has a real pole in the right half-plane (the
 // models' README: eigenvalues with Re up to +1.7e12 by LAPACK).
@@ -120,6 +156,19 @@ TEST(FullModelStability, PeecIsUnstableAfterEquilibration) {
   const StabilityReport r = full_model_stability(Model(d), 1000);
   EXPECT_EQ(r.verdict, Stability::Unstable) << r.reason;
   EXPECT_GT(r.max_real_pole, 1e9);
+}
+
+// mna1: finite poles from 5.7e4 to 4.5e20 (E singular), all real and negative: asymptotically
+// stable, although the slowest are 1e-16 of the fastest.
+TEST(FullModelStability, Mna1IsAsymptoticallyStable) {
+  const std::filesystem::path dir = "../shared/models/mna1";
+  DescriptorModel d;
+  d.E = read_matrix_market_sparse(dir / "E.mtx");
+  d.A = read_matrix_market_sparse(dir / "A.mtx");
+  d.B = read_matrix_market_dense(dir / "B.mtx");
+  d.C = read_matrix_market_dense(dir / "C.mtx");
+  const StabilityReport r = full_model_stability(Model(d), 1000);
+  EXPECT_EQ(r.verdict, Stability::Asymptotic) << r.reason;
 }
 
 }  // namespace

@@ -36,8 +36,10 @@ struct StabilityReport {
 /// Decides the stability of a full model:
 ///  * with at most `dense_states` first-order states (N, or 2N for second order): the finite
 ///    eigenvalues of the pencil of densify(model). A pole counts as on the axis when
-///    |Re p| <= 1e-9 max(1, |p|) (eigenvalues of an undamped model come out with Re of order
-///    eps |p|, either sign);
+///    |Re p| <= 1e-9 |p| (an undamped mode: rounding leaves Re of order eps |p|, either sign), or
+///    as a pole at s = 0 when A is singular (d = n - rank A by rank-revealing QR: the d poles of
+///    least modulus, and any below 1e-6 of the largest). Size alone cannot tell a pole at 0 from
+///    a slow real pole: descriptor models spread their poles over many decades;
 ///  * else, for a second-order model with M, D, K symmetric (M is positive definite, a load-time
 ///    rule): K not positive definite means a pole at s = 0 (K singular) or in the right
 ///    half-plane (K indefinite), reported as Marginal / Unstable by the inertia of K; K and D
