@@ -6,6 +6,9 @@
 include(CMakePackageConfigHelpers)
 # (No INCLUDES DESTINATION: ecmor_core's INSTALL_INTERFACE include directory already says it.)
 install(TARGETS ecmor_core EXPORT ecmorTargets LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
+if(TARGET ecmor_petsc)
+  install(TARGETS ecmor_petsc LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})  # backend module
+endif()
 install(DIRECTORY core/include/ecmor DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
 install(FILES "${PROJECT_BINARY_DIR}/core/include/ecmor/export.hpp"
               "${PROJECT_BINARY_DIR}/core/include/ecmor/version.hpp"

@@ -21,6 +21,7 @@ packages=(
   libmatio-dev
   gnuplot-nox
   clang-14 libclang-rt-14-dev   # scripts/fuzz.sh: libFuzzer and the sanitizers
+  libpetsc-complex-dev openmpi-bin   # the PETSc backend (complex scalars, MUMPS) over MPI
 )
 
 missing=()

@@ -15,6 +15,7 @@
 #include "ecmor/eigensolver.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/model_io.hpp"
+#include "ecmor/parallel.hpp"
 #include "ecmor/registry.hpp"
 #include "ecmor/strategies/driver.hpp"
 #include "plot.hpp"
@@ -29,7 +30,9 @@ extern "C" void on_signal(int) { g_interrupted.store(true); }
 // Prints the convergence table while the run goes on.
 class TablePrinter final : public RunObserver {
  public:
-  explicit TablePrinter(bool quiet) : m_quiet(quiet) {}
+  /// quiet: only the final result; silent: nothing (the ranks other than 0 under MPI).
+  explicit TablePrinter(bool quiet, bool silent = false)
+      : m_quiet(quiet || silent), m_silent(silent) {}
 
   void on_model_loaded(const RunConfig& config, const Model& model, double seconds) override {
     if (m_quiet) return;
@@ -74,6 +77,7 @@ class TablePrinter final : public RunObserver {
   bool stop_requested() override { return g_interrupted.load(); }
 
   void on_finished(const RunSummary& s) override {
+    if (m_silent) return;
     if (!m_quiet) fmt::print("\n");
     if (s.attempts.size() > 1) {
       for (const PortfolioAttempt& a : s.attempts) {
@@ -97,6 +101,7 @@ class TablePrinter final : public RunObserver {
 
  private:
   bool m_quiet;
+  bool m_silent;
 };
 
 // The plots of a finished run (plot.hpp). A reduction that worked is not failed by its pictures:
@@ -115,14 +120,24 @@ void plot_after_run(const std::filesystem::path& dir, bool quiet) {
 }  // namespace
 
 int guarded(const std::function<int()>& body) {
+  // Under MPI an error seen by one rank alone would leave the others waiting in a collective
+  // solve: it is reported with the rank, and the whole job is ended.
+  auto fail = [](const char* kind, const char* what) {
+    if (process_count() > 1) {
+      fmt::print(stderr, "ecmor: {} on rank {} of {}: {}\n", kind, process_rank(),
+                 process_count(), what);
+      std::fflush(stderr);
+      abort_all_processes(1);
+    }
+    fmt::print(stderr, "ecmor: {}: {}\n", kind, what);
+    return 1;
+  };
   try {
     return body();
   } catch (const Error& e) {
-    fmt::print(stderr, "ecmor: error: {}\n", e.what());
-    return 1;
+    return fail("error", e.what());
   } catch (const std::exception& e) {
-    fmt::print(stderr, "ecmor: internal error: {}\n", e.what());
-    return 1;
+    return fail("internal error", e.what());
   }
 }
 
@@ -151,16 +166,28 @@ void load_plugins(Registry& registry, const CommonOptions& common,
 }
 
 int reduce(const std::filesystem::path& config_path, const CommonOptions& common) {
+  // Under mpirun (read from the launcher's environment; MPI itself starts with the PETSc backend).
+  const int rank = process_rank(), ranks = process_count();
   return guarded([&] {
     RunConfig config = load_run_config(config_path);
     if (!common.output_dir.empty()) config.output_dir = std::filesystem::absolute(common.output_dir);
+    if (ranks > 1 && config.solver.backend != "petsc") {
+      // The embedded backend works in one process: rank 0 does the run, the others leave.
+      if (rank != 0) return 0;
+      fmt::print(stderr,
+                 "ecmor: warning: {} MPI ranks, but backend '{}' runs in one process: rank 0 does "
+                 "the whole run and the other ranks exit (backend: {{name: petsc}} distributes the "
+                 "factorisations over the ranks)\n",
+                 ranks, config.solver.backend);
+    }
     Registry registry;
     load_plugins(registry, common, config.plugins);
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
-    TablePrinter printer(common.quiet);
+    TablePrinter printer(common.quiet, /*silent=*/rank != 0);
     const RunSummary summary = run_reduction(config, registry, &printer);
-    if (summary.has_model && !common.no_plot) plot_after_run(summary.output_dir, common.quiet);
+    if (rank == 0 && summary.has_model && !common.no_plot)
+      plot_after_run(summary.output_dir, common.quiet);
     // 130 only for a signal; a run stopped by its time limit missed its target like any budget.
     if (summary.termination == Termination::Interrupted && g_interrupted.load()) return 130;
     return summary.exit_code();

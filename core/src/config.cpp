@@ -19,8 +19,9 @@ namespace ecmor {
 
 namespace {
 
-const std::vector<std::string> kSections = {"model", "band",   "target", "reducer", "strategy",
-                                            "error", "solver", "output", "plugins", "check"};
+const std::vector<std::string> kSections = {"model",  "band",   "target",  "reducer",
+                                            "strategy", "error", "solver", "backend",
+                                            "output", "plugins", "check"};
 
 std::string node_kind(const YAML::Node& node) {
   switch (node.Type()) {
@@ -489,6 +490,17 @@ RunConfig Parser::parse(const std::string& yaml) {
       (std::string(key) == "symmetry_tol" ? config.solver.symmetry_tol
                                           : config.solver.singular_rcond) = *v;
     }
+  }
+
+  // backend: {name: suitesparse | petsc}: which shifted solver does the sparse work.
+  const YAML::Node backend = section(m_root, "backend", {"name"});
+  if (auto name = text(backend, "backend", "name", false)) {
+    if (*name != "suitesparse" && *name != "petsc")
+      fail(at(backend["name"]),
+           fmt::format("backend.name = '{}': must be 'suitesparse' (embedded: CHOLMOD, UMFPACK) "
+                       "or 'petsc' (distributed: PETSc with MUMPS over MPI)",
+                       *name));
+    config.solver.backend = *name;
   }
 
   const YAML::Node check = section(m_root, "check", {"max_order", "max_seconds"});

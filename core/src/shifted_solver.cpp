@@ -45,6 +45,9 @@
 
 #include "ecmor/error.hpp"
 
+#include "parallel_for.hpp"
+#include "petsc_solver.hpp"
+
 namespace ecmor {
 
 // ---------------------------------------------------------------------------------------------
@@ -103,6 +106,9 @@ void SolverOptions::validate() const {
     fail("singular_rcond", singular_rcond, "must be in [0, 1)");
   if (refinement_steps < 0 || refinement_steps > 10)
     fail("refinement_steps", refinement_steps, "must be in [0, 10]");
+  if (backend != "suitesparse" && backend != "petsc")
+    throw ConfigError("SolverOptions::backend = '" + backend +
+                      "': must be 'suitesparse' (embedded) or 'petsc' (distributed)");
 }
 
 namespace {
@@ -815,8 +821,18 @@ class SuiteSparseSolver final : public ShiftedSolver {
 
 }  // namespace
 
+namespace detail {
+std::atomic<bool> g_serial_solves{false};
+}  // namespace detail
+
 std::unique_ptr<ShiftedSolver> make_shifted_solver(const Model& model,
                                                    const SolverOptions& options) {
+  if (options.backend == "petsc") {
+    options.validate();
+    std::unique_ptr<ShiftedSolver> solver = detail::make_petsc_solver(model);
+    detail::g_serial_solves.store(true);
+    return solver;
+  }
   return std::make_unique<SuiteSparseSolver>(model, options);
 }
 

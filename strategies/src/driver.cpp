@@ -17,6 +17,7 @@
 #include "ecmor/lyapunov.hpp"
 #include "ecmor/matrix_market.hpp"
 #include "ecmor/model_io.hpp"
+#include "ecmor/parallel.hpp"
 #include "ecmor/version.hpp"
 
 namespace ecmor {
@@ -192,8 +193,11 @@ int select_winner(const std::vector<PortfolioAttempt>& attempts) {
       continue;
     }
     const PortfolioAttempt& b = attempts[static_cast<std::size_t>(best)];
+    // Ties on the order go to the faster member; under MPI to the first one, since the ranks'
+    // clocks differ and every rank must report the same winner.
+    const bool faster = process_count() == 1 && a.seconds < b.seconds;
     const bool better = a.met != b.met ? a.met
-                        : a.met ? (a.order != b.order ? a.order < b.order : a.seconds < b.seconds)
+                        : a.met ? (a.order != b.order ? a.order < b.order : faster)
                                 : a.band_error < b.band_error;
     if (better) best = static_cast<int>(k);
   }
@@ -225,10 +229,23 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   // directory behind (bad input is reported before anything is written).
   std::optional<HistoryWriter> history;
   Index recorded = 0;
+  // Under MPI (PETSc backend) every rank runs this driver; rank 0 alone writes the outputs.
+  const bool writer = process_rank() == 0;
   auto record = [&](const IterationRecord& r) {
-    if (!history) history.emplace(config.output_dir);
-    history->append(r);
+    // A write error is rank 0's alone; made collective, so that every rank leaves the strategy
+    // at the same record instead of the others waiting in the next collective solve.
+    std::string failure;
+    if (writer) {
+      try {
+        if (!history) history.emplace(config.output_dir);
+        history->append(r);
+      } catch (const Error& e) {
+        failure = e.what();
+      }
+    }
     ++recorded;
+    if (any_process(!failure.empty()))
+      throw IoError(failure.empty() ? std::string("rank 0 could not write the history") : failure);
   };
 
   // The time limit acts as an interrupt: strategies poll stop_requested() and finish with the
@@ -239,9 +256,13 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
     return out_of_time;
   };
   bool user_stop = false;
+  // Collective under MPI: a time limit or a signal seen on one rank stops every rank at the same
+  // point (the solves are collective operations, entered by all ranks in the same order).
   auto stop_requested = [&] {
     if (observer != nullptr && observer->stop_requested()) user_stop = true;
-    return time_is_up() || user_stop;
+    const bool local = time_is_up() || user_stop;
+    if (any_process(local) && !local) user_stop = true;
+    return out_of_time || user_stop;
   };
 
   std::vector<PortfolioAttempt> attempts;
@@ -295,7 +316,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
         pruned = true;
         return false;
       }
-      return !time_is_up() && go_on;
+      return !any_process(time_is_up() || !go_on);
     };
 
     StrategyResult result;
@@ -413,12 +434,14 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   nlohmann::json j;
   if (result.best) {
     const ReducerResult& best = *result.best;
-    write_reduced_model(config.output_dir, best.model);
-    write_matrix_market(config.output_dir / "V.mtx", best.V, "right projection basis V");
-    write_matrix_market(config.output_dir / "W.mtx", best.W, "left projection basis W");
+    if (writer) {
+      write_reduced_model(config.output_dir, best.model);
+      write_matrix_market(config.output_dir / "V.mtx", best.V, "right projection basis V");
+      write_matrix_market(config.output_dir / "W.mtx", best.W, "left projection basis W");
+    }
     // The reported model is always re-checked on the independent grid, converged or not.
     const BandError verified = estimator.verify(best.model, config.verify_factor);
-    write_error_curve(config.output_dir / "band_error.csv", verified);
+    if (writer) write_error_curve(config.output_dir / "band_error.csv", verified);
     summary.has_model = true;
     summary.order = best.V.cols();
     summary.band_error = result.best_error.sup_relative;
@@ -506,6 +529,8 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
                 {"N", size_of(model)},
                 {"inputs", inputs_of(model)},
                 {"outputs", outputs_of(model)}};
+  j["backend"] = {{"name", config.solver.backend}, {"solver", solver->backend()},
+                  {"ranks", process_count()}};
   j["reducer"] = config.reducer_name;
   j["strategy"] = config.strategy_name;
   if (portfolio) {
@@ -540,7 +565,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   j["counters"] = counters_json(summary.counters);
   j["full_evaluations"] = summary.full_evaluations;
   j["peak_memory_mb"] = summary.peak_memory_mb;
-  write_text_atomically(config.output_dir / "summary.json", j.dump(2) + "\n");
+  if (writer) write_text_atomically(config.output_dir / "summary.json", j.dump(2) + "\n");
 
   if (observer) observer->on_finished(summary);
   return summary;

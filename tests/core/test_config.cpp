@@ -173,6 +173,17 @@ TEST(RunConfig, StrategySectionWithoutNameKeepsTheDefault) {
   EXPECT_EQ(c.strategy_params.get_int("max_order", 0), 7);
 }
 
+// backend: {name: ...} picks the shifted solver; anything else is named with the rule.
+TEST(RunConfig, BackendSection) {
+  EXPECT_EQ(parse_run_config(kMinimal, "run.yaml").solver.backend, "suitesparse");
+  EXPECT_EQ(parse_run_config(kMinimal + "backend: {name: petsc}\n", "run.yaml").solver.backend,
+            "petsc");
+  const std::string e = parse_error(kMinimal + "backend: {name: mpi}\n");
+  EXPECT_NE(e.find("backend.name = 'mpi': must be 'suitesparse'"), std::string::npos) << e;
+  EXPECT_NE(parse_error(kMinimal + "backend: {name: petsc, ranks: 2}\n").find("ranks"),
+            std::string::npos);
+}
+
 TEST(RunConfig, CheckSectionAndHinfDenseStates) {
   const RunConfig c = parse_run_config(
       kMinimal + "check: {max_order: 12, max_seconds: 30}\nerror: {hinf_dense_states: 0}\n",

@@ -104,6 +104,11 @@ class ECMOR_API ShiftedSolver {
 
   /// Snapshot of the cumulative counters.
   virtual SolverCounters counters() const = 0;
+
+  /// False when factorisations and solves are collective operations of several MPI ranks (the
+  /// PETSc backend): then they must not be called from several threads at once, and ecmor's own
+  /// parallel loops over frequencies run serially.
+  virtual bool concurrent() const { return true; }
 };
 
 /// Options of the embedded SuiteSparse backend.
@@ -120,12 +125,16 @@ struct ECMOR_API SolverOptions {
   /// no shared reference model gained accuracy (all within 1e-12 without it). Raise it for badly
   /// scaled or nearly singular shifts when the accuracy of the solves matters more than speed.
   int refinement_steps = 0;
+  /// "suitesparse" (embedded: CHOLMOD, UMFPACK) or "petsc" (distributed: PETSc with MUMPS, over
+  /// the MPI ranks; only in builds with ECMOR_WITH_PETSC, see parallel.hpp). YAML backend.name.
+  std::string backend = "suitesparse";
   /// Throws ConfigError naming the field, value and rule.
   void validate() const;
 };
 
-/// The embedded backend on the model's matrices. The model must outlive the solver.
-/// \throws ConfigError for invalid options; InputError if the coefficients are not all N x N.
+/// The backend options.backend on the model's matrices. The model must outlive the solver.
+/// \throws ConfigError for invalid options (including backend "petsc" in a build without it);
+///         InputError if the coefficients are not all N x N.
 ECMOR_API std::unique_ptr<ShiftedSolver> make_shifted_solver(const Model& model,
                                                              const SolverOptions& options = {});
 

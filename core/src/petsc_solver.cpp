@@ -1,0 +1,400 @@
+// The PETSc backend of the shifted solver (issue 9): the combinations sum_k w_k T_k are assembled
+// as distributed PETSc matrices (rows split over the MPI ranks) and factorised by MUMPS, PETSc's
+// distributed sparse direct solver, in the complex-scalar build of PETSc.
+//
+// Execution model. Every rank runs the whole ecmor driver on the same configuration; the model
+// and the reduced quantities (bases of N x r, reduced matrices) are replicated, and every
+// factorisation and solve is a collective operation that all ranks enter in the same order. The
+// memory that grows fastest with N, the sparse LU factors, is distributed by MUMPS. A right-hand
+// side arrives replicated; each rank contributes its rows, and the solution is gathered on every
+// rank. Decisions that could differ between ranks (time limits, signals) are made collective by
+// any_process() (parallel.hpp).
+#include "petsc_solver.hpp"
+
+#include <fmt/format.h>
+#include <petscksp.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <mutex>
+#include <vector>
+
+#include "ecmor/error.hpp"
+
+namespace ecmor::detail {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// PETSc's own error text for a return code, as an ecmor::NumericalError naming the call.
+void check(PetscErrorCode code, const char* call) {
+  if (code == 0) return;
+  const char* text = nullptr;
+  PetscErrorMessage(code, &text, nullptr);
+  throw NumericalError(fmt::format("PETSc backend: {} failed (PETSc error {}: {})", call,
+                                   static_cast<int>(code), text ? text : "unknown"));
+}
+#define ECMOR_PETSC(call) check((call), #call)
+
+std::once_flag g_init_once;
+
+void finalize_petsc() {
+  PetscBool finalized = PETSC_FALSE;
+  PetscFinalized(&finalized);
+  if (!finalized) PetscFinalize();
+}
+
+// PETSc (and MPI) start on first use: every rank creates the solver at the same point of the run.
+void ensure_petsc() {
+  std::call_once(g_init_once, [] {
+    PetscBool initialized = PETSC_FALSE;
+    PetscInitialized(&initialized);
+    if (!initialized) {
+      ECMOR_PETSC(PetscInitializeNoArguments());
+      std::atexit(finalize_petsc);
+    }
+    // Errors come back as return codes (turned into exceptions here), not printed tracebacks.
+    PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+  });
+}
+
+struct Terms {
+  Index n = 0;
+  std::vector<SparseMatrix> t;  // T_k, compressed (descriptor: T_0 = -A, T_1 = E)
+};
+
+// The owned rows' combined pattern (sorted column indices per row) and each term's value
+// positions in it, so that a combination is assembled row by row without searching.
+struct RowPattern {
+  PetscInt row_begin = 0, row_end = 0;
+  std::vector<PetscInt> offset;  // size rows + 1
+  std::vector<PetscInt> cols;
+  std::vector<PetscInt> diag_nnz, off_nnz;  // for preallocation
+  std::vector<std::vector<std::pair<PetscInt, PetscInt>>> scatter;  // per term: (value idx, pos)
+};
+
+class PetscFactorization;
+
+class PetscSolver final : public ShiftedSolver {
+ public:
+  explicit PetscSolver(Terms terms) : m_terms(std::move(terms)) {
+    ensure_petsc();
+    build_pattern();
+  }
+
+  Index size() const override { return m_terms.n; }
+  Index terms() const override { return static_cast<Index>(m_terms.t.size()); }
+  std::string backend() const override {
+    int size = 1;
+    MPI_Comm_size(PETSC_COMM_WORLD, &size);
+    return fmt::format("petsc (MUMPS, {} rank{})", size, size == 1 ? "" : "s");
+  }
+  bool concurrent() const override { return false; }
+
+  std::shared_ptr<const Factorization> factorize_combination(
+      std::span<const Complex> weights) override;
+
+  ComplexMatrix apply_combination(std::span<const Complex> weights,
+                                  const ComplexMatrix& x) const override {
+    require_weights(weights);
+    ComplexMatrix y = ComplexMatrix::Zero(m_terms.n, x.cols());
+    for (std::size_t k = 0; k < m_terms.t.size(); ++k)
+      if (weights[k] != Complex(0.0)) y += weights[k] * (m_terms.t[k].cast<Complex>() * x);
+    return y;
+  }
+  ComplexMatrix apply_combination_transposed(std::span<const Complex> weights,
+                                             const ComplexMatrix& x) const override {
+    require_weights(weights);
+    ComplexMatrix y = ComplexMatrix::Zero(m_terms.n, x.cols());
+    for (std::size_t k = 0; k < m_terms.t.size(); ++k)
+      if (weights[k] != Complex(0.0))
+        y += weights[k] * (m_terms.t[k].transpose().cast<Complex>() * x);
+    return y;
+  }
+
+  SolverCounters counters() const override {
+    std::lock_guard<std::mutex> lock(m_counter_mutex);
+    return m_counters;
+  }
+  void count(const std::function<void(SolverCounters&)>& f) const {
+    std::lock_guard<std::mutex> lock(m_counter_mutex);
+    f(m_counters);
+  }
+  const RowPattern& pattern() const { return m_pattern; }
+
+ private:
+  void require_weights(std::span<const Complex> weights) const {
+    if (weights.size() != m_terms.t.size())
+      throw InputError(fmt::format("PETSc backend: {} weights for {} coefficient matrices",
+                                   weights.size(), m_terms.t.size()));
+  }
+
+  void build_pattern() {
+    const Index n = m_terms.n;
+    // Ownership as PETSc's PETSC_DECIDE would choose it: contiguous blocks of rows.
+    PetscInt local = PETSC_DECIDE, global = static_cast<PetscInt>(n);
+    ECMOR_PETSC(PetscSplitOwnership(PETSC_COMM_WORLD, &local, &global));
+    PetscInt end = 0;
+    ECMOR_PETSC(MPI_Scan(&local, &end, 1, MPIU_INT, MPI_SUM, PETSC_COMM_WORLD));
+    RowPattern& p = m_pattern;
+    p.row_begin = end - local;
+    p.row_end = end;
+    // Row-major copies of the owned rows of every term, merged into one sorted pattern.
+    std::vector<Eigen::SparseMatrix<double, Eigen::RowMajor, PetscInt>> rows;
+    for (const SparseMatrix& t : m_terms.t)
+      rows.emplace_back(t.middleRows(p.row_begin, local).template cast<double>());
+    p.offset.assign(static_cast<std::size_t>(local) + 1, 0);
+    p.scatter.assign(m_terms.t.size(), {});
+    std::vector<PetscInt> merged;
+    for (PetscInt r = 0; r < local; ++r) {
+      merged.clear();
+      for (const auto& R : rows)
+        for (typename std::decay_t<decltype(R)>::InnerIterator it(R, r); it; ++it)
+          merged.push_back(static_cast<PetscInt>(it.col()));
+      merged.push_back(p.row_begin + r);  // the diagonal always (shifts put values there)
+      std::sort(merged.begin(), merged.end());
+      merged.erase(std::unique(merged.begin(), merged.end()), merged.end());
+      PetscInt diag = 0;
+      for (PetscInt c : merged) diag += (c >= p.row_begin && c < p.row_end) ? 1 : 0;
+      p.diag_nnz.push_back(diag);
+      p.off_nnz.push_back(static_cast<PetscInt>(merged.size()) - diag);
+      const PetscInt base = static_cast<PetscInt>(p.cols.size());
+      p.cols.insert(p.cols.end(), merged.begin(), merged.end());
+      p.offset[static_cast<std::size_t>(r) + 1] = static_cast<PetscInt>(p.cols.size());
+      for (std::size_t k = 0; k < rows.size(); ++k) {
+        const auto& R = rows[k];
+        for (typename std::decay_t<decltype(R)>::InnerIterator it(R, r); it; ++it) {
+          const auto pos = std::lower_bound(merged.begin(), merged.end(),
+                                            static_cast<PetscInt>(it.col())) -
+                           merged.begin();
+          const auto value_index = static_cast<PetscInt>(&it.value() - R.valuePtr());
+          p.scatter[k].emplace_back(value_index, base + static_cast<PetscInt>(pos));
+        }
+      }
+    }
+    m_row_values.clear();
+    for (const auto& R : rows)
+      m_row_values.emplace_back(R.valuePtr(), R.valuePtr() + R.nonZeros());
+  }
+
+  friend class PetscFactorization;
+  Terms m_terms;
+  RowPattern m_pattern;
+  std::vector<std::vector<double>> m_row_values;  // owned rows' values of each term
+  mutable std::mutex m_counter_mutex;
+  mutable SolverCounters m_counters;
+};
+
+// One MUMPS LU of a combination: its matrix, KSP (preonly + LU) and work vectors.
+class PetscFactorization final : public Factorization {
+ public:
+  PetscFactorization(const PetscSolver& solver, std::vector<Complex> weights)
+      : m_solver(solver), m_weights(std::move(weights)) {
+    for (const Complex& w : m_weights) m_complex = m_complex || w.imag() != 0.0;
+  }
+  ~PetscFactorization() override {
+    if (m_all) VecDestroy(&m_all);
+    if (m_scatter) VecScatterDestroy(&m_scatter);
+    if (m_x) VecDestroy(&m_x);
+    if (m_b) VecDestroy(&m_b);
+    if (m_ksp) KSPDestroy(&m_ksp);
+    if (m_A) MatDestroy(&m_A);
+  }
+
+  void factorize() {
+    const RowPattern& p = m_solver.pattern();
+    const PetscInt local = p.row_end - p.row_begin;
+    const auto n = static_cast<PetscInt>(m_solver.size());
+    ECMOR_PETSC(MatCreate(PETSC_COMM_WORLD, &m_A));
+    ECMOR_PETSC(MatSetSizes(m_A, local, local, n, n));
+    ECMOR_PETSC(MatSetType(m_A, MATAIJ));
+    ECMOR_PETSC(MatSeqAIJSetPreallocation(m_A, 0, p.diag_nnz.data()));
+    ECMOR_PETSC(MatMPIAIJSetPreallocation(m_A, 0, p.diag_nnz.data(), 0, p.off_nnz.data()));
+    std::vector<PetscScalar> values(p.cols.size(), PetscScalar(0.0));
+    for (std::size_t k = 0; k < p.scatter.size(); ++k) {
+      const PetscScalar w(m_weights[k].real(), m_weights[k].imag());
+      if (w == PetscScalar(0.0)) continue;
+      const std::vector<double>& v = m_solver.m_row_values[k];
+      for (const auto& [value_index, pos] : p.scatter[k])
+        values[static_cast<std::size_t>(pos)] += w * v[static_cast<std::size_t>(value_index)];
+    }
+    for (PetscInt r = 0; r < local; ++r) {
+      const PetscInt row = p.row_begin + r;
+      const PetscInt b = p.offset[static_cast<std::size_t>(r)];
+      const PetscInt e = p.offset[static_cast<std::size_t>(r) + 1];
+      ECMOR_PETSC(MatSetValues(m_A, 1, &row, e - b, p.cols.data() + b, values.data() + b,
+                               INSERT_VALUES));
+    }
+    ECMOR_PETSC(MatAssemblyBegin(m_A, MAT_FINAL_ASSEMBLY));
+    ECMOR_PETSC(MatAssemblyEnd(m_A, MAT_FINAL_ASSEMBLY));
+
+    ECMOR_PETSC(KSPCreate(PETSC_COMM_WORLD, &m_ksp));
+    ECMOR_PETSC(KSPSetOperators(m_ksp, m_A, m_A));
+    ECMOR_PETSC(KSPSetType(m_ksp, KSPPREONLY));
+    PC pc = nullptr;
+    ECMOR_PETSC(KSPGetPC(m_ksp, &pc));
+    ECMOR_PETSC(PCSetType(pc, PCLU));
+    ECMOR_PETSC(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+    ECMOR_PETSC(PCFactorSetUpMatSolverType(pc));
+    Mat F = nullptr;
+    ECMOR_PETSC(PCFactorGetMatrix(pc, &F));
+    // Null-pivot detection (ICNTL(24) = 1, MUMPS's default threshold CNTL(3) relative to the
+    // matrix norm): an exactly singular combination (K of a free-floating body at s = 0) factorises
+    // with a rounding-sized pivot, which MUMPS otherwise accepts.
+    ECMOR_PETSC(MatMumpsSetIcntl(F, 24, 1));
+    ECMOR_PETSC(KSPSetUp(m_ksp));
+    // MUMPS reports a singular matrix through the factor's error state and INFOG(28), the number
+    // of null pivots (the same on every rank).
+    MatFactorError err = MAT_FACTOR_NOERROR;
+    ECMOR_PETSC(MatFactorGetError(F, &err));
+    PetscInt null_pivots = 0;
+    ECMOR_PETSC(MatMumpsGetInfog(F, 28, &null_pivots));
+    if (err != MAT_FACTOR_NOERROR || null_pivots > 0) {
+      std::string w;
+      for (const Complex& c : m_weights) w += fmt::format("{}{:g}{:+g}i", w.empty() ? "" : ", ",
+                                                          c.real(), c.imag());
+      throw NumericalError(fmt::format(
+          "PETSc backend: MUMPS could not factorise the combination with weights ({}): the "
+          "matrix is (numerically) singular ({} null pivot{}, MatFactorError {})",
+          w, null_pivots, null_pivots == 1 ? "" : "s", static_cast<int>(err)));
+    }
+    ECMOR_PETSC(MatCreateVecs(m_A, &m_x, &m_b));
+    ECMOR_PETSC(VecScatterCreateToAll(m_x, &m_scatter, &m_all));
+  }
+
+  Index size() const override { return m_solver.size(); }
+  bool is_complex() const override { return m_complex; }
+  std::string method() const override { return "mumps"; }
+  const std::vector<Complex>& weights() const override { return m_weights; }
+  double rcond() const override { return std::numeric_limits<double>::quiet_NaN(); }
+
+  Matrix solve(const Matrix& B) const override {
+    if (m_complex)
+      throw NumericalError("PETSc backend: real solve with a complex factorisation");
+    return run(B.cast<Complex>(), false).real();
+  }
+  ComplexMatrix solve(const ComplexMatrix& B) const override { return run(B, false); }
+  Matrix solve_transposed(const Matrix& B) const override {
+    if (m_complex)
+      throw NumericalError("PETSc backend: real solve with a complex factorisation");
+    return run(B.cast<Complex>(), true).real();
+  }
+  ComplexMatrix solve_transposed(const ComplexMatrix& B) const override { return run(B, true); }
+
+ private:
+  ComplexMatrix run(const ComplexMatrix& B, bool transposed) const {
+    if (B.rows() != m_solver.size())
+      throw InputError(fmt::format("Factorization::solve: right-hand side has {} rows, expected {}",
+                                   B.rows(), m_solver.size()));
+    const auto t0 = Clock::now();
+    const RowPattern& p = m_solver.pattern();
+    ComplexMatrix X(B.rows(), B.cols());
+    for (Index j = 0; j < B.cols(); ++j) {
+      PetscScalar* b = nullptr;
+      ECMOR_PETSC(VecGetArray(m_b, &b));
+      for (PetscInt r = p.row_begin; r < p.row_end; ++r) {
+        const Complex v = B(r, j);
+        b[r - p.row_begin] = PetscScalar(v.real(), v.imag());
+      }
+      ECMOR_PETSC(VecRestoreArray(m_b, &b));
+      if (transposed) {
+        ECMOR_PETSC(KSPSolveTranspose(m_ksp, m_b, m_x));
+      } else {
+        ECMOR_PETSC(KSPSolve(m_ksp, m_b, m_x));
+      }
+      ECMOR_PETSC(VecScatterBegin(m_scatter, m_x, m_all, INSERT_VALUES, SCATTER_FORWARD));
+      ECMOR_PETSC(VecScatterEnd(m_scatter, m_x, m_all, INSERT_VALUES, SCATTER_FORWARD));
+      const PetscScalar* x = nullptr;
+      ECMOR_PETSC(VecGetArrayRead(m_all, &x));
+      for (Index r = 0; r < B.rows(); ++r) X(r, j) = Complex(PetscRealPart(x[r]), PetscImaginaryPart(x[r]));
+      ECMOR_PETSC(VecRestoreArrayRead(m_all, &x));
+    }
+    const double dt = seconds_since(t0);
+    m_solver.count([&](SolverCounters& c) {
+      c.solves += B.cols();
+      c.solve_seconds += dt;
+    });
+    if (!X.allFinite())
+      throw NumericalError("PETSc backend: the solution has non-finite entries (singular shift?)");
+    return X;
+  }
+
+  const PetscSolver& m_solver;
+  std::vector<Complex> m_weights;
+  bool m_complex = false;
+  Mat m_A = nullptr;
+  KSP m_ksp = nullptr;
+  Vec m_x = nullptr, m_b = nullptr, m_all = nullptr;
+  VecScatter m_scatter = nullptr;
+};
+
+std::shared_ptr<const Factorization> PetscSolver::factorize_combination(
+    std::span<const Complex> weights) {
+  require_weights(weights);
+  const auto t0 = Clock::now();
+  auto f = std::make_shared<PetscFactorization>(
+      *this, std::vector<Complex>(weights.begin(), weights.end()));
+  f->factorize();
+  const double dt = seconds_since(t0);
+  const bool cplx = f->is_complex();
+  count([&](SolverCounters& c) {
+    ++c.factorizations;
+    ++c.lu_factorizations;
+    if (cplx) ++c.complex_factorizations;
+    c.factorization_seconds += dt;
+  });
+  return f;
+}
+
+std::unique_ptr<ShiftedSolver> make_solver(const Model& model) {
+  Terms terms;
+  terms.n = size_of(model);
+  if (const auto* so = std::get_if<SecondOrderModel>(&model)) {
+    terms.t = {so->K, so->D, so->M};
+  } else {
+    const auto& d = std::get<DescriptorModel>(model);
+    terms.t = {SparseMatrix(-d.A), d.E};
+  }
+  for (SparseMatrix& t : terms.t) {
+    if (t.rows() != terms.n || t.cols() != terms.n)
+      throw InputError("PETSc backend: the coefficient matrices are not all N x N");
+    t.makeCompressed();
+  }
+  return std::make_unique<PetscSolver>(std::move(terms));
+}
+
+int rank() {
+  int r = 0;
+  MPI_Comm_rank(PETSC_COMM_WORLD, &r);
+  return r;
+}
+
+int size() {
+  int n = 1;
+  MPI_Comm_size(PETSC_COMM_WORLD, &n);
+  return n;
+}
+
+bool any(bool local) {
+  int in = local ? 1 : 0, out = 0;
+  MPI_Allreduce(&in, &out, 1, MPI_INT, MPI_LOR, PETSC_COMM_WORLD);
+  return out != 0;
+}
+
+[[noreturn]] void abort_job(int code) {
+  MPI_Abort(PETSC_COMM_WORLD, code);
+  std::exit(code);
+}
+
+const PetscBackendApi kApi{kPetscBackendApiVersion, &make_solver, &rank, &size, &any, &abort_job};
+
+}  // namespace
+}  // namespace ecmor::detail
+
+extern "C" __attribute__((visibility("default"))) const ecmor::detail::PetscBackendApi*
+ecmor_petsc_backend() {
+  return &ecmor::detail::kApi;
+}
