@@ -21,6 +21,7 @@
 #include "ecmor/error.hpp"
 #include "number_text.hpp"
 #include "parallel_for.hpp"
+#include "power_of_two_scaling.hpp"
 
 namespace ecmor {
 
@@ -97,36 +98,6 @@ ComplexVector finite_eigenvalues(const ComplexVector& alpha, const Vector& beta,
   return out;
 }
 
-/// Scales the rows and columns of the pencil (A, E) by powers of two (exact, eigenvalues
-/// unchanged: D1 (A - lambda E) D2) until the largest entry of each row and column of [A E] is
-/// near 1. Eigen's QZ has no balancing of its own and stalls on badly scaled pencils (peec: no
-/// convergence in 400 iterations for one eigenvalue), which converge once equilibrated.
-void equilibrate(Matrix& A, Matrix& E) {
-  auto scale = [](double m) { return m > 0.0 ? std::exp2(-std::round(std::log2(m))) : 1.0; };
-  for (int sweep = 0; sweep < 10; ++sweep) {
-    bool changed = false;
-    for (Index i = 0; i < A.rows(); ++i) {
-      const double s =
-          scale(std::max(A.row(i).cwiseAbs().maxCoeff(), E.row(i).cwiseAbs().maxCoeff()));
-      if (s != 1.0) {
-        A.row(i) *= s;
-        E.row(i) *= s;
-        changed = true;
-      }
-    }
-    for (Index j = 0; j < A.cols(); ++j) {
-      const double s =
-          scale(std::max(A.col(j).cwiseAbs().maxCoeff(), E.col(j).cwiseAbs().maxCoeff()));
-      if (s != 1.0) {
-        A.col(j) *= s;
-        E.col(j) *= s;
-        changed = true;
-      }
-    }
-    if (!changed) break;
-  }
-}
-
 /// Eigenvalues of the pencil (A, E): of E^-1 A when E is well conditioned (rcond >= 1e-8: then
 /// inverting E loses at most ~8 digits against the eigenvalues' own conditioning, and the standard
 /// QR algorithm is several times faster than QZ), else of the generalized problem by QZ, which
@@ -146,8 +117,10 @@ ComplexVector pencil_eigenvalues(const Matrix& A, const Matrix& E) {
   }
   Eigen::GeneralizedEigenSolver<Matrix> ges(A, E, /*computeEigenvectors=*/false);
   if (ges.info() == Eigen::Success) return finite_eigenvalues(ges.alphas(), ges.betas(), E.norm());
+  // Eigen's QZ has no balancing of its own and stalls on badly scaled pencils (peec: no
+  // convergence in 400 iterations for one eigenvalue), which converge once equilibrated.
   Matrix As = A, Es = E;
-  equilibrate(As, Es);
+  detail::scale_by_powers_of_two(As, &Es);
   ges.compute(As, Es, /*computeEigenvectors=*/false);
   if (ges.info() != Eigen::Success)
     throw NumericalError("poles: generalized eigenvalue iteration (QZ) did not converge, also "

@@ -12,6 +12,7 @@
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
 #include "ecmor/lyapunov.hpp"
+#include "power_of_two_scaling.hpp"
 
 namespace ecmor {
 
@@ -45,11 +46,7 @@ constexpr double kZeroTolerance = 1e-6;
 Index rank_deficiency(Matrix A) {
   const Index n = A.rows();
   if (n == 0) return 0;
-  auto scale = [](double m) { return m > 0.0 ? std::exp2(-std::round(std::log2(m))) : 1.0; };
-  for (int sweep = 0; sweep < 5; ++sweep) {
-    for (Index i = 0; i < n; ++i) A.row(i) *= scale(A.row(i).cwiseAbs().maxCoeff());
-    for (Index j = 0; j < n; ++j) A.col(j) *= scale(A.col(j).cwiseAbs().maxCoeff());
-  }
+  detail::scale_by_powers_of_two(A);
   Eigen::ColPivHouseholderQR<Matrix> qr(A);
   qr.setThreshold(1e3 * static_cast<double>(n) * std::numeric_limits<double>::epsilon());
   return n - qr.rank();
