@@ -20,8 +20,9 @@ packages=(
   nlohmann-json3-dev
   libmatio-dev
   gnuplot-nox
-  clang-14 libclang-rt-14-dev   # scripts/fuzz.sh: libFuzzer and the sanitizers
+  clang-14 libclang-rt-14-dev libomp-14-dev   # scripts/fuzz.sh, scripts/sanitize.sh: libFuzzer, the sanitizers, OpenMP
   libpetsc-complex-dev openmpi-bin   # the PETSc backend (complex scalars, MUMPS) over MPI
+  libslepc-complex-dev               # its distributed eigensolver (modal reducer)
 )
 
 missing=()

@@ -13,6 +13,8 @@
 #include <fmt/format.h>
 
 #include "ecmor/error.hpp"
+#include "ecmor/interrupt.hpp"
+#include "petsc_solver.hpp"
 
 // The ISO_C_BINDING entry points of ARPACK-ng (arpack/arpack.h) take scalars by value and no
 // hidden Fortran string lengths, which removes the gfortran calling-convention guesswork.
@@ -185,6 +187,7 @@ SymmetricEigenResult dense_symmetric(const Factorization& factorization, const S
   }
   result.operator_applications = n;
   result.dense_fallback = true;
+  result.method = "dense";
   return result;
 }
 
@@ -282,6 +285,10 @@ SymmetricEigenResult symmetric_shift_invert(const Factorization& factorization,
   if (n <= kDenseEigenThreshold || options.nev >= n - 1) {
     return dense_symmetric(factorization, M, sigma, options.nev);
   }
+  // A distributed factorisation: SLEPc works on the distributed vectors (and its own start
+  // vector), through the same factorisation.
+  if (detail::petsc_has_eigensolver(factorization))
+    return detail::petsc_symmetric_eigs(factorization, M, sigma, options);
 
   const int N = static_cast<int>(n);
   const int nev = static_cast<int>(options.nev);
@@ -300,12 +307,15 @@ SymmetricEigenResult symmetric_shift_invert(const Factorization& factorization,
   int ido = 0;
   SymmetricEigenResult result;
 
+  const std::string where =
+      fmt::format("ARPACK dsaupd (sigma = {:g}, nev = {}, ncv = {})", sigma, nev, ncv);
   std::lock_guard<std::mutex> lock(g_arpack_mutex);
   Matrix x(n, 1);
   for (;;) {
     dsaupd_c(&ido, "G", N, "LM", nev, options.tolerance, resid.data(), ncv, V.data(), N, iparam,
              ipntr, workd.data(), workl.data(), lworkl, &info);
     if (ido == 99) break;
+    check_interrupt(where);  // the run's time limit or a signal, between operator applications
     Eigen::Map<Vector> in(workd.data() + ipntr[0] - 1, n);
     Eigen::Map<Vector> out(workd.data() + ipntr[1] - 1, n);
     if (ido == -1) {
@@ -393,12 +403,15 @@ GeneralEigenResult general_shift_invert(const Factorization& factorization, cons
   GeneralEigenResult result;
   const SparseMatrix Et = left ? SparseMatrix(E.transpose()) : SparseMatrix();
 
+  const std::string where = fmt::format("ARPACK dnaupd (sigma = {:g}, nev = {}, ncv = {}{})",
+                                        sigma, nev, ncv, left ? ", left eigenvectors" : "");
   std::lock_guard<std::mutex> lock(g_arpack_mutex);
   Matrix x(n, 1);
   for (;;) {
     dnaupd_c(&ido, "I", N, "LM", nev, options.tolerance, resid.data(), ncv, V.data(), N, iparam,
              ipntr, workd.data(), workl.data(), lworkl, &info);
     if (ido == 99) break;
+    check_interrupt(where);
     if (ido != -1 && ido != 1) {
       throw NumericalError(fmt::format("general_shift_invert: dnaupd asked for ido = {}, which "
                                        "mode 1 never requests",

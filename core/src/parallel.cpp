@@ -87,6 +87,17 @@ std::unique_ptr<ShiftedSolver> make_petsc_solver(const Model& model) {
   return solver;
 }
 
+bool petsc_has_eigensolver(const Factorization& factorization) {
+  const auto* api = g_mpi.load();
+  return api != nullptr && api->symmetric_eigs != nullptr && factorization.method() == "mumps";
+}
+
+SymmetricEigenResult petsc_symmetric_eigs(const Factorization& factorization,
+                                          const SparseMatrix& M, double sigma,
+                                          const EigenOptions& options) {
+  return g_mpi.load()->symmetric_eigs(factorization, M, sigma, options);
+}
+
 }  // namespace detail
 
 int process_rank() {

@@ -13,13 +13,19 @@
 
 #include <fmt/format.h>
 #include <petscksp.h>
+#ifdef ECMOR_HAVE_SLEPC
+#include <slepceps.h>
+#endif
 
 #include <chrono>
+#include <cmath>
+#include <random>
 #include <cstdlib>
 #include <mutex>
 #include <vector>
 
 #include "ecmor/error.hpp"
+#include "ecmor/interrupt.hpp"
 
 namespace ecmor::detail {
 namespace {
@@ -44,20 +50,41 @@ std::once_flag g_init_once;
 void finalize_petsc() {
   PetscBool finalized = PETSC_FALSE;
   PetscFinalized(&finalized);
+#ifdef ECMOR_HAVE_SLEPC
+  if (!finalized) SlepcFinalize();
+#else
   if (!finalized) PetscFinalize();
+#endif
 }
 
 // PETSc (and MPI) start on first use: every rank creates the solver at the same point of the run.
 void ensure_petsc() {
   std::call_once(g_init_once, [] {
+#ifdef ECMOR_HAVE_SLEPC
+    // SLEPc starts PETSc (and MPI) when they have not started yet.
+    PetscBool initialized = PETSC_FALSE;
+    SlepcInitialized(&initialized);
+    if (!initialized) {
+      ECMOR_PETSC(SlepcInitializeNoArguments());
+      std::atexit(finalize_petsc);
+    }
+#else
     PetscBool initialized = PETSC_FALSE;
     PetscInitialized(&initialized);
     if (!initialized) {
       ECMOR_PETSC(PetscInitializeNoArguments());
       std::atexit(finalize_petsc);
     }
+#endif
     // Errors come back as return codes (turned into exceptions here), not printed tracebacks.
-    PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+    // ECMOR_PETSC_TRACEBACK=1 also prints PETSc's own traceback (where in PETSc or SLEPc, and
+    // its detailed message), for debugging the backend.
+    const char* traceback = std::getenv("ECMOR_PETSC_TRACEBACK");
+    if (traceback != nullptr && std::string(traceback) == "1") {
+      PetscPushErrorHandler(PetscTraceBackErrorHandler, nullptr);
+    } else {
+      PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+    }
   });
 }
 
@@ -99,20 +126,11 @@ class PetscSolver final : public ShiftedSolver {
 
   ComplexMatrix apply_combination(std::span<const Complex> weights,
                                   const ComplexMatrix& x) const override {
-    require_weights(weights);
-    ComplexMatrix y = ComplexMatrix::Zero(m_terms.n, x.cols());
-    for (std::size_t k = 0; k < m_terms.t.size(); ++k)
-      if (weights[k] != Complex(0.0)) y += weights[k] * (m_terms.t[k].cast<Complex>() * x);
-    return y;
+    return apply(weights, x, false);
   }
   ComplexMatrix apply_combination_transposed(std::span<const Complex> weights,
                                              const ComplexMatrix& x) const override {
-    require_weights(weights);
-    ComplexMatrix y = ComplexMatrix::Zero(m_terms.n, x.cols());
-    for (std::size_t k = 0; k < m_terms.t.size(); ++k)
-      if (weights[k] != Complex(0.0))
-        y += weights[k] * (m_terms.t[k].transpose().cast<Complex>() * x);
-    return y;
+    return apply(weights, x, true);
   }
 
   SolverCounters counters() const override {
@@ -124,6 +142,115 @@ class PetscSolver final : public ShiftedSolver {
     f(m_counters);
   }
   const RowPattern& pattern() const { return m_pattern; }
+
+ private:
+  // sum_k w_k T_k x (or T_k^T x) on the replicated terms, with real sparse products on the real
+  // and imaginary parts of x: no complex or transposed copy of a term (a hot path of the Krylov
+  // recurrences and of low-rank ADI).
+  ComplexMatrix apply(std::span<const Complex> weights, const ComplexMatrix& x,
+                      bool transposed) const {
+    require_weights(weights);
+    if (x.rows() != m_terms.n)
+      throw InputError(fmt::format("PETSc backend: {}: x has {} rows, expected {}",
+                                   transposed ? "apply_combination_transposed"
+                                              : "apply_combination",
+                                   x.rows(), m_terms.n));
+    const Matrix xr = x.real(), xi = x.imag();
+    ComplexMatrix y = ComplexMatrix::Zero(m_terms.n, x.cols());
+    Matrix tr, ti;
+    for (std::size_t k = 0; k < m_terms.t.size(); ++k) {
+      if (weights[k] == Complex(0.0)) continue;
+      const SparseMatrix& t = m_terms.t[k];
+      if (transposed) {
+        tr.noalias() = t.transpose() * xr;
+        ti.noalias() = t.transpose() * xi;
+      } else {
+        tr.noalias() = t * xr;
+        ti.noalias() = t * xi;
+      }
+      const double a = weights[k].real(), b = weights[k].imag();
+      y.real() += a * tr - b * ti;
+      y.imag() += b * tr + a * ti;
+    }
+    return y;
+  }
+
+ public:
+  /// The combination sum_k w_k T_k as a distributed PETSc matrix (the caller destroys it).
+  Mat assemble(std::span<const Complex> weights) const {
+    const RowPattern& p = m_pattern;
+    const PetscInt local = p.row_end - p.row_begin;
+    const auto n = static_cast<PetscInt>(m_terms.n);
+    Mat A = nullptr;
+    ECMOR_PETSC(MatCreate(PETSC_COMM_WORLD, &A));
+    try {
+      ECMOR_PETSC(MatSetSizes(A, local, local, n, n));
+      ECMOR_PETSC(MatSetType(A, MATAIJ));
+      ECMOR_PETSC(MatSeqAIJSetPreallocation(A, 0, p.diag_nnz.data()));
+      ECMOR_PETSC(MatMPIAIJSetPreallocation(A, 0, p.diag_nnz.data(), 0, p.off_nnz.data()));
+      std::vector<PetscScalar> values(p.cols.size(), PetscScalar(0.0));
+      for (std::size_t k = 0; k < p.scatter.size(); ++k) {
+        const PetscScalar w(weights[k].real(), weights[k].imag());
+        if (w == PetscScalar(0.0)) continue;
+        const std::vector<double>& v = m_row_values[k];
+        for (const auto& [value_index, pos] : p.scatter[k])
+          values[static_cast<std::size_t>(pos)] += w * v[static_cast<std::size_t>(value_index)];
+      }
+      for (PetscInt r = 0; r < local; ++r) {
+        const PetscInt row = p.row_begin + r;
+        const PetscInt b = p.offset[static_cast<std::size_t>(r)];
+        const PetscInt e = p.offset[static_cast<std::size_t>(r) + 1];
+        ECMOR_PETSC(MatSetValues(A, 1, &row, e - b, p.cols.data() + b, values.data() + b,
+                                 INSERT_VALUES));
+      }
+      ECMOR_PETSC(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY));
+      ECMOR_PETSC(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY));
+    } catch (...) {
+      MatDestroy(&A);
+      throw;
+    }
+    return A;
+  }
+
+  /// Any N x N sparse matrix, distributed by the solver's rows (the caller destroys it).
+  Mat distribute(const SparseMatrix& S) const {
+    const RowPattern& p = m_pattern;
+    const PetscInt local = p.row_end - p.row_begin;
+    const auto n = static_cast<PetscInt>(m_terms.n);
+    using RowMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor, PetscInt>;
+    const RowMatrix R = S.middleRows(p.row_begin, local).template cast<double>();
+    std::vector<PetscInt> diag(static_cast<std::size_t>(local), 0), off(diag);
+    for (PetscInt r = 0; r < local; ++r)
+      for (RowMatrix::InnerIterator it(R, r); it; ++it)
+        ++((it.col() >= p.row_begin && it.col() < p.row_end) ? diag : off)[static_cast<std::size_t>(r)];
+    Mat A = nullptr;
+    ECMOR_PETSC(MatCreate(PETSC_COMM_WORLD, &A));
+    try {
+      ECMOR_PETSC(MatSetSizes(A, local, local, n, n));
+      ECMOR_PETSC(MatSetType(A, MATAIJ));
+      ECMOR_PETSC(MatSeqAIJSetPreallocation(A, 0, diag.data()));
+      ECMOR_PETSC(MatMPIAIJSetPreallocation(A, 0, diag.data(), 0, off.data()));
+      std::vector<PetscInt> cols;
+      std::vector<PetscScalar> values;
+      for (PetscInt r = 0; r < local; ++r) {
+        cols.clear();
+        values.clear();
+        for (RowMatrix::InnerIterator it(R, r); it; ++it) {
+          cols.push_back(it.col());
+          values.emplace_back(it.value(), 0.0);
+        }
+        const PetscInt row = p.row_begin + r;
+        ECMOR_PETSC(MatSetValues(A, 1, &row, static_cast<PetscInt>(cols.size()), cols.data(),
+                                 values.data(), INSERT_VALUES));
+      }
+      ECMOR_PETSC(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY));
+      ECMOR_PETSC(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY));
+    } catch (...) {
+      MatDestroy(&A);
+      throw;
+    }
+    return A;
+  }
 
  private:
   void require_weights(std::span<const Complex> weights) const {
@@ -205,32 +332,7 @@ class PetscFactorization final : public Factorization {
   }
 
   void factorize() {
-    const RowPattern& p = m_solver.pattern();
-    const PetscInt local = p.row_end - p.row_begin;
-    const auto n = static_cast<PetscInt>(m_solver.size());
-    ECMOR_PETSC(MatCreate(PETSC_COMM_WORLD, &m_A));
-    ECMOR_PETSC(MatSetSizes(m_A, local, local, n, n));
-    ECMOR_PETSC(MatSetType(m_A, MATAIJ));
-    ECMOR_PETSC(MatSeqAIJSetPreallocation(m_A, 0, p.diag_nnz.data()));
-    ECMOR_PETSC(MatMPIAIJSetPreallocation(m_A, 0, p.diag_nnz.data(), 0, p.off_nnz.data()));
-    std::vector<PetscScalar> values(p.cols.size(), PetscScalar(0.0));
-    for (std::size_t k = 0; k < p.scatter.size(); ++k) {
-      const PetscScalar w(m_weights[k].real(), m_weights[k].imag());
-      if (w == PetscScalar(0.0)) continue;
-      const std::vector<double>& v = m_solver.m_row_values[k];
-      for (const auto& [value_index, pos] : p.scatter[k])
-        values[static_cast<std::size_t>(pos)] += w * v[static_cast<std::size_t>(value_index)];
-    }
-    for (PetscInt r = 0; r < local; ++r) {
-      const PetscInt row = p.row_begin + r;
-      const PetscInt b = p.offset[static_cast<std::size_t>(r)];
-      const PetscInt e = p.offset[static_cast<std::size_t>(r) + 1];
-      ECMOR_PETSC(MatSetValues(m_A, 1, &row, e - b, p.cols.data() + b, values.data() + b,
-                               INSERT_VALUES));
-    }
-    ECMOR_PETSC(MatAssemblyBegin(m_A, MAT_FINAL_ASSEMBLY));
-    ECMOR_PETSC(MatAssemblyEnd(m_A, MAT_FINAL_ASSEMBLY));
-
+    m_A = m_solver.assemble(m_weights);
     ECMOR_PETSC(KSPCreate(PETSC_COMM_WORLD, &m_ksp));
     ECMOR_PETSC(KSPSetOperators(m_ksp, m_A, m_A));
     ECMOR_PETSC(KSPSetType(m_ksp, KSPPREONLY));
@@ -283,6 +385,10 @@ class PetscFactorization final : public Factorization {
     return run(B.cast<Complex>(), true).real();
   }
   ComplexMatrix solve_transposed(const ComplexMatrix& B) const override { return run(B, true); }
+
+  const PetscSolver& solver() const { return m_solver; }
+  Mat matrix() const { return m_A; }
+  KSP ksp() const { return m_ksp; }
 
  private:
   ComplexMatrix run(const ComplexMatrix& B, bool transposed) const {
@@ -349,6 +455,229 @@ std::shared_ptr<const Factorization> PetscSolver::factorize_combination(
   return f;
 }
 
+#ifdef ECMOR_HAVE_SLEPC
+// ---------------------------------------------------------------------------------------------
+// SLEPc: the modal reducer's K phi = lambda M phi near sigma, on the distributed vectors.
+//
+// The problem handed to SLEPc is the pencil (K - sigma M, M), a generalized Hermitian one (GHEP:
+// M-inner products), whose eigenvalues mu = lambda - sigma nearest the target 0 are wanted, by
+// SLEPc's own shift-and-invert (with purification of the eigenvectors). Its spectral
+// transformation keeps K - sigma M as an operator only (ST_MATMODE_SHELL: nothing is copied or
+// assembled), and its linear solver is PREONLY with a shell preconditioner that applies the MUMPS
+// factors ecmor already has: (K - sigma M)^-1 exactly. So no second factorisation is made.
+// Then lambda = sigma + mu.
+
+struct ShiftInvertContext {
+  const PetscFactorization* F = nullptr;
+  Index applications = 0;
+};
+
+PetscErrorCode apply_factors(PC pc, Vec x, Vec y) {
+  ShiftInvertContext* c = nullptr;
+  PetscCall(PCShellGetContext(pc, &c));
+  PetscCall(KSPSolve(c->F->ksp(), x, y));
+  ++c->applications;
+  return 0;
+}
+
+// SLEPc's basic test (tolerance, iteration budget), and the run's stop condition, which must not
+// throw through SLEPc.
+PetscErrorCode stopping_test(EPS eps, PetscInt its, PetscInt max_it, PetscInt nconv, PetscInt nev,
+                             EPSConvergedReason* reason, void* ctx) {
+  PetscCall(EPSStoppingBasic(eps, its, max_it, nconv, nev, reason, ctx));
+  if (*reason != EPS_CONVERGED_ITERATING) return 0;
+  bool stop = false;
+  try {
+    stop = interrupt_requested();
+  } catch (...) {
+    stop = false;
+  }
+  if (stop) *reason = EPS_CONVERGED_USER;
+  return 0;
+}
+
+// Owns the PETSc objects of one eigensolve.
+struct EpsObjects {
+  EPS eps = nullptr;
+  Mat M = nullptr;
+  Vec x = nullptr, all = nullptr;
+  VecScatter scatter = nullptr;
+  ~EpsObjects() {
+    if (scatter) VecScatterDestroy(&scatter);
+    if (all) VecDestroy(&all);
+    if (x) VecDestroy(&x);
+    if (eps) EPSDestroy(&eps);
+    if (M) MatDestroy(&M);
+  }
+};
+
+SymmetricEigenResult symmetric_eigs(const Factorization& factorization, const SparseMatrix& M,
+                                    double sigma, const EigenOptions& options) {
+  const auto* F = dynamic_cast<const PetscFactorization*>(&factorization);
+  if (F == nullptr)
+    throw InputError("PETSc backend: the SLEPc eigensolver needs a factorisation of this backend");
+  const Index n = F->size();
+  const std::string where = fmt::format("SLEPc Krylov-Schur (sigma = {:g}, nev = {})", sigma,
+                                        options.nev);
+  EpsObjects o;
+  ShiftInvertContext ctx;
+  o.M = F->solver().distribute(M);
+  ECMOR_PETSC(MatCreateVecs(o.M, &o.x, nullptr));
+  ctx.F = F;
+
+  ECMOR_PETSC(EPSCreate(PETSC_COMM_WORLD, &o.eps));
+  ECMOR_PETSC(EPSSetOperators(o.eps, F->matrix(), o.M));
+  ECMOR_PETSC(EPSSetProblemType(o.eps, EPS_GHEP));
+  ECMOR_PETSC(EPSSetType(o.eps, EPSKRYLOVSCHUR));
+  ECMOR_PETSC(EPSSetTarget(o.eps, 0.0));
+  ECMOR_PETSC(EPSSetWhichEigenpairs(o.eps, EPS_TARGET_MAGNITUDE));
+  ECMOR_PETSC(EPSSetDimensions(o.eps, static_cast<PetscInt>(options.nev),
+                               options.ncv > 0 ? static_cast<PetscInt>(options.ncv) : PETSC_DEFAULT,
+                               PETSC_DEFAULT));
+  // ARPACK's tolerance 0 means machine precision; SLEPc's default (1e-8) is looser.
+  const double tol = options.tolerance > 0.0 ? options.tolerance : 1e-12;
+  ECMOR_PETSC(EPSSetTolerances(o.eps, tol, static_cast<PetscInt>(options.max_iterations)));
+  ST st = nullptr;
+  ECMOR_PETSC(EPSGetST(o.eps, &st));
+  ECMOR_PETSC(STSetType(st, STSINVERT));
+  ECMOR_PETSC(STSetMatMode(st, ST_MATMODE_SHELL));
+  KSP ksp = nullptr;
+  ECMOR_PETSC(STGetKSP(st, &ksp));
+  ECMOR_PETSC(KSPSetType(ksp, KSPPREONLY));
+  PC pc = nullptr;
+  ECMOR_PETSC(KSPGetPC(ksp, &pc));
+  ECMOR_PETSC(PCSetType(pc, PCSHELL));
+  ECMOR_PETSC(PCShellSetContext(pc, &ctx));
+  ECMOR_PETSC(PCShellSetApply(pc, apply_factors));
+  if (options.seed != 0) {
+    // A start vector from the seed: the whole vector is drawn on every rank (the same numbers),
+    // and each rank keeps its rows, so the start does not depend on the number of ranks.
+    std::mt19937_64 rng(options.seed);
+    std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+    PetscInt lo = 0, hi = 0;
+    ECMOR_PETSC(VecGetOwnershipRange(o.x, &lo, &hi));
+    PetscScalar* a = nullptr;
+    ECMOR_PETSC(VecGetArray(o.x, &a));
+    for (PetscInt r = 0; r < static_cast<PetscInt>(n); ++r) {
+      const double v = uniform(rng);
+      if (r >= lo && r < hi) a[r - lo] = PetscScalar(v, 0.0);
+    }
+    ECMOR_PETSC(VecRestoreArray(o.x, &a));
+    ECMOR_PETSC(EPSSetInitialSpace(o.eps, 1, &o.x));
+  }
+  // The run's time limit and signals (interrupt.hpp) end the iteration at a restart: the stopping
+  // test is called at the same iteration on every rank, so the collective stop test matches.
+  ECMOR_PETSC(EPSSetStoppingTestFunction(o.eps, stopping_test, nullptr, nullptr));
+  const auto t0 = Clock::now();
+  ECMOR_PETSC(EPSSolve(o.eps));
+  const double dt = seconds_since(t0);
+  F->solver().count([&](SolverCounters& c) {
+    c.solves += ctx.applications;
+    c.solve_seconds += dt;
+  });
+  EPSConvergedReason reason = EPS_CONVERGED_ITERATING;
+  ECMOR_PETSC(EPSGetConvergedReason(o.eps, &reason));
+  if (reason == EPS_CONVERGED_USER) throw Interrupted("interrupted in " + where);
+  PetscInt nconv = 0, iterations = 0;
+  ECMOR_PETSC(EPSGetConverged(o.eps, &nconv));
+  ECMOR_PETSC(EPSGetIterationNumber(o.eps, &iterations));
+  if (nconv < static_cast<PetscInt>(options.nev))
+    throw NumericalError(fmt::format("{}: only {} of {} eigenpairs converged in {} restarts "
+                                     "(SLEPc reason {})",
+                                     where, nconv, options.nev, iterations,
+                                     static_cast<int>(reason)));
+
+  // The nev eigenpairs nearest sigma (SLEPc sorts them by |nu|), gathered on every rank.
+  const Index nev = options.nev;
+  ECMOR_PETSC(VecScatterCreateToAll(o.x, &o.scatter, &o.all));
+  Vector lambda(nev);
+  ComplexMatrix X(n, nev);
+  for (Index j = 0; j < nev; ++j) {
+    PetscScalar mu = 0.0;
+    ECMOR_PETSC(EPSGetEigenpair(o.eps, static_cast<PetscInt>(j), &mu, nullptr, o.x, nullptr));
+    lambda(j) = sigma + PetscRealPart(mu);  // SLEPc returns mu, back-transformed
+    ECMOR_PETSC(VecScatterBegin(o.scatter, o.x, o.all, INSERT_VALUES, SCATTER_FORWARD));
+    ECMOR_PETSC(VecScatterEnd(o.scatter, o.x, o.all, INSERT_VALUES, SCATTER_FORWARD));
+    const PetscScalar* a = nullptr;
+    ECMOR_PETSC(VecGetArrayRead(o.all, &a));
+    for (Index r = 0; r < n; ++r) X(r, j) = Complex(PetscRealPart(a[r]), PetscImaginaryPart(a[r]));
+    ECMOR_PETSC(VecRestoreArrayRead(o.all, &a));
+  }
+
+  // Real, M-orthonormal eigenvectors. K and M are real: each eigenspace has a real basis, but
+  // complex arithmetic returns its vectors with arbitrary phases. Each vector is turned to make
+  // its largest entry real. Then, per group of equal eigenvalues (relative 1e-10), the real and
+  // imaginary parts of the group's vectors, largest first, are M-orthogonalised (twice) against
+  // every vector kept so far; a part is kept when 1e-8 of its complex vector's M-norm survives,
+  // until the group is spanned. (Parts that are rounding noise never reach that size.)
+  std::vector<Index> order(static_cast<std::size_t>(nev));
+  for (Index j = 0; j < nev; ++j) order[static_cast<std::size_t>(j)] = j;
+  std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) { return lambda(a) < lambda(b); });
+  SymmetricEigenResult result;
+  result.eigenvalues.resize(nev);
+  result.eigenvectors.resize(n, nev);
+  result.iterations = iterations;
+  result.operator_applications = ctx.applications;
+  result.method = "slepc";
+  Index kept = 0;
+  const double scale = lambda.cwiseAbs().maxCoeff();
+  auto m_norm = [&](const Vector& v) { return std::sqrt(std::max(0.0, v.dot(M * v))); };
+  for (std::size_t g = 0; g < order.size();) {
+    std::size_t e = g + 1;
+    while (e < order.size() &&
+           std::abs(lambda(order[e]) - lambda(order[g])) <=
+               1e-10 * std::max(std::abs(lambda(order[e])), std::abs(lambda(order[g]))) +
+                   1e-14 * scale)
+      ++e;
+    struct Part {
+      Vector v;
+      double size;      // its M-norm
+      double reference;  // the M-norm of its complex vector
+    };
+    std::vector<Part> parts;
+    for (std::size_t k = g; k < e; ++k) {
+      ComplexVector x = X.col(order[k]);
+      Index imax = 0;
+      x.cwiseAbs().maxCoeff(&imax);
+      if (std::abs(x(imax)) > 0.0) x *= std::conj(x(imax)) / std::abs(x(imax));
+      Vector re = x.real(), im = x.imag();
+      const double a = m_norm(re), b = m_norm(im), whole = std::hypot(a, b);
+      parts.push_back({std::move(re), a, whole});
+      parts.push_back({std::move(im), b, whole});
+    }
+    std::stable_sort(parts.begin(), parts.end(),
+                     [](const Part& p, const Part& q) { return p.size > q.size; });
+    const Index want = static_cast<Index>(e - g);
+    Index got = 0;
+    for (Part& part : parts) {
+      if (got == want) break;
+      if (!(part.reference > 0.0)) continue;
+      Vector& v = part.v;
+      for (int pass = 0; pass < 2; ++pass)
+        for (Index k = 0; k < kept; ++k) {
+          const auto q = result.eigenvectors.col(k);
+          v -= q.dot(M * v) * q;
+        }
+      const double norm = m_norm(v);
+      if (!(norm > 1e-8 * part.reference)) continue;
+      result.eigenvectors.col(kept) = v / norm;
+      result.eigenvalues(kept) = lambda(order[g + static_cast<std::size_t>(got)]);
+      ++kept;
+      ++got;
+    }
+    if (got < want)
+      throw NumericalError(fmt::format(
+          "{}: the eigenvectors of the eigenvalue {:.10g} (multiplicity {}) span only {} real "
+          "dimension{}",
+          where, lambda(order[g]), want, got, got == 1 ? "" : "s"));
+    g = e;
+  }
+  result.eigenvalues.conservativeResize(kept);
+  result.eigenvectors.conservativeResize(n, kept);
+  return result;
+}
+#endif  // ECMOR_HAVE_SLEPC
+
 std::unique_ptr<ShiftedSolver> make_solver(const Model& model) {
   Terms terms;
   terms.n = size_of(model);
@@ -389,7 +718,14 @@ bool any(bool local) {
   std::exit(code);
 }
 
-const PetscBackendApi kApi{kPetscBackendApiVersion, &make_solver, &rank, &size, &any, &abort_job};
+#ifdef ECMOR_HAVE_SLEPC
+constexpr auto kSymmetricEigs = &symmetric_eigs;
+#else
+constexpr SymmetricEigenResult (*kSymmetricEigs)(const Factorization&, const SparseMatrix&, double,
+                                                 const EigenOptions&) = nullptr;
+#endif
+const PetscBackendApi kApi{kPetscBackendApiVersion, &make_solver, &rank, &size, &any, &abort_job,
+                           kSymmetricEigs};
 
 }  // namespace
 }  // namespace ecmor::detail

@@ -10,6 +10,7 @@
 // symbols among themselves first, and a run without the PETSc backend never loads them.
 #include <memory>
 
+#include "ecmor/eigensolver.hpp"
 #include "ecmor/model.hpp"
 #include "ecmor/shifted_solver.hpp"
 
@@ -24,14 +25,27 @@ struct PetscBackendApi {
   int (*rank)();
   int (*size)();
   bool (*any)(bool local);  ///< collective OR
-  [[noreturn]] void (*abort)(int code);
+  void (*abort)(int code);  ///< ends every rank; does not return
+  /// SLEPc's Krylov-Schur on K phi = lambda M phi in shift-invert form, applying the MUMPS
+  /// factorisation `factorization` of K - sigma M (made by this module's solver); the result has
+  /// the meaning of ecmor::symmetric_shift_invert. Null when the module was built without SLEPc.
+  SymmetricEigenResult (*symmetric_eigs)(const Factorization& factorization,
+                                         const SparseMatrix& M, double sigma,
+                                         const EigenOptions& options);
 };
 
-constexpr int kPetscBackendApiVersion = 1;
+constexpr int kPetscBackendApiVersion = 2;
 
 /// Loads the module (once) and makes the distributed solver.
 /// \throws ConfigError when this build or installation has no PETSc backend.
 std::unique_ptr<ShiftedSolver> make_petsc_solver(const Model& model);
+
+/// True when `factorization` was made by the PETSc backend and the module has SLEPc: then
+/// symmetric_shift_invert hands the problem to petsc_symmetric_eigs.
+bool petsc_has_eigensolver(const Factorization& factorization);
+SymmetricEigenResult petsc_symmetric_eigs(const Factorization& factorization,
+                                          const SparseMatrix& M, double sigma,
+                                          const EigenOptions& options);
 
 }  // namespace ecmor::detail
 

@@ -165,6 +165,8 @@ class SymmetricSlicer {
   double sigma0() const { return m_sigma0; }
   Index batches() const { return m_batches; }
   Index operator_applications() const { return m_applications; }
+  /// The eigensolver of the last slice ("arpack", "dense" or "slepc").
+  const std::string& eigensolver() const { return m_eigensolver; }
   Index duplicates() const { return m_duplicates; }
   const std::vector<double>& shifts() const { return m_shifts; }
   /// The factorisation at sigma_0 (exists after the first batch).
@@ -192,6 +194,7 @@ class SymmetricSlicer {
       eo.seed = static_cast<std::uint64_t>(m_options.seed);
       const SymmetricEigenResult r = symmetric_shift_invert(*F, m_M, sigma, eo);
       m_applications += r.operator_applications;
+      m_eigensolver = r.method;
       if (r.eigenvalues.size() == 0) {
         throw NumericalError(fmt::format("modal: ARPACK returned no eigenpair at shift {:g}", sigma));
       }
@@ -303,6 +306,7 @@ class SymmetricSlicer {
   double m_delta = 0.0;
   Index m_batches = 0;
   Index m_applications = 0;
+  std::string m_eigensolver = "arpack";
   Index m_duplicates = 0;
   std::vector<double> m_lambda;
   Matrix m_phi;
@@ -657,6 +661,7 @@ class ModalReducer final : public Reducer {
     }
     if (modes > 0 && f_hi > 0.0) note += fmt::format("; elastic modes {:.4g} .. {:.4g} Hz", f_lo, f_hi);
     if (m_path != "symmetric") note += "; " + m_path + " eigenproblem";
+    if (s.eigensolver() == "slepc") note += "; eigenpairs by SLEPc Krylov-Schur";
     if (V.cols() < order) {
       note += fmt::format("; order {} requested, {} available", order, V.cols());
       if (s.exhausted()) {

@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -14,8 +15,12 @@
 #include <regex>
 #include <sstream>
 #include <string>
+#include <vector>
 
+#include "ecmor/eigensolver.hpp"
+#include "ecmor/model_io.hpp"
 #include "ecmor/parallel.hpp"
+#include "ecmor/shifted_solver.hpp"
 
 namespace fs = std::filesystem;
 
@@ -113,6 +118,14 @@ class PetscBackend : public ::testing::Test {
     return nlohmann::json::parse(in);
   }
 
+  std::string last_note(const std::string& tag) {
+    std::ifstream in(m_dir / ("out_" + tag) / "history.jsonl");
+    std::string line, last;
+    while (std::getline(in, line))
+      if (!line.empty()) last = line;
+    return nlohmann::json::parse(last).value("note", std::string());
+  }
+
   fs::path m_dir;
 };
 
@@ -145,6 +158,14 @@ TEST_F(PetscBackend, SameOrderAndBandErrorOnOneAndTwoRanks) {
       int lines = 0;
       for (std::string line; std::getline(csv, line);) ++lines;
       EXPECT_EQ(lines, sp["iterations"].get<int>() + 1);
+    }
+    // The modal reducer's symmetric eigenpairs come from SLEPc under PETSc (when built with it),
+    // from ARPACK otherwise; the last record's note says which. (lf10 is small enough for the
+    // dense fallback, cdplayer is a descriptor model: the general path, ARPACK on every rank.)
+    if (ECMOR_TEST_HAVE_SLEPC && n == "triplechain_cmess_n301") {
+      EXPECT_EQ(last_note(n + "_embedded").find("SLEPc"), std::string::npos);
+      EXPECT_NE(last_note(n + "_petsc1").find("SLEPc"), std::string::npos);
+      EXPECT_NE(last_note(n + "_petsc2").find("SLEPc"), std::string::npos);
     }
     // The table is printed once (rank 0), not once per rank.
     EXPECT_EQ(std::count(p2.out.begin(), p2.out.end(), '\n'),
@@ -215,6 +236,69 @@ TEST_F(PetscBackend, ErrorOnOneRankEndsTheJobWithTheRank) {
   const Result r = reduce(config, 2);
   EXPECT_NE(r.exit_code, 0) << r.out;
   EXPECT_NE(r.out.find("on rank 0 of 2"), std::string::npos) << r.out;
+}
+
+
+// SLEPc's eigenpairs, in this process (one MPI rank, started by the backend), against the dense
+// generalized eigenvalues of the same pencil: two copies of the triple chain n301, decoupled, so
+// that every eigenvalue is double and the phases SLEPc leaves on complex vectors must be turned
+// into a real, M-orthonormal basis of each two-dimensional eigenspace.
+TEST_F(PetscBackend, SlepcEigenpairsMatchTheDenseReference) {
+  if (!ECMOR_TEST_HAVE_SLEPC) GTEST_SKIP() << "built without SLEPc";
+  ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
+  ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+  ::setenv("OMPI_MCA_btl_vader_single_copy_mechanism", "none", 1);
+  const auto one = std::get<SecondOrderModel>(load_model("../shared/models/triplechain_cmess_n301"));
+  auto twice = [](const SparseMatrix& A) {
+    std::vector<Eigen::Triplet<double>> t;
+    for (int k = 0; k < A.outerSize(); ++k)
+      for (SparseMatrix::InnerIterator it(A, k); it; ++it) {
+        t.emplace_back(it.row(), it.col(), it.value());
+        t.emplace_back(it.row() + A.rows(), it.col() + A.cols(), it.value());
+      }
+    SparseMatrix B(2 * A.rows(), 2 * A.cols());
+    B.setFromTriplets(t.begin(), t.end());
+    return B;
+  };
+  SecondOrderModel m;
+  m.M = twice(one.M);
+  m.D = twice(one.D);
+  m.K = twice(one.K);
+  m.B = Matrix::Ones(m.M.rows(), 1);
+  m.C = Matrix::Ones(1, m.M.rows());
+  const Model model(m);
+  SolverOptions options;
+  options.backend = "petsc";
+  auto solver = make_shifted_solver(model, options);
+  const Vector reference = dense_generalized_eigenvalues(Matrix(m.K), Matrix(m.M));
+  // sigma between the 10th and 11th distinct eigenvalue (20th and 21st with copies).
+  const double sigma = 0.5 * (reference(19) + reference(20));
+  const std::vector<Complex> w{1.0, 0.0, -sigma};
+  const auto F = solver->factorize_combination(w);
+  EigenOptions eo;
+  eo.nev = 12;
+  const SymmetricEigenResult r = symmetric_shift_invert(*F, m.M, sigma, eo);
+  EXPECT_EQ(r.method, "slepc");
+  ASSERT_EQ(r.eigenvalues.size(), 12);
+  // The 12 reference eigenvalues nearest sigma, ascending.
+  std::vector<double> nearest(reference.data(), reference.data() + reference.size());
+  std::sort(nearest.begin(), nearest.end(), [&](double a, double b) {
+    return std::abs(a - sigma) < std::abs(b - sigma);
+  });
+  nearest.resize(12);
+  std::sort(nearest.begin(), nearest.end());
+  for (Index j = 0; j < 12; ++j)
+    EXPECT_NEAR(r.eigenvalues(j), nearest[static_cast<std::size_t>(j)],
+                1e-10 * std::abs(nearest[static_cast<std::size_t>(j)]))
+        << j;
+  const Matrix& V = r.eigenvectors;
+  const Matrix gram = V.transpose() * (m.M * V);
+  EXPECT_LE((gram - Matrix::Identity(12, 12)).cwiseAbs().maxCoeff(), 1e-10);
+  for (Index j = 0; j < 12; ++j) {
+    const Vector kv = m.K * V.col(j);
+    const Vector residual = kv - r.eigenvalues(j) * (m.M * V.col(j));
+    EXPECT_LE(residual.norm(), 1e-8 * kv.norm()) << j;
+  }
 }
 
 }  // namespace

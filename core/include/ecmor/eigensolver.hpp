@@ -15,6 +15,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <string>
 
 #include "ecmor/export.hpp"
 #include "ecmor/shifted_solver.hpp"
@@ -38,12 +39,17 @@ struct ECMOR_API EigenOptions {
 
 /// K phi = lambda M phi, K and M symmetric, M positive definite, the nev eigenvalues nearest sigma,
 /// by ARPACK's dsaupd/dseupd in shift-invert mode (mode 3): OP = (K - sigma M)^-1 M, inner product M.
+/// A factorisation of the PETSc backend (method() "mumps") in a build with SLEPc goes to SLEPc's
+/// Krylov-Schur instead, on the same operator and inner product (see docs/cluster.md).
 struct SymmetricEigenResult {
   Vector eigenvalues;   ///< lambda, ascending
   Matrix eigenvectors;  ///< N x nconv, M-orthonormal columns
   Index iterations = 0; ///< ARPACK restarts (0 for the dense fallback)
   Index operator_applications = 0;  ///< solves with the factorisation (right-hand-side columns)
   bool dense_fallback = false;      ///< solved by the dense fallback (tiny problem)
+  /// "arpack", "dense" (the fallback) or "slepc" (Krylov-Schur, for a factorisation of the
+  /// distributed PETSc backend: the vectors stay distributed during the iteration).
+  std::string method = "arpack";
 };
 
 /// \param factorization  of K - sigma M (e.g. solver.factorize_combination({1, 0, -sigma}))
