@@ -31,6 +31,7 @@
 #include <utility>
 
 #include "ecmor/error.hpp"
+#include "ecmor/interrupt.hpp"
 #include "number_text.hpp"
 
 namespace ecmor {
@@ -614,6 +615,7 @@ struct LowRankAdi::Impl {
 
     double res = 1.0;
     while (result.iterations < options.max_iterations && res > options.tolerance) {
+      check_interrupt(fmt::format("low-rank ADI, iteration {}", result.iterations + 1));
       if (pos == set.size()) {
         // Shifts used up: a fresh projection set, or cyclic reuse (heuristic, or a projection
         // that found no admissible Ritz value).

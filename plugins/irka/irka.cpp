@@ -23,6 +23,7 @@
 #include "ecmor/first_order_view.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
+#include "ecmor/interrupt.hpp"
 #include "ecmor/lyapunov.hpp"
 #include "ecmor/plugin.hpp"
 #include "ecmor/projection.hpp"
@@ -586,6 +587,8 @@ class IrkaReducer final : public Reducer {
     starts.emplace_back(m_options.warm_start && !m_warm.empty() ? "warm/band" : "band", start(r));
     try {
       starts.emplace_back("modal", modal_shifts(r));
+    } catch (const Interrupted&) {
+      throw;  // the run's stop request (inside ARPACK), not a missing modal start
     } catch (const Error&) {
       // No modal start for this model (e.g. an unsymmetric K): the others remain.
     }
@@ -633,6 +636,8 @@ class IrkaReducer final : public Reducer {
     if (attempt == 1 && m_options.start != Options::Start::Modal) {
       try {
         return modal_shifts(r);
+      } catch (const Interrupted&) {
+        throw;
       } catch (const Error&) {
         // No modal start for this model: band shifts below.
       }
@@ -876,6 +881,7 @@ class IrkaReducer final : public Reducer {
       bool restart = false, stalled = false;
       while (iterations < m_options.max_iterations) {
         ++iterations;
+        check_interrupt(fmt::format("irka, iteration {}", iterations));
         Built built;
         Interpolation next;
         try {

@@ -12,6 +12,7 @@
 
 #include "ecmor/atomic_file.hpp"
 #include "ecmor/error.hpp"
+#include "ecmor/interrupt.hpp"
 #include "ecmor/frequency_response.hpp"
 #include "ecmor/hinf_norm.hpp"
 #include "ecmor/lyapunov.hpp"
@@ -320,9 +321,24 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
     };
 
     StrategyResult result;
+    bool set_up = false;
     try {
+      // The stop condition also reaches inside reducer calls (interrupt.hpp): a time limit or a
+      // signal ends an ARPACK run, an IRKA or ADI iteration within a fraction of a second.
+      InterruptScope interrupt(stop_requested);
+      set_up = false;
       m.reducer->setup(ReductionContext{&model, solver.get(), config.band});
+      set_up = true;
       result = m.strategy->run(ctx);
+    } catch (const Interrupted& e) {
+      // Stopped inside the reducer's setup (e.g. the Gramians of balanced truncation), before
+      // any model, or inside a strategy that does not handle the stop itself (the bundled ones
+      // do, keeping their best model): the run ends as interrupted, not as failed.
+      result = StrategyResult{};
+      result.termination = Termination::Interrupted;
+      result.message = (set_up ? "stopped in strategy '" + m.member.strategy_name + "': "
+                               : std::string("stopped during the reducer's setup: ")) +
+                       e.what();
     } catch (const std::exception& e) {
       if (!portfolio) throw;  // a plain run reports its error as before
       // The next member may well do the job (e.g. balanced truncation refuses an undamped

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "ecmor/error.hpp"
+#include "ecmor/interrupt.hpp"
 #include "prune_points.hpp"
 
 namespace ecmor::point_search {
@@ -143,7 +144,8 @@ PointObjective::Levels PointObjective::evaluate(const std::vector<double>& x) {
     error = m_run.context().estimator->evaluate_on(reduced->model, m_samples);
   } catch (const Error& e) {
     // A point on an eigenvalue, a singular shifted matrix, a breakdown of the reducer: this x is
-    // unusable, the search is not.
+    // unusable, the search is not. (Interrupted too: inside an optimiser's callback it cannot
+    // end the search directly; the strategy polls the same stop condition between evaluations.)
     out.failure = e.what();
   }
   if (out.failure.empty() && m_stable_only) {
@@ -397,6 +399,8 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
     std::optional<ReducerResult> start;
     try {
       start = objective.reduce(x);
+    } catch (const Interrupted&) {
+      throw;  // the run's stop request, not a property of x
     } catch (const Error&) {
     }
     if (start && start->V.cols() > max_order) {
@@ -504,6 +508,8 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
       std::optional<ReducerResult> grown;
       try {
         grown = objective.reduce(x);
+      } catch (const Interrupted&) {
+        throw;
       } catch (const Error&) {
         // Unusable (a point on an eigenvalue): the optimiser starts there and steers away.
       }

@@ -7,6 +7,9 @@
 #include <optional>
 #include <sstream>
 
+#include "ecmor/error.hpp"
+#include "ecmor/interrupt.hpp"
+
 namespace ecmor::strategy_support {
 
 namespace {
@@ -151,6 +154,8 @@ std::string prune_points(StrategyRun& run, const std::vector<ExpansionPoint>& po
         if (!std::isnan(e.sup_relative)) s.error = e.sup_relative;
       }
       s.result = std::move(r);
+    } catch (const Interrupted&) {
+      throw;
     } catch (const std::exception& e) {
       // Plugins may throw anything (guarded() reasons the same way); a trial that breaks down
       // numerically is a failed trial, not the end of a run that already has a passing model.
@@ -173,6 +178,8 @@ std::string prune_points(StrategyRun& run, const std::vector<ExpansionPoint>& po
       add_screen(local_maxima(t.error));
       if (t.passed) note_worst(t.error);
       return t.passed;
+    } catch (const Interrupted&) {
+      throw;
     } catch (const std::exception& e) {
       if (trial_failure.empty()) trial_failure = e.what();
       return false;

@@ -133,6 +133,13 @@ std::string StrategyRun::failure(const std::string& what, bool foreign) const {
                      foreign ? " (unexpected exception)" : "", what);
 }
 
+std::string StrategyRun::interruption(const std::string& what) const {
+  const std::string& name = m_ctx.reducer_info.name;
+  return fmt::format("stopped during iteration {}{}: {}{}", m_iteration + 1,
+                     name.empty() ? std::string() : " (" + name + ")", what,
+                     m_smallest_pass ? std::string() : "; " + shortfall());
+}
+
 std::string StrategyRun::verified_phrase() const {
   return " (verified on a " + std::to_string(m_ctx.verify_factor) +
          "x denser independent grid)";

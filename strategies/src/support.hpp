@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "ecmor/error.hpp"
+#include "ecmor/interrupt.hpp"
 #include "ecmor/strategies/strategy.hpp"
 
 namespace ecmor::strategy_support {
@@ -77,6 +78,10 @@ class StrategyRun {
   /// the iteration it ended and the reducer (not repeated when `what` already starts with it).
   std::string failure(const std::string& what, bool foreign = false) const;
 
+  /// "stopped during iteration 4 (modal): interrupted in ARPACK dnaupd (...); band error ... >
+  /// tolerance ...": where a stop request took effect inside a reducer call, and the shortfall.
+  std::string interruption(const std::string& what) const;
+
  private:
   StrategyContext& m_ctx;
   StrategyResult m_out;
@@ -92,6 +97,9 @@ template <class Body>
 StrategyResult guarded(StrategyRun& run, Body&& body) {
   try {
     return body();
+  } catch (const Interrupted& e) {
+    // The time limit or a signal inside a reducer call: the best model so far is the result.
+    return run.finish(Termination::Interrupted, run.interruption(e.what()));
   } catch (const Error& e) {
     return run.finish(Termination::Failed, run.failure(e.what()));
   } catch (const std::exception& e) {

@@ -7,11 +7,13 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include <Eigen/Eigenvalues>
 
 #include "ecmor/eigensolver.hpp"
 #include "ecmor/error.hpp"
+#include "ecmor/interrupt.hpp"
 
 namespace ecmor {
 namespace {
@@ -181,6 +183,39 @@ TEST(SymmetricShiftInvert, AnalyticChainSpectrumByArpack) {
   }
   EXPECT_GT(r.operator_applications, 8);
   expect_valid_symmetric_pairs(K, M, r, 1e-13);
+}
+
+// A stop request (the run's time limit, a signal) ends an ARPACK run between two operator
+// applications with Interrupted naming ARPACK and the shift; without one the same run completes.
+// Only the thread that installed the scope sees it.
+TEST(SymmetricShiftInvert, StopRequestInterruptsArpackBetweenApplications) {
+  const Index n = 200;
+  const SparseMatrix K = chain_stiffness(n);
+  const SparseMatrix M = sparse_identity(n);
+  DenseLuFactorization f(Matrix(K) + 1e-3 * Matrix(M));
+  EigenOptions o;
+  o.nev = 8;
+  int polls = 0;
+  {
+    InterruptScope scope([&] { return ++polls > 5; });
+    try {
+      symmetric_shift_invert(f, M, -1e-3, o);
+      FAIL() << "not interrupted";
+    } catch (const Interrupted& e) {
+      EXPECT_NE(std::string(e.what()).find("interrupted in ARPACK dsaupd (sigma = -0.001, nev = 8"),
+                std::string::npos)
+          << e.what();
+    }
+    EXPECT_EQ(polls, 6);
+    // Another thread has no scope: its run is not interrupted.
+    SymmetricEigenResult other;
+    std::thread worker([&] { other = symmetric_shift_invert(f, M, -1e-3, o); });
+    worker.join();
+    EXPECT_EQ(other.eigenvalues.size(), 8);
+  }
+  // The scope is gone: the run completes.
+  EXPECT_EQ(symmetric_shift_invert(f, M, -1e-3, o).eigenvalues.size(), 8);
+  EXPECT_EQ(polls, 6);
 }
 
 TEST(SymmetricShiftInvert, TriplechainAgainstDenseReference) {

@@ -10,6 +10,7 @@
 
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
+#include "ecmor/interrupt.hpp"
 #include "ecmor/projection.hpp"
 #include "ecmor/strategies/strategy.hpp"
 #include "support.hpp"
@@ -182,6 +183,31 @@ TEST(GrowOrder, ObserverCanStopTheRun) {
   EXPECT_EQ(r.termination, Termination::Interrupted);
   EXPECT_EQ(r.history.size(), 2u);
   EXPECT_TRUE(r.best.has_value());  // nothing lost: the best model so far is kept
+}
+
+// A stop request that takes effect inside a reducer call (the driver's InterruptScope; a long
+// ARPACK run checks it between operator applications) ends the run as interrupted with the best
+// model so far, and the message says where it stopped.
+TEST(GrowOrder, StopInsideAReducerCallKeepsTheBestModel) {
+  struct SlowTruncation final : Reducer {
+    Truncation inner;
+    void setup(const ReductionContext& ctx) override { inner.setup(ctx); }
+    ReducerResult reduce(const ReductionRequest& request) override {
+      check_interrupt("a long computation of the test reducer");
+      return inner.reduce(request);
+    }
+    Index max_order() const override { return inner.max_order(); }
+  } reducer;
+  Fixture fx;
+  InterruptScope scope([&] { return reducer.inner.calls >= 2; });
+  const StrategyResult r = fx.run(reducer, 1e-8, ParameterMap("strategy"));
+  EXPECT_EQ(r.termination, Termination::Interrupted) << r.message;
+  EXPECT_EQ(reducer.inner.calls, 2);
+  EXPECT_TRUE(r.best.has_value());
+  EXPECT_NE(r.message.find("stopped during iteration 3: interrupted in a long computation of the "
+                           "test reducer; band error"),
+            std::string::npos)
+      << r.message;
 }
 
 // A stop that arrives on the estimate of a model meeting the tolerance leaves it unverified: the
