@@ -203,11 +203,15 @@ struct Scenario {
   double tolerance = 1e-2;
   Index max_order = 40;
   bool portfolio = true;  ///< false where the portfolio would only repeat its members' runs
-  /// The full model's stability as the driver must report it (stability.hpp).
+  /// The full model's stability as the driver must report it (stability.hpp); alternatives
+  /// separated by '|'.
   std::string full = "asymptotically stable";
   /// Empty: modal, krylov, irka and balanced with their defaults, and the portfolio (unless
   /// portfolio = false); else exactly these runs.
   std::vector<AtlasRun> runs = {};
+  /// Minutes rather than seconds: run only with ECMOR_ATLAS_SLOW=1 (CTest failure_atlas_slow,
+  /// label slow).
+  bool slow = false;
 };
 
 constexpr double kTwoPi = 6.283185307179586;
@@ -272,6 +276,15 @@ std::vector<Scenario> scenarios() {
          return dir;
        },
        Band{0.01, 1.0}},
+      // Eigen's QZ converges on mna1's pencil in a fresh process (as in test_stability) but not
+      // always after other runs in the same process (root cause not found yet): then the verdict
+      // is "unknown" with "dense eigenvalue computation failed", which is honest, never wrong.
+      {"circuit_dae", "mna1 (SLICOT circuit, 578 states): E singular, finite poles from 5.7e4 to 4.5e20",
+       [](const fs::path&) { return shared("mna1"); }, Band{1e3 / kTwoPi, 1e9 / kTwoPi}, 1e-2,
+       40, false, "asymptotically stable|unknown"},
+      {"large_circuit_dae", "mna5 (SLICOT circuit, 10913 states): E singular, too large for dense checks",
+       [](const fs::path&) { return shared("mna5"); }, Band{1e3 / kTwoPi, 1e9 / kTwoPi}, 1e-2,
+       40, false, "unknown", {}, true},
       {"unstable_pencil", "peec: (A, E) has eigenvalues with Re up to +1.7e12",
        [](const fs::path&) { return shared("peec"); }, Band{1e7, 1e9}, 1e-2, 40, true,
        "unstable"},
@@ -425,7 +438,14 @@ std::vector<AtlasRun> runs_of(const Scenario& s) {
 
 // ECMOR_ATLAS_ONLY=name1,name2 runs only those scenarios (while working on one); the table in
 // the docs is then not rewritten.
+bool slow_enabled() {
+  const char* slow = std::getenv("ECMOR_ATLAS_SLOW");
+  return slow != nullptr && std::string(slow) == "1";
+}
+
 bool selected(const std::string& scenario) {
+  for (const Scenario& s : scenarios())
+    if (s.name == scenario && s.slow && !slow_enabled()) return false;
   const char* only = std::getenv("ECMOR_ATLAS_ONLY");
   if (only == nullptr || *only == '\0') return true;
   return ("," + std::string(only) + ",").find("," + scenario + ",") != std::string::npos;
@@ -530,6 +550,15 @@ const std::vector<Expect> kExpected{
     {"dae_singular_e", "krylov", "converged", ""},
     {"dae_singular_e", "irka", "refused", "singular"},
     {"dae_singular_e", "balanced", "refused", "singular"},
+    // A circuit DAE: Gramian- and pole-based methods refuse by name; Krylov reduces it.
+    {"circuit_dae", "irka", "refused", "E is singular"},
+    {"circuit_dae", "balanced", "refused", "singular"},
+    {"circuit_dae", "krylov", "converged", ""},
+    {"large_circuit_dae", "irka", "refused", "E is singular"},
+    {"large_circuit_dae", "balanced", "refused", "singular"},
+    {"large_circuit_dae", "krylov", "converged", ""},
+    // modal's general ARPACK run outlasts the time limit of 60 s: stopped inside the call.
+    {"large_circuit_dae", "modal", "not converged", ""},
     {"unstable_pencil", "irka", "refused", "singular"},
     {"unstable_pencil", "balanced", "refused", "do not exist"},
     {"unstable_pencil", "modal", "not converged", ""},
@@ -615,9 +644,10 @@ TEST(FailureAtlas, FullModelStabilityIsReportedAndWarnedAbout) {
       const Outcome& o = outcome(s.name, r.label);
       if (o.termination.empty()) continue;  // thrown before a summary (refused in setup)
       SCOPED_TRACE(describe(o));
-      EXPECT_EQ(o.full, s.full);
-      const bool warned = o.warnings.find("the full model is " + s.full) != std::string::npos;
-      EXPECT_EQ(warned, s.full == "unstable" || s.full == "marginally stable") << o.warnings;
+      // s.full lists the admissible verdicts, separated by '|'.
+      EXPECT_NE(("|" + s.full + "|").find("|" + o.full + "|"), std::string::npos) << s.full;
+      const bool warned = o.warnings.find("the full model is " + o.full) != std::string::npos;
+      EXPECT_EQ(warned, o.full == "unstable" || o.full == "marginally stable") << o.warnings;
       if ((o.kind == "converged" || o.kind == "missed") && o.stable && warned) {
         EXPECT_NE(o.warnings.find("in the band only, not in the time domain"), std::string::npos)
             << o.warnings;
@@ -645,7 +675,12 @@ std::string atlas_table() {
        "what happened |\n"
     << "|---|---|---|---|---|---|---|---|---|\n";
   std::map<std::string, std::string> what;
-  for (const Scenario& s : scenarios()) what[s.name] = s.what + " (full model: " + s.full + ")";
+  for (const Scenario& s : scenarios()) {
+    std::string full = s.full;
+    for (std::size_t p = full.find('|'); p != std::string::npos; p = full.find('|'))
+      full.replace(p, 1, " or ");
+    what[s.name] = s.what + " (full model: " + full + ")";
+  }
   std::string previous;
   for (const Outcome& o : outcomes()) {
     char err[32];
@@ -677,8 +712,10 @@ TEST(FailureAtlas, TableInTheDocs) {
   ASSERT_NE(b, std::string::npos);
   ASSERT_NE(e, std::string::npos);
   const char* only = std::getenv("ECMOR_ATLAS_ONLY");
+  // The table in the docs holds every scenario, the slow ones too.
   if (const char* update = std::getenv("ECMOR_UPDATE_ATLAS");
-      update && std::string(update) == "1" && (only == nullptr || *only == '\0')) {
+      update && std::string(update) == "1" && (only == nullptr || *only == '\0') &&
+      slow_enabled()) {
     text = text.substr(0, b + begin.size()) + table + text.substr(e);
     std::ofstream(doc, std::ios::trunc) << text;
   }
