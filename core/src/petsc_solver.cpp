@@ -47,35 +47,32 @@ void check(PetscErrorCode code, const char* call) {
 
 std::once_flag g_init_once;
 
+// With SLEPc, SLEPc starts and ends PETSc (and MPI) when they have not started yet.
+#ifdef ECMOR_HAVE_SLEPC
+constexpr auto kLibraryInitialized = &SlepcInitialized;
+constexpr auto kInitializeLibrary = &SlepcInitializeNoArguments;
+constexpr auto kFinalizeLibrary = &SlepcFinalize;
+#else
+constexpr auto kLibraryInitialized = &PetscInitialized;
+constexpr auto kInitializeLibrary = &PetscInitializeNoArguments;
+constexpr auto kFinalizeLibrary = &PetscFinalize;
+#endif
+
 void finalize_petsc() {
   PetscBool finalized = PETSC_FALSE;
   PetscFinalized(&finalized);
-#ifdef ECMOR_HAVE_SLEPC
-  if (!finalized) SlepcFinalize();
-#else
-  if (!finalized) PetscFinalize();
-#endif
+  if (!finalized) kFinalizeLibrary();
 }
 
 // PETSc (and MPI) start on first use: every rank creates the solver at the same point of the run.
 void ensure_petsc() {
   std::call_once(g_init_once, [] {
-#ifdef ECMOR_HAVE_SLEPC
-    // SLEPc starts PETSc (and MPI) when they have not started yet.
     PetscBool initialized = PETSC_FALSE;
-    SlepcInitialized(&initialized);
+    kLibraryInitialized(&initialized);
     if (!initialized) {
-      ECMOR_PETSC(SlepcInitializeNoArguments());
+      ECMOR_PETSC(kInitializeLibrary());
       std::atexit(finalize_petsc);
     }
-#else
-    PetscBool initialized = PETSC_FALSE;
-    PetscInitialized(&initialized);
-    if (!initialized) {
-      ECMOR_PETSC(PetscInitializeNoArguments());
-      std::atexit(finalize_petsc);
-    }
-#endif
     // Errors come back as return codes (turned into exceptions here), not printed tracebacks.
     // ECMOR_PETSC_TRACEBACK=1 also prints PETSc's own traceback (where in PETSc or SLEPc, and
     // its detailed message), for debugging the backend.
