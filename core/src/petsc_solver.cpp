@@ -176,57 +176,36 @@ class PetscSolver final : public ShiftedSolver {
   /// The combination sum_k w_k T_k as a distributed PETSc matrix (the caller destroys it).
   Mat assemble(std::span<const Complex> weights) const {
     const RowPattern& p = m_pattern;
-    const PetscInt local = p.row_end - p.row_begin;
-    const auto n = static_cast<PetscInt>(m_terms.n);
-    Mat A = nullptr;
-    ECMOR_PETSC(MatCreate(PETSC_COMM_WORLD, &A));
-    try {
-      ECMOR_PETSC(MatSetSizes(A, local, local, n, n));
-      ECMOR_PETSC(MatSetType(A, MATAIJ));
-      ECMOR_PETSC(MatSeqAIJSetPreallocation(A, 0, p.diag_nnz.data()));
-      ECMOR_PETSC(MatMPIAIJSetPreallocation(A, 0, p.diag_nnz.data(), 0, p.off_nnz.data()));
-      std::vector<PetscScalar> values(p.cols.size(), PetscScalar(0.0));
-      for (std::size_t k = 0; k < p.scatter.size(); ++k) {
-        const PetscScalar w(weights[k].real(), weights[k].imag());
-        if (w == PetscScalar(0.0)) continue;
-        const std::vector<double>& v = m_row_values[k];
-        for (const auto& [value_index, pos] : p.scatter[k])
-          values[static_cast<std::size_t>(pos)] += w * v[static_cast<std::size_t>(value_index)];
-      }
-      for (PetscInt r = 0; r < local; ++r) {
+    std::vector<PetscScalar> values(p.cols.size(), PetscScalar(0.0));
+    for (std::size_t k = 0; k < p.scatter.size(); ++k) {
+      const PetscScalar w(weights[k].real(), weights[k].imag());
+      if (w == PetscScalar(0.0)) continue;
+      const std::vector<double>& v = m_row_values[k];
+      for (const auto& [value_index, pos] : p.scatter[k])
+        values[static_cast<std::size_t>(pos)] += w * v[static_cast<std::size_t>(value_index)];
+    }
+    return make_matrix(p.diag_nnz, p.off_nnz, [&](Mat A) {
+      for (PetscInt r = 0; r < p.row_end - p.row_begin; ++r) {
         const PetscInt row = p.row_begin + r;
         const PetscInt b = p.offset[static_cast<std::size_t>(r)];
         const PetscInt e = p.offset[static_cast<std::size_t>(r) + 1];
         ECMOR_PETSC(MatSetValues(A, 1, &row, e - b, p.cols.data() + b, values.data() + b,
                                  INSERT_VALUES));
       }
-      ECMOR_PETSC(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY));
-      ECMOR_PETSC(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY));
-    } catch (...) {
-      MatDestroy(&A);
-      throw;
-    }
-    return A;
+    });
   }
 
   /// Any N x N sparse matrix, distributed by the solver's rows (the caller destroys it).
   Mat distribute(const SparseMatrix& S) const {
     const RowPattern& p = m_pattern;
     const PetscInt local = p.row_end - p.row_begin;
-    const auto n = static_cast<PetscInt>(m_terms.n);
     using RowMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor, PetscInt>;
     const RowMatrix R = S.middleRows(p.row_begin, local).template cast<double>();
     std::vector<PetscInt> diag(static_cast<std::size_t>(local), 0), off(diag);
     for (PetscInt r = 0; r < local; ++r)
       for (RowMatrix::InnerIterator it(R, r); it; ++it)
         ++((it.col() >= p.row_begin && it.col() < p.row_end) ? diag : off)[static_cast<std::size_t>(r)];
-    Mat A = nullptr;
-    ECMOR_PETSC(MatCreate(PETSC_COMM_WORLD, &A));
-    try {
-      ECMOR_PETSC(MatSetSizes(A, local, local, n, n));
-      ECMOR_PETSC(MatSetType(A, MATAIJ));
-      ECMOR_PETSC(MatSeqAIJSetPreallocation(A, 0, diag.data()));
-      ECMOR_PETSC(MatMPIAIJSetPreallocation(A, 0, diag.data(), 0, off.data()));
+    return make_matrix(diag, off, [&](Mat A) {
       std::vector<PetscInt> cols;
       std::vector<PetscScalar> values;
       for (PetscInt r = 0; r < local; ++r) {
@@ -240,6 +219,26 @@ class PetscSolver final : public ShiftedSolver {
         ECMOR_PETSC(MatSetValues(A, 1, &row, static_cast<PetscInt>(cols.size()), cols.data(),
                                  values.data(), INSERT_VALUES));
       }
+    });
+  }
+
+ private:
+  // A distributed AIJ matrix of the solver's row split, preallocated with `diag` / `off` entries
+  // per owned row inside / outside the diagonal block, filled by `fill` (MatSetValues) and
+  // assembled; destroyed again if anything throws.
+  template <class Fill>
+  Mat make_matrix(const std::vector<PetscInt>& diag, const std::vector<PetscInt>& off,
+                  Fill&& fill) const {
+    const PetscInt local = m_pattern.row_end - m_pattern.row_begin;
+    const auto n = static_cast<PetscInt>(m_terms.n);
+    Mat A = nullptr;
+    ECMOR_PETSC(MatCreate(PETSC_COMM_WORLD, &A));
+    try {
+      ECMOR_PETSC(MatSetSizes(A, local, local, n, n));
+      ECMOR_PETSC(MatSetType(A, MATAIJ));
+      ECMOR_PETSC(MatSeqAIJSetPreallocation(A, 0, diag.data()));
+      ECMOR_PETSC(MatMPIAIJSetPreallocation(A, 0, diag.data(), 0, off.data()));
+      fill(A);
       ECMOR_PETSC(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY));
       ECMOR_PETSC(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY));
     } catch (...) {
@@ -249,7 +248,6 @@ class PetscSolver final : public ShiftedSolver {
     return A;
   }
 
- private:
   void require_weights(std::span<const Complex> weights) const {
     if (weights.size() != m_terms.t.size())
       throw InputError(fmt::format("PETSc backend: {} weights for {} coefficient matrices",
