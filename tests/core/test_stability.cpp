@@ -66,7 +66,7 @@ std::vector<Case> cases() {
 TEST(FullModelStability, DenseEigenvaluesClassifyEachChain) {
   for (const Case& c : cases()) {
     SCOPED_TRACE(c.name);
-    const StabilityReport r = full_model_stability(Model(c.model), 1000);
+    const StabilityReport r = dense_model_stability(Model(c.model));
     EXPECT_TRUE(r.dense);
     EXPECT_EQ(r.verdict, c.expected) << r.reason;
     EXPECT_NE(r.method.find("60 x 60"), std::string::npos) << r.method;
@@ -82,12 +82,32 @@ TEST(FullModelStability, DenseEigenvaluesClassifyEachChain) {
 TEST(FullModelStability, InertiaOfKAndDAgreesWithTheEigenvalues) {
   for (const Case& c : cases()) {
     SCOPED_TRACE(c.name);
-    const StabilityReport r = full_model_stability(Model(c.model), 0);  // never dense
-    EXPECT_FALSE(r.dense);
-    EXPECT_EQ(r.verdict, c.expected) << r.reason;
-    EXPECT_NE(r.reason.find(c.reason), std::string::npos) << r.reason;
-    EXPECT_TRUE(std::isnan(r.max_real_pole));
+    // The structural test decides each chain, whether the dense check is allowed or not.
+    for (const Index dense_states : {Index{0}, Index{1000}}) {
+      const StabilityReport r = full_model_stability(Model(c.model), dense_states);
+      EXPECT_FALSE(r.dense);
+      EXPECT_EQ(r.verdict, c.expected) << r.reason;
+      EXPECT_NE(r.reason.find(c.reason), std::string::npos) << r.reason;
+      EXPECT_TRUE(std::isnan(r.max_real_pole));
+    }
   }
+}
+
+// D only semidefinite (one dashpot at the free end): the structural test cannot decide, so the
+// dense eigenvalues do when allowed.
+TEST(FullModelStability, SemidefiniteDampingFallsBackToTheEigenvalues) {
+  SecondOrderModel m = chain(30, 20.0, 50.0, 0.0, 0.0);
+  m.D.resize(30, 30);
+  m.D.insert(29, 29) = 2.0;
+  const StabilityReport structural = full_model_stability(Model(m), 0);
+  EXPECT_EQ(structural.verdict, Stability::Unknown);
+  EXPECT_NE(structural.reason.find("D is not positive definite"), std::string::npos);
+  const StabilityReport r = full_model_stability(Model(m), 1000);
+  EXPECT_TRUE(r.dense);
+  // Every mode of a chain moves its end mass (M^-1/2 K M^-1/2 is an irreducible tridiagonal
+  // matrix, whose eigenvectors have no zero end component), so the one dashpot damps them all.
+  EXPECT_EQ(r.verdict, Stability::Asymptotic) << r.reason;
+  EXPECT_LT(r.max_real_pole, 0.0);
 }
 
 TEST(FullModelStability, UnsymmetricDampingOrLargeDescriptorIsUnknown) {

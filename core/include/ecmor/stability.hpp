@@ -34,19 +34,25 @@ struct StabilityReport {
 };
 
 /// Decides the stability of a full model:
-///  * with at most `dense_states` first-order states (N, or 2N for second order): the finite
-///    eigenvalues of the pencil of densify(model). A pole counts as on the axis when
-///    |Re p| <= 1e-9 |p| (an undamped mode: rounding leaves Re of order eps |p|, either sign), or
-///    as a pole at s = 0 when A is singular (d = n - rank A by rank-revealing QR: the d poles of
-///    least modulus, and any below 1e-6 of the largest). Size alone cannot tell a pole at 0 from
-///    a slow real pole: descriptor models spread their poles over many decades;
-///  * else, for a second-order model with M, D, K symmetric (M is positive definite, a load-time
-///    rule): K not positive definite means a pole at s = 0 (K singular) or in the right
-///    half-plane (K indefinite), reported as Marginal / Unstable by the inertia of K; K and D
-///    positive definite mean asymptotic stability (energy argument); otherwise Unknown;
+///  * a second-order model with M, D, K symmetric (M is positive definite, a load-time rule), by
+///    the inertia of K and D (sparse Cholesky): K not positive definite means a pole at s = 0
+///    (K singular: Marginal) or in the right half-plane (K indefinite: Unstable); D = 0 with K
+///    positive definite means every pole on the axis (Marginal); K and D positive definite mean
+///    asymptotic stability (energy argument). Any other second-order model (unsymmetric K or D,
+///    D only semidefinite) goes on to the dense check;
+///  * with at most `dense_states` first-order states (N, or 2N for second order):
+///    dense_model_stability(model);
 ///  * else Unknown.
 /// Never throws for a valid model: a failing dense eigenvalue iteration gives Unknown with the
 /// reason.
 ECMOR_API StabilityReport full_model_stability(const Model& model, Index dense_states);
+
+/// The finite eigenvalues of the pencil of densify(model) (cubic in the number of first-order
+/// states; the caller bounds it). A pole counts as on the axis when |Re p| <= 1e-9 |p| (an
+/// undamped mode: rounding leaves Re of order eps |p|, either sign), or as a pole at s = 0 when
+/// A is singular (d = n - rank A by rank-revealing QR: the d poles of least modulus, and any
+/// below 1e-6 of the largest). Size alone cannot tell a pole at 0 from a slow real pole:
+/// descriptor models spread their poles over many decades. Sets max_real_pole.
+ECMOR_API StabilityReport dense_model_stability(const Model& model);
 
 }  // namespace ecmor
