@@ -6,10 +6,8 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
-#include <csignal>
 #include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -23,6 +21,7 @@
 #include "ecmor/error.hpp"
 #include "ecmor/registry.hpp"
 #include "ecmor/strategies/driver.hpp"
+#include "signals.hpp"
 #include "pareto.hpp"
 #include "plot.hpp"
 
@@ -53,14 +52,12 @@ struct BenchRow {
   std::string hinf_scope;
 };
 
-std::atomic<bool> g_bench_interrupted{false};
-extern "C" void on_bench_signal(int) { g_bench_interrupted.store(true); }
 
 // Quiet during a run (one progress line when it ends); stops the run on SIGINT/SIGTERM.
 class Progress final : public RunObserver {
  public:
-  bool on_iteration(const IterationRecord&) override { return !g_bench_interrupted.load(); }
-  bool stop_requested() override { return g_bench_interrupted.load(); }
+  bool on_iteration(const IterationRecord&) override { return !stop_signalled(); }
+  bool stop_requested() override { return stop_signalled(); }
 };
 
 // Exact enough to keep distinct tolerances apart (2e-3 and 2.5e-3), short enough to read.
@@ -420,8 +417,7 @@ int bench(const BenchOptions& options, const CommonOptions& common) {
     std::vector<RunConfig> loaded;
     for (const auto& path : options.configs) loaded.push_back(load_run_config(path));
     const std::vector<Job> configs = expand_jobs(loaded, options, common);
-    std::signal(SIGINT, on_bench_signal);
-    std::signal(SIGTERM, on_bench_signal);
+    install_stop_signals();
 
     std::vector<BenchRow> rows;
     const std::filesystem::path out = std::filesystem::absolute(options.output_dir);
@@ -440,7 +436,7 @@ int bench(const BenchOptions& options, const CommonOptions& common) {
       std::vector<double> ladder = options.tolerances;
       if (ladder.empty()) ladder.push_back(base.tolerance);
       for (double tol : ladder) {
-        if (g_bench_interrupted.load()) break;
+        if (stop_signalled()) break;
         RunConfig config = base;
         config.tolerance = tol;
         if (options.time_limit_s > 0.0) config.time_limit_s = options.time_limit_s;
@@ -516,7 +512,7 @@ int bench(const BenchOptions& options, const CommonOptions& common) {
     const double seconds = elapsed();
     fmt::print("\n{}\n{} runs in {:.1f} s; results in {}\n", to_markdown(rows), rows.size(),
                seconds, out.string());
-    if (g_bench_interrupted.load()) return 130;
+    if (stop_signalled()) return 130;
     return all_met ? 0 : 2;
   });
 }

@@ -6,9 +6,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
-#include <csignal>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
@@ -20,17 +18,16 @@
 #include "ecmor/error.hpp"
 #include "ecmor/registry.hpp"
 #include "ecmor/strategies/driver.hpp"
+#include "signals.hpp"
 
 namespace ecmor::app {
 namespace {
 
-std::atomic<bool> g_check_interrupted{false};
-extern "C" void on_check_signal(int) { g_check_interrupted.store(true); }
 
 class StopOnSignal final : public RunObserver {
  public:
-  bool on_iteration(const IterationRecord&) override { return !g_check_interrupted.load(); }
-  bool stop_requested() override { return g_check_interrupted.load(); }
+  bool on_iteration(const IterationRecord&) override { return !stop_signalled(); }
+  bool stop_requested() override { return stop_signalled(); }
 };
 
 struct CheckRow {
@@ -157,14 +154,13 @@ int check(const CheckOptions& options, const CommonOptions& common) {
     // Every config is read first: a typo in the last one must not surface after an hour of runs.
     std::vector<RunConfig> configs;
     for (const auto& path : expand(options.inputs)) configs.push_back(load_run_config(path));
-    std::signal(SIGINT, on_check_signal);
-    std::signal(SIGTERM, on_check_signal);
+    install_stop_signals();
 
     const std::filesystem::path out = std::filesystem::absolute(options.output_dir);
     std::vector<CheckRow> rows;
     std::set<std::string> used;
     const auto start = std::chrono::steady_clock::now();
-    for (std::size_t k = 0; k < configs.size() && !g_check_interrupted.load(); ++k) {
+    for (std::size_t k = 0; k < configs.size() && !stop_signalled(); ++k) {
       std::string name = configs[k].source.stem().string();
       for (int n = 2; used.count(name) > 0; ++n) {
         name = configs[k].source.stem().string() + "_" + std::to_string(n);
@@ -191,8 +187,8 @@ int check(const CheckOptions& options, const CommonOptions& common) {
         std::count_if(rows.begin(), rows.end(), [](const CheckRow& r) { return !r.passed(); });
     fmt::print("\n{}\n{} of {} configurations passed{}; outputs in {}\n", table(rows),
                static_cast<long>(rows.size()) - failed, configs.size(),
-               g_check_interrupted.load() ? " (interrupted)" : "", out.string());
-    if (g_check_interrupted.load()) return 130;
+               stop_signalled() ? " (interrupted)" : "", out.string());
+    if (stop_signalled()) return 130;
     return failed == 0 ? 0 : 1;
   });
 }

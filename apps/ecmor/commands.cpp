@@ -3,8 +3,6 @@
 #include <fmt/core.h>
 #include <fmt/format.h>
 
-#include <atomic>
-#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
@@ -18,14 +16,13 @@
 #include "ecmor/parallel.hpp"
 #include "ecmor/registry.hpp"
 #include "ecmor/strategies/driver.hpp"
+#include "signals.hpp"
 #include "plot.hpp"
 
 namespace ecmor::app {
 namespace {
 
-std::atomic<bool> g_interrupted{false};
 
-extern "C" void on_signal(int) { g_interrupted.store(true); }
 
 // Prints the convergence table while the run goes on.
 class TablePrinter final : public RunObserver {
@@ -71,10 +68,10 @@ class TablePrinter final : public RunObserver {
                  r.counters.solves, r.note);
       std::fflush(stdout);
     }
-    return !g_interrupted.load();
+    return !stop_signalled();
   }
 
-  bool stop_requested() override { return g_interrupted.load(); }
+  bool stop_requested() override { return stop_signalled(); }
 
   void on_finished(const RunSummary& s) override {
     if (m_silent) return;
@@ -182,14 +179,13 @@ int reduce(const std::filesystem::path& config_path, const CommonOptions& common
     }
     Registry registry;
     load_plugins(registry, common, config.plugins);
-    std::signal(SIGINT, on_signal);
-    std::signal(SIGTERM, on_signal);
+    install_stop_signals();
     TablePrinter printer(common.quiet, /*silent=*/rank != 0);
     const RunSummary summary = run_reduction(config, registry, &printer);
     if (rank == 0 && summary.has_model && !common.no_plot)
       plot_after_run(summary.output_dir, common.quiet);
     // 130 only for a signal; a run stopped by its time limit missed its target like any budget.
-    if (summary.termination == Termination::Interrupted && g_interrupted.load()) return 130;
+    if (summary.termination == Termination::Interrupted && stop_signalled()) return 130;
     return summary.exit_code();
   });
 }

@@ -642,6 +642,65 @@ TEST_F(Cli, SignalWritesHistoryAndBestModelAndExits130) {
   }
 }
 
+// A second signal ends the process at once (exit 130) instead of waiting for the next poll, for a
+// run inside a step it cannot leave early. Deterministic: the child is stopped, SIGINT and SIGTERM
+// are both made pending (two SIGINTs would merge into one), and it is continued, so both handlers
+// run before the main thread resumes.
+TEST_F(Cli, SecondSignalQuitsAtOnce) {
+  const fs::path out = output() / "twice";
+  write_text(config(), "model:    {dir: ../shared/models/triplechain_mess_n1501}\n"
+                       "band:     {f_min_hz: 0.001, f_max_hz: 1.0}\n"
+                       "target:   {tolerance: 1.0e-15}\n"
+                       "reducer:  {name: krylov, point_count: 4}\n"
+                       "strategy: {name: grow_order, max_order: 1500}\n"
+                       "output:   {dir: " + out.string() + "}\n");
+  const fs::path stdout_path = m_dir / "twice_stdout.txt";
+  const std::string exe = std::string(ECMOR_TEST_BINARY_DIR) + "/bin/ecmor";
+  const std::string cfg = config().string();
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const int fd = ::open(stdout_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(fd, 1);
+    ::dup2(fd, 2);
+    ::unsetenv("ECMOR_PLUGIN_PATH");
+    ::execl(exe.c_str(), exe.c_str(), "reduce", cfg.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  const auto start = std::chrono::steady_clock::now();
+  auto seconds = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  };
+  int status = 0;
+  while (!fs::exists(out / "history.csv") && seconds() < 120.0) {
+    ASSERT_NE(::waitpid(pid, &status, WNOHANG), pid) << "ended early: " << read_text(stdout_path);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_TRUE(fs::exists(out / "history.csv")) << read_text(stdout_path);
+  ASSERT_EQ(::kill(pid, SIGSTOP), 0);
+  ASSERT_EQ(::waitpid(pid, &status, WUNTRACED), pid);  // stopped
+  ASSERT_TRUE(WIFSTOPPED(status));
+  ASSERT_EQ(::kill(pid, SIGINT), 0);
+  ASSERT_EQ(::kill(pid, SIGTERM), 0);
+  ASSERT_EQ(::kill(pid, SIGCONT), 0);
+  while (::waitpid(pid, &status, WNOHANG) != pid) {
+    if (seconds() > 300.0) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      FAIL() << "still running: " << read_text(stdout_path);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  const std::string text = read_text(stdout_path);
+  ASSERT_TRUE(WIFEXITED(status)) << text;
+  EXPECT_EQ(WEXITSTATUS(status), 130) << text;
+  EXPECT_NE(text.find("signal again to quit at once"), std::string::npos) << text;
+  EXPECT_NE(text.find("quit at once on a second signal"), std::string::npos) << text;
+  // No orderly ending: no summary, but the history written so far is intact.
+  EXPECT_FALSE(fs::exists(out / "summary.json"));
+  EXPECT_GE(read_text(out / "history.csv").size(), 1u);
+}
+
 // H_r(i 2 pi f) = Cr (s^2 Mr + s Dr + Kr)^-1 Br of a reduced second-order model, computed here
 // with a dense LU so the check does not go through the library's frequency response code.
 Complex reduced_siso_response(const ReducedSecondOrderModel& m, double f_hz) {
