@@ -9,11 +9,6 @@ packages=(
   libeigen3-dev
   libsuitesparse-dev
   libarpack2-dev liblapack-dev libblas-dev
-  # An optimised BLAS/LAPACK behind Debian's alternatives (the reference BLAS otherwise): the
-  # dense frontal work of UMFPACK, CHOLMOD and MUMPS on 3-D models. The OpenMP build runs one
-  # thread inside ecmor's own parallel loops. Measured: complex UMFPACK on a 36 000-unknown 3-D
-  # lattice, 1.6 s against 4.7 s per factorisation (docs/benchmarks.md).
-  libopenblas0-openmp
   libnlopt-dev libnlopt-cxx-dev
   coinor-libipopt-dev
   libyaml-cpp-dev
