@@ -179,6 +179,67 @@ class Cli : public ::testing::Test {
     return run(args);
   }
 
+  /// Starts `ecmor reduce` in a child process on a run that takes many minutes
+  /// (triplechain_mess_n1501, krylov, a tolerance no model meets, order budget 1500), output in
+  /// `out`, stdout and stderr into `log`, and waits (at most 120 s) for its first history record.
+  /// Returns the child's pid; fails the test if the run ended or wrote no record by then.
+  pid_t start_long_run(const fs::path& out, const fs::path& log) {
+    write_text(config(), "model:    {dir: ../shared/models/triplechain_mess_n1501}\n"
+                         "band:     {f_min_hz: 0.001, f_max_hz: 1.0}\n"
+                         "target:   {tolerance: 1.0e-15}\n"
+                         "reducer:  {name: krylov, point_count: 4}\n"
+                         "strategy: {name: grow_order, max_order: 1500}\n"
+                         "output:   {dir: " + out.string() + "}\n");
+    const std::string exe = std::string(ECMOR_TEST_BINARY_DIR) + "/bin/ecmor";
+    const std::string cfg = config().string();
+    const pid_t pid = ::fork();
+    if (pid < 0) {
+      ADD_FAILURE() << "fork failed";
+      return pid;
+    }
+    if (pid == 0) {
+      const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      ::dup2(fd, 1);
+      ::dup2(fd, 2);
+      ::unsetenv("ECMOR_PLUGIN_PATH");
+      ::execl(exe.c_str(), exe.c_str(), "reduce", cfg.c_str(), static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    const auto start = std::chrono::steady_clock::now();
+    int status = 0;
+    while (!fs::exists(out / "history.csv") &&
+           std::chrono::steady_clock::now() - start < std::chrono::seconds(120)) {
+      if (::waitpid(pid, &status, WNOHANG) == pid) {
+        ADD_FAILURE() << "ended before the signal: " << read_text(log);
+        return -1;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    if (!fs::exists(out / "history.csv")) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      ADD_FAILURE() << "no history record after 120 s: " << read_text(log);
+      return -1;
+    }
+    return pid;
+  }
+
+  /// Waits for the child to end (SIGKILL after `limit_s` seconds, a test failure); its status.
+  int wait_for_exit(pid_t pid, double limit_s, const fs::path& log) {
+    const auto start = std::chrono::steady_clock::now();
+    int status = 0;
+    while (::waitpid(pid, &status, WNOHANG) != pid) {
+      if (std::chrono::steady_clock::now() - start > std::chrono::duration<double>(limit_s)) {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, &status, 0);
+        ADD_FAILURE() << "still running " << limit_s << " s after the signal: " << read_text(log);
+        return status;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return status;
+  }
+
   fs::path config() const { return m_dir / "run.yaml"; }
   fs::path model() const { return m_dir / "model"; }
   fs::path output() const { return m_dir / "out"; }
@@ -579,51 +640,12 @@ TEST_F(Cli, SignalWritesHistoryAndBestModelAndExits130) {
   for (const int sig : {SIGTERM, SIGINT}) {
     SCOPED_TRACE(sig == SIGTERM ? "SIGTERM" : "SIGINT");
     const fs::path out = output() / (sig == SIGTERM ? "term" : "int");
-    write_text(config(), "model:    {dir: ../shared/models/triplechain_mess_n1501}\n"
-                         "band:     {f_min_hz: 0.001, f_max_hz: 1.0}\n"
-                         "target:   {tolerance: 1.0e-15}\n"
-                         "reducer:  {name: krylov, point_count: 4}\n"
-                         "strategy: {name: grow_order, max_order: 1500}\n"
-                         "output:   {dir: " + out.string() + "}\n");
     const fs::path stdout_path = m_dir / "signal_stdout.txt";
-    const std::string exe = std::string(ECMOR_TEST_BINARY_DIR) + "/bin/ecmor";
-    const std::string cfg = config().string();
-    const pid_t pid = ::fork();
-    ASSERT_GE(pid, 0);
-    if (pid == 0) {
-      const int fd = ::open(stdout_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      ::dup2(fd, 1);
-      ::dup2(fd, 2);
-      ::unsetenv("ECMOR_PLUGIN_PATH");
-      ::execl(exe.c_str(), exe.c_str(), "reduce", cfg.c_str(), static_cast<char*>(nullptr));
-      ::_exit(127);
-    }
-    // Wait for the first record (at most 120 s), then signal.
-    const auto start = std::chrono::steady_clock::now();
-    auto seconds = [&] {
-      return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    };
-    int status = 0;
-    bool exited = false;
-    while (!fs::exists(out / "history.csv") && seconds() < 120.0) {
-      if (::waitpid(pid, &status, WNOHANG) == pid) {
-        exited = true;
-        break;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    ASSERT_FALSE(exited) << "ended before the signal: " << read_text(stdout_path);
-    ASSERT_TRUE(fs::exists(out / "history.csv")) << read_text(stdout_path);
+    const pid_t pid = start_long_run(out, stdout_path);
+    ASSERT_GT(pid, 0);
     ASSERT_EQ(::kill(pid, sig), 0);
     // Stopped at the next poll: well within a minute.
-    while (::waitpid(pid, &status, WNOHANG) != pid) {
-      if (seconds() > 300.0) {
-        ::kill(pid, SIGKILL);
-        ::waitpid(pid, &status, 0);
-        FAIL() << "still running 300 s after the start: " << read_text(stdout_path);
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
+    const int status = wait_for_exit(pid, 300.0, stdout_path);
     const std::string text = read_text(stdout_path);
     ASSERT_TRUE(WIFEXITED(status)) << "killed by the signal instead of stopping: " << text;
     EXPECT_EQ(WEXITSTATUS(status), 130) << text;
@@ -648,49 +670,17 @@ TEST_F(Cli, SignalWritesHistoryAndBestModelAndExits130) {
 // run before the main thread resumes.
 TEST_F(Cli, SecondSignalQuitsAtOnce) {
   const fs::path out = output() / "twice";
-  write_text(config(), "model:    {dir: ../shared/models/triplechain_mess_n1501}\n"
-                       "band:     {f_min_hz: 0.001, f_max_hz: 1.0}\n"
-                       "target:   {tolerance: 1.0e-15}\n"
-                       "reducer:  {name: krylov, point_count: 4}\n"
-                       "strategy: {name: grow_order, max_order: 1500}\n"
-                       "output:   {dir: " + out.string() + "}\n");
   const fs::path stdout_path = m_dir / "twice_stdout.txt";
-  const std::string exe = std::string(ECMOR_TEST_BINARY_DIR) + "/bin/ecmor";
-  const std::string cfg = config().string();
-  const pid_t pid = ::fork();
-  ASSERT_GE(pid, 0);
-  if (pid == 0) {
-    const int fd = ::open(stdout_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    ::dup2(fd, 1);
-    ::dup2(fd, 2);
-    ::unsetenv("ECMOR_PLUGIN_PATH");
-    ::execl(exe.c_str(), exe.c_str(), "reduce", cfg.c_str(), static_cast<char*>(nullptr));
-    ::_exit(127);
-  }
-  const auto start = std::chrono::steady_clock::now();
-  auto seconds = [&] {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  };
+  const pid_t pid = start_long_run(out, stdout_path);
+  ASSERT_GT(pid, 0);
   int status = 0;
-  while (!fs::exists(out / "history.csv") && seconds() < 120.0) {
-    ASSERT_NE(::waitpid(pid, &status, WNOHANG), pid) << "ended early: " << read_text(stdout_path);
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  ASSERT_TRUE(fs::exists(out / "history.csv")) << read_text(stdout_path);
   ASSERT_EQ(::kill(pid, SIGSTOP), 0);
-  ASSERT_EQ(::waitpid(pid, &status, WUNTRACED), pid);  // stopped
+  ASSERT_EQ(::waitpid(pid, &status, WUNTRACED), pid);
   ASSERT_TRUE(WIFSTOPPED(status));
   ASSERT_EQ(::kill(pid, SIGINT), 0);
   ASSERT_EQ(::kill(pid, SIGTERM), 0);
   ASSERT_EQ(::kill(pid, SIGCONT), 0);
-  while (::waitpid(pid, &status, WNOHANG) != pid) {
-    if (seconds() > 300.0) {
-      ::kill(pid, SIGKILL);
-      ::waitpid(pid, &status, 0);
-      FAIL() << "still running: " << read_text(stdout_path);
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
+  status = wait_for_exit(pid, 300.0, stdout_path);
   const std::string text = read_text(stdout_path);
   ASSERT_TRUE(WIFEXITED(status)) << text;
   EXPECT_EQ(WEXITSTATUS(status), 130) << text;
