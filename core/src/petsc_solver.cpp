@@ -140,8 +140,8 @@ class PetscSolver final : public ShiftedSolver {
   // symbolic factorisation) of one serves them all: a released factorisation leaves its analysed
   // objects here (at most kIdleSlots, each still holding its old factors), and the next
   // factorisation refills the matrix and refactorises numerically only. On a 10^5 triple chain
-  // the analysis was 70% of the backend's time. Every rank releases and takes slots in the same
-  // order, so the collective calls match.
+  // the analysis was 66% of the run (PETSc -log_view). Every rank releases and takes slots in the
+  // same order, so the collective calls match.
   static constexpr std::size_t kIdleSlots = 1;
   Slot take_slot() const {
     std::lock_guard<std::mutex> lock(m_counter_mutex);
