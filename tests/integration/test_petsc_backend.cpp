@@ -151,7 +151,10 @@ TEST_F(PetscBackend, SameOrderAndBandErrorOnOneAndTwoRanks) {
       EXPECT_EQ(sp["final_order"].get<int>(), se["final_order"].get<int>());
       const double a = se["verified_band_error"].get<double>();
       const double b = sp["verified_band_error"].get<double>();
-      EXPECT_LE(std::abs(a - b), 1e-3 * a) << a << " vs " << b;
+      // 1e-3 relative, plus the resolution of a relative band error near 1e-6 on lf10, whose M
+      // spans six decades: the same embedded run under the reference BLAS and under OpenBLAS
+      // gave 8.053e-7 and 8.177e-7 (measured 2026-11-26), a rounding effect, not a backend one.
+      EXPECT_LE(std::abs(a - b), 1e-3 * a + 5e-8) << a << " vs " << b;
       EXPECT_TRUE(sp["target_met"].get<bool>());
       // MUMPS's analysis is reused across shifts: far fewer analyses than factorisations.
       const auto analyses = sp["counters"]["symbolic_analyses"].get<int>();
