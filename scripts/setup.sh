@@ -2,6 +2,10 @@
 # Install every build and run-time dependency of ecmor from Debian 12 packages.
 # Idempotent: packages already present are skipped; safe to run repeatedly.
 # Needs root (or sudo) and the Debian package registry; downloads nothing else.
+# ECMOR_OPENBLAS=1 also installs OpenBLAS (OpenMP), which Debian's alternatives then put behind
+# libblas.so.3 and liblapack.so.3: about 3x faster complex sparse LU on large 3-D models
+# (docs/benchmarks.md). Off by default: the shipped regression results are measured with the
+# reference BLAS.
 set -euo pipefail
 
 packages=(
@@ -24,6 +28,7 @@ packages=(
   libpetsc-complex-dev openmpi-bin   # the PETSc backend (complex scalars, MUMPS) over MPI
   libslepc-complex-dev               # its distributed eigensolver (modal reducer)
 )
+if [ "${ECMOR_OPENBLAS:-0}" = 1 ]; then packages+=(libopenblas0-openmp); fi
 
 missing=()
 for p in "${packages[@]}"; do
