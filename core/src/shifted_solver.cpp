@@ -536,23 +536,20 @@ class CholmodFactorization final : public FactorizationBase {
 
 class SuiteSparseSolver final : public ShiftedSolver {
  public:
-  SuiteSparseSolver(const Model& model, const SolverOptions& options)
-      : m_shared(std::make_shared<SharedState>()) {
+  SuiteSparseSolver(const SecondOrderModel& so, const SolverOptions& options)
+      : SuiteSparseSolver({&so.K, &so.D, &so.M}, {1.0, 1.0, 1.0}, {"K", "D", "M"}, options) {}
+  SuiteSparseSolver(const DescriptorModel& ds, const SolverOptions& options)
+      : SuiteSparseSolver({&ds.A, &ds.E}, {-1.0, 1.0}, {"A", "E"}, options) {}
+
+  /// P(s) = sum_k w_k sign_k T_k over the terms `in` (kept by pointer when compressed).
+  SuiteSparseSolver(std::vector<const SparseMatrix*> in, std::vector<double> sign,
+                    std::vector<std::string> names, const SolverOptions& options)
+      : m_shared(std::make_shared<SharedState>()), m_names(std::move(names)) {
     options.validate();
     SharedState& S = *m_shared;
     S.options = options;
     S.counters = std::make_shared<CounterBlock>();
-    std::vector<const SparseMatrix*> in;
-    if (const auto* so = std::get_if<SecondOrderModel>(&model)) {
-      in = {&so->K, &so->D, &so->M};
-      S.sign = {1.0, 1.0, 1.0};
-      m_names = {"K", "D", "M"};
-    } else {
-      const auto& ds = std::get<DescriptorModel>(model);
-      in = {&ds.A, &ds.E};
-      S.sign = {-1.0, 1.0};
-      m_names = {"A", "E"};
-    }
+    S.sign = std::move(sign);
     const Index n = in[0]->rows();
     if (n > std::numeric_limits<int>::max() / 2)
       throw InputError("shifted solver: N = " + std::to_string(n) + " exceeds 32-bit indices");
@@ -825,15 +822,38 @@ namespace detail {
 std::atomic<bool> g_serial_solves{false};
 }  // namespace detail
 
-std::unique_ptr<ShiftedSolver> make_shifted_solver(const Model& model,
-                                                   const SolverOptions& options) {
+namespace {
+
+template <class System>
+std::unique_ptr<ShiftedSolver> make_for(const System& sys, const Model* as_model,
+                                        const SolverOptions& options) {
   if (options.backend == "petsc") {
     options.validate();
-    std::unique_ptr<ShiftedSolver> solver = detail::make_petsc_solver(model);
+    // The PETSc backend copies the coefficients into its distributed matrices.
+    std::unique_ptr<ShiftedSolver> solver =
+        as_model != nullptr ? detail::make_petsc_solver(*as_model)
+                            : detail::make_petsc_solver(Model(sys));
     detail::g_serial_solves.store(true);
     return solver;
   }
-  return std::make_unique<SuiteSparseSolver>(model, options);
+  return std::make_unique<SuiteSparseSolver>(sys, options);
+}
+
+}  // namespace
+
+std::unique_ptr<ShiftedSolver> make_shifted_solver(const Model& model,
+                                                   const SolverOptions& options) {
+  return std::visit([&](const auto& sys) { return make_for(sys, &model, options); }, model);
+}
+
+std::unique_ptr<ShiftedSolver> make_shifted_solver(const SecondOrderModel& model,
+                                                   const SolverOptions& options) {
+  return make_for(model, nullptr, options);
+}
+
+std::unique_ptr<ShiftedSolver> make_shifted_solver(const DescriptorModel& model,
+                                                   const SolverOptions& options) {
+  return make_for(model, nullptr, options);
 }
 
 }  // namespace ecmor

@@ -5,9 +5,11 @@
 #include <cmath>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "ecmor/error.hpp"
+#include "ecmor/first_order_view.hpp"
 #include "ecmor/frequency_response.hpp"
 #include "ecmor/shifted_solver.hpp"
 
@@ -35,6 +37,21 @@ SecondOrderModel two_dof() {
   m.C = Matrix::Ones(1, 2);
   return m;
 }
+
+// The solver keeps pointers to the model's matrices, so it is made from a named model only: a
+// temporary, or a SecondOrderModel converted to a temporary Model, would die first (the sanitizer
+// run found the latter in a test: stack-use-after-scope).
+template <class T>
+concept SolverFrom = requires(T&& m) { make_shifted_solver(std::forward<T>(m)); };
+static_assert(SolverFrom<const Model&> && SolverFrom<const SecondOrderModel&> &&
+              SolverFrom<const DescriptorModel&> && SolverFrom<SecondOrderModel&>);
+static_assert(!SolverFrom<Model> && !SolverFrom<SecondOrderModel> && !SolverFrom<DescriptorModel>);
+template <class T>
+concept ViewFrom = requires(T&& m, ShiftedSolver& s) { FirstOrderView(std::forward<T>(m), s); };
+static_assert(ViewFrom<const Model&> && !ViewFrom<Model> && !ViewFrom<const SecondOrderModel&>);
+template <class T>
+concept CacheFrom = requires(T&& m, ShiftedSolver& s) { ResponseCache(std::forward<T>(m), s); };
+static_assert(CacheFrom<const Model&> && !CacheFrom<Model> && !CacheFrom<const DescriptorModel&>);
 
 /// Undamped 1-DOF: s^2 + 4: eigenvalues +-2i.
 SecondOrderModel one_dof_undamped() {

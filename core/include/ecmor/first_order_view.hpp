@@ -41,6 +41,8 @@ class FirstOrderView {
     m_ds = std::get_if<DescriptorModel>(&model);
     m_n = size_of(model);
   }
+  /// A temporary (or a SecondOrderModel / DescriptorModel converted to one) would dangle.
+  FirstOrderView(Model&&, ShiftedSolver&) = delete;
 
   bool second_order() const { return m_so != nullptr; }
   /// N (descriptor) or N of the second-order model.

@@ -51,6 +51,8 @@ class ECMOR_API ResponseCache {
  public:
   /// model and solver must outlive the cache.
   ResponseCache(const Model& model, ShiftedSolver& solver, int threads = 0);
+  /// The cache keeps the model by reference: a temporary (or a converted alternative) would dangle.
+  ResponseCache(Model&&, ShiftedSolver&, int = 0) = delete;
 
   /// H at each frequency; computes the missing ones in parallel and stores them. Holds the lock
   /// while computing, so concurrent callers never factorise a frequency twice.

@@ -137,5 +137,17 @@ struct ECMOR_API SolverOptions {
 ///         InputError if the coefficients are not all N x N.
 ECMOR_API std::unique_ptr<ShiftedSolver> make_shifted_solver(const Model& model,
                                                              const SolverOptions& options = {});
+/// The same on one kind of model, kept by reference too (without these, a SecondOrderModel
+/// would be converted to a temporary Model that dies before the solver).
+ECMOR_API std::unique_ptr<ShiftedSolver> make_shifted_solver(const SecondOrderModel& model,
+                                                             const SolverOptions& options = {});
+ECMOR_API std::unique_ptr<ShiftedSolver> make_shifted_solver(const DescriptorModel& model,
+                                                             const SolverOptions& options = {});
+/// A temporary model would die before the solver that keeps its matrices: not allowed.
+std::unique_ptr<ShiftedSolver> make_shifted_solver(Model&&, const SolverOptions& = {}) = delete;
+std::unique_ptr<ShiftedSolver> make_shifted_solver(SecondOrderModel&&,
+                                                   const SolverOptions& = {}) = delete;
+std::unique_ptr<ShiftedSolver> make_shifted_solver(DescriptorModel&&,
+                                                   const SolverOptions& = {}) = delete;
 
 }  // namespace ecmor
