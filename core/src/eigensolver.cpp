@@ -15,6 +15,7 @@
 #include "ecmor/error.hpp"
 #include "ecmor/interrupt.hpp"
 #include "petsc_solver.hpp"
+#include "qz_solver.hpp"
 
 // The ISO_C_BINDING entry points of ARPACK-ng (arpack/arpack.h) take scalars by value and no
 // hidden Fortran string lengths, which removes the gfortran calling-convention guesswork.
@@ -517,8 +518,8 @@ Vector dense_generalized_eigenvalues(const Matrix& K, const Matrix& M) {
       return es.eigenvalues();  // ascending
     }
   }
-  Eigen::GeneralizedEigenSolver<Matrix> ges(K, M, false);
-  if (ges.info() != Eigen::Success) {
+  detail::QzSolver ges(K, M, false);
+  if (!ges.converged()) {
     throw NumericalError("dense_generalized_eigenvalues: the QZ eigensolver failed");
   }
   const Eigen::VectorXcd alpha = ges.alphas();

@@ -22,6 +22,7 @@
 #include "number_text.hpp"
 #include "parallel_for.hpp"
 #include "power_of_two_scaling.hpp"
+#include "qz_solver.hpp"
 
 namespace ecmor {
 
@@ -115,14 +116,14 @@ ComplexVector pencil_eigenvalues(const Matrix& A, const Matrix& E) {
       return es.eigenvalues();
     }
   }
-  Eigen::GeneralizedEigenSolver<Matrix> ges(A, E, /*computeEigenvectors=*/false);
-  if (ges.info() == Eigen::Success) return finite_eigenvalues(ges.alphas(), ges.betas(), E.norm());
+  detail::QzSolver ges(A, E, /*computeEigenvectors=*/false);
+  if (ges.converged()) return finite_eigenvalues(ges.alphas(), ges.betas(), E.norm());
   // Eigen's QZ has no balancing of its own and stalls on badly scaled pencils (peec: no
   // convergence in 400 iterations for one eigenvalue), which converge once equilibrated.
   Matrix As = A, Es = E;
   detail::scale_by_powers_of_two(As, &Es);
   ges.compute(As, Es, /*computeEigenvectors=*/false);
-  if (ges.info() != Eigen::Success)
+  if (!ges.converged())
     throw NumericalError("poles: generalized eigenvalue iteration (QZ) did not converge, also "
                          "after equilibrating the pencil");
   return finite_eigenvalues(ges.alphas(), ges.betas(), Es.norm());

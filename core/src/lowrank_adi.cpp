@@ -33,6 +33,7 @@
 #include "ecmor/error.hpp"
 #include "ecmor/interrupt.hpp"
 #include "number_text.hpp"
+#include "qz_solver.hpp"
 
 namespace ecmor {
 
@@ -460,8 +461,8 @@ struct LowRankAdi::Impl {
         }
       }
     }
-    Eigen::GeneralizedEigenSolver<Matrix> qz(Ar, Er, true);
-    if (qz.info() != Eigen::Success) return out;
+    detail::QzSolver qz(Ar, Er, true);
+    if (!qz.converged()) return out;
     for (Index i = 0; i < U.cols(); ++i) {
       const Complex alpha = qz.alphas()(i);
       const double beta = qz.betas()(i);

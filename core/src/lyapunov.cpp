@@ -18,6 +18,7 @@
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
 #include "number_text.hpp"
+#include "qz_solver.hpp"
 
 namespace ecmor {
 
@@ -536,10 +537,10 @@ SchurPencil stable_pencil(const ReducedModel& model, std::string_view origin) {
       // If QZ fails even so, stability stays undecided and the singular E is reported.
       bool decided = false;
       ComplexVector p;
-      Eigen::GeneralizedEigenSolver<Matrix> qz;
+      detail::QzSolver qz;
       qz.setMaxIterations(1000 * r.A.rows());
       qz.compute(r.A, r.E, false);
-      if (qz.info() == Eigen::Success) {
+      if (qz.converged()) {
         decided = true;
         const double tol = static_cast<double>(r.A.rows()) * kEps * r.E.norm();
         std::vector<Complex> kept;
