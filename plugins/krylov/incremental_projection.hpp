@@ -67,7 +67,7 @@ class IncrementalProjection {
     for (Matrix& R : m_reduced) R = Matrix(R.topLeftCorner(p, p));
     m_Br = Matrix(m_Br.topRows(p));
     m_Cr = Matrix(m_Cr.leftCols(p));
-    m_Cvr = Matrix(m_Cvr.leftCols(p));
+    if (m_Cv != nullptr) m_Cvr = Matrix(m_Cvr.leftCols(p));  // 0 x 0 without a velocity output
     m_Gvv = Matrix(m_Gvv.topLeftCorner(p, p));
     // W'W and W'V exist two-sided only (0 x 0 otherwise).
     const Index pw = std::min(p, m_Gww.rows());
