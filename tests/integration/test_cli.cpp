@@ -900,7 +900,8 @@ TEST_F(Cli, BenchAllReducersRunsEveryLoadedReducerThatAcceptsTheModel) {
   write_text(config(), lf10_yaml(output(), 1e-2, "{name: grow_order, max_order: 18}"));
   const fs::path out = m_dir / "bench";
   const Result r = run({"bench", config().string(), "--all-reducers", "-o", out.string()});
-  EXPECT_NE(r.exit_code, 1) << r.out << r.err;
+  // 0: every target met, 2: some missed; anything else (an error, a crash) is a failure.
+  ASSERT_TRUE(r.exit_code == 0 || r.exit_code == 2) << r.exit_code << "\n" << r.out << r.err;
   const nlohmann::json rows = read_json(out / "bench.json");
   const Result listed = run({"plugins"});
   std::size_t second_order = 0;  // reducers whose listing says they take second-order models
