@@ -4,14 +4,18 @@
 //
 //   ecmor_bench_models triplechain N DIR        the triple chain of triple_chain.hpp, N = 3 n1 + 1
 //   ecmor_bench_models grid NX NY NZ DIR        a 3-D grid (FE-like sparsity), N = NX NY NZ
+//   ecmor_bench_models solid NX NY NZ DIR [--free]
+//                                               a 3-D elastic solid of NX x NY x NZ hexahedra,
+//                                               N = 3 (NX + 1)(NY + 1)(NZ + 1), less the clamped
+//                                               face's 3 (NY + 1)(NZ + 1) unless --free
 //
-// The grid model: one displacement per node of an NX x NY x NZ lattice of spacing h = 1, the
-// 7-point stiffness of a scalar elastic continuum (k = 1e4 between neighbours), lumped masses
-// (m = 1), the face x = 0 held by springs of k to the ground, Rayleigh damping D = 0.01 M + 1e-5 K,
-// a force at the far corner (NX-1, NY-1, NZ-1) and two outputs: the displacements at that corner
-// and at the centre of the far face. The matrix graph is that of a hexahedral FE mesh with one
-// degree of freedom per node; the factors' fill grows like a 3-D mesh's (nested dissection:
-// O(N^(4/3)) for a cube, less for a thin plate NZ << NX, NY).
+// The solid model (solid.hpp): the default steel bar 1.0 x 0.1 x 0.05 m of SolidOptions, 8-node
+// tri-linear hexahedra, consistent mass, Rayleigh damping (1 % at 40 Hz and 2 kHz), clamped at
+// x = 0 (--free: a free-floating body with 6 rigid-body modes), 4 force inputs on the far face
+// and 6 displacement outputs. Cubic elements: NX : NY : NZ = 20 : 2 : 1.
+//
+// The grid model: the 3-D lattice of lattice.hpp (one degree of freedom per node, the sparsity of
+// a hexahedral FE mesh, clamped face, Rayleigh damping, a corner force and two outputs).
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -22,6 +26,8 @@
 #include <vector>
 
 #include "ecmor/matrix_market.hpp"
+#include "lattice.hpp"
+#include "solid.hpp"
 #include "triple_chain.hpp"
 
 namespace {
@@ -52,55 +58,11 @@ void write_model(const std::filesystem::path& dir, const ecmor::SecondOrderModel
   ecmor::write_matrix_market(dir / "C.mtx", ecmor::Matrix(m.C), comment);
 }
 
-ecmor::SecondOrderModel grid(Index nx, Index ny, Index nz) {
-  const double total = static_cast<double>(nx) * static_cast<double>(ny) * static_cast<double>(nz);
-  if (total > 2e8) throw std::runtime_error(fmt::format("grid: N = {:g} is too large", total));
-  const Index n = nx * ny * nz;
-  auto id = [&](Index i, Index j, Index k) { return i + nx * (j + ny * k); };
-  const double k_spring = 1e4, alpha = 0.01, beta = 1e-5;
-  std::vector<Eigen::Triplet<double>> kt, mt;
-  kt.reserve(static_cast<std::size_t>(7 * n));
-  mt.reserve(static_cast<std::size_t>(n));
-  std::vector<double> diag(static_cast<std::size_t>(n), 0.0);
-  auto spring = [&](Index a, Index b) {
-    diag[static_cast<std::size_t>(a)] += k_spring;
-    diag[static_cast<std::size_t>(b)] += k_spring;
-    kt.emplace_back(a, b, -k_spring);
-    kt.emplace_back(b, a, -k_spring);
-  };
-  for (Index k = 0; k < nz; ++k)
-    for (Index j = 0; j < ny; ++j)
-      for (Index i = 0; i < nx; ++i) {
-        const Index a = id(i, j, k);
-        if (i + 1 < nx) spring(a, id(i + 1, j, k));
-        if (j + 1 < ny) spring(a, id(i, j + 1, k));
-        if (k + 1 < nz) spring(a, id(i, j, k + 1));
-        if (i == 0) diag[static_cast<std::size_t>(a)] += k_spring;  // clamped face
-        mt.emplace_back(a, a, 1.0);
-      }
-  for (Index a = 0; a < n; ++a) kt.emplace_back(a, a, diag[static_cast<std::size_t>(a)]);
-  ecmor::SecondOrderModel m;
-  m.M.resize(n, n);
-  m.M.setFromTriplets(mt.begin(), mt.end());
-  m.K.resize(n, n);
-  m.K.setFromTriplets(kt.begin(), kt.end());
-  m.D = alpha * m.M + beta * m.K;
-  m.M.makeCompressed();
-  m.K.makeCompressed();
-  m.D.makeCompressed();
-  const Index corner = id(nx - 1, ny - 1, nz - 1), centre = id(nx - 1, ny / 2, nz / 2);
-  m.B = ecmor::Matrix::Zero(n, 1);
-  m.B(corner, 0) = 1.0;
-  m.C = ecmor::Matrix::Zero(2, n);
-  m.C(0, corner) = 1.0;
-  m.C(1, centre) = 1.0;
-  return m;
-}
-
 int usage(const char* argv0) {
   fmt::print(stderr,
              "usage: {0} triplechain N DIR      (N = 3 n1 + 1 is rounded up to that form)\n"
-             "       {0} grid NX NY NZ DIR\n",
+             "       {0} grid NX NY NZ DIR\n"
+             "       {0} solid NX NY NZ DIR [--free]\n",
              argv0);
   return 1;
 }
@@ -121,10 +83,23 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (kind == "grid" && argc == 6) {
-      const ecmor::SecondOrderModel m = grid(parse_size(argv[2], "NX"), parse_size(argv[3], "NY"),
-                                             parse_size(argv[4], "NZ"));
+      const ecmor::SecondOrderModel m = ecmor::bench::lattice(
+          parse_size(argv[2], "NX"), parse_size(argv[3], "NY"), parse_size(argv[4], "NZ"));
       write_model(argv[5], m);
       fmt::print("grid: N = {}, nnz(K) = {} -> {}\n", m.K.rows(), m.K.nonZeros(), argv[5]);
+      return 0;
+    }
+    if (kind == "solid" && (argc == 6 || (argc == 7 && std::string(argv[6]) == "--free"))) {
+      ecmor::bench::SolidOptions options;
+      options.nx = parse_size(argv[2], "NX");
+      options.ny = parse_size(argv[3], "NY");
+      options.nz = parse_size(argv[4], "NZ");
+      options.clamped = argc == 6;
+      const ecmor::SecondOrderModel m = ecmor::bench::solid(options);
+      write_model(argv[5], m);
+      fmt::print("solid ({}): N = {}, nnz(K) = {}, nnz(M) = {}, {} inputs, {} outputs -> {}\n",
+                 options.clamped ? "clamped at x = 0" : "free", m.K.rows(), m.K.nonZeros(),
+                 m.M.nonZeros(), m.inputs(), m.outputs(), argv[5]);
       return 0;
     }
     return usage(argv[0]);

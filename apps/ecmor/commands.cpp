@@ -19,6 +19,10 @@
 #include "signals.hpp"
 #include "plot.hpp"
 
+#include <unistd.h>
+
+#include <cstdio>
+
 namespace ecmor::app {
 namespace {
 
@@ -73,6 +77,21 @@ class TablePrinter final : public RunObserver {
 
   bool stop_requested() override { return stop_signalled(); }
 
+  // A sweep of full-model responses that takes a while gets a progress line (count, rate, time
+  // left), rewritten in place on a terminal and printed every ~10 s otherwise.
+  void on_sweep(const SweepProgress& p) override {
+    if (m_quiet || p.seconds < 2.0) return;
+    const bool tty = isatty(fileno(stdout)) != 0;
+    const bool first = m_last_sweep_print < 0.0 || p.seconds < m_last_sweep_print;
+    if (!tty && !first && p.done < p.total && p.seconds - m_last_sweep_print < 10.0) return;
+    m_last_sweep_print = p.done < p.total ? p.seconds : -1.0;
+    const double rate = p.done / p.seconds;
+    const double left = rate > 0.0 ? static_cast<double>(p.total - p.done) / rate : 0.0;
+    fmt::print("{}      full-model responses {}/{}  {:.2f}/s  {:.0f} s left{}", tty ? "\r" : "",
+               p.done, p.total, rate, left, tty && p.done < p.total ? "" : "\n");
+    std::fflush(stdout);
+  }
+
   void on_finished(const RunSummary& s) override {
     if (m_silent) return;
     if (!m_quiet) fmt::print("\n");
@@ -99,6 +118,7 @@ class TablePrinter final : public RunObserver {
  private:
   bool m_quiet;
   bool m_silent;
+  double m_last_sweep_print = -1.0;  // seconds into the current sweep at the last line; < 0: none
 };
 
 // The plots of a finished run (plot.hpp). A reduction that worked is not failed by its pictures:

@@ -11,6 +11,8 @@
 #include "ecmor/error.hpp"
 #include "ecmor/parameters.hpp"
 #include "ecmor/reduced_response.hpp"
+#include "band_error_estimate.hpp"
+#include "band_error_sampling.hpp"
 
 namespace ecmor {
 
@@ -42,6 +44,23 @@ ErrorNorm parse_error_norm(const std::string& name) {
                     suggestion(name, {"spectral", "frobenius"}));
 }
 
+std::string to_string(ErrorVerify verify) {
+  switch (verify) {
+    case ErrorVerify::Dense: return "dense";
+    case ErrorVerify::Estimate: return "estimate";
+    case ErrorVerify::Auto: break;
+  }
+  return "auto";
+}
+
+ErrorVerify parse_error_verify(const std::string& name) {
+  if (name == "dense") return ErrorVerify::Dense;
+  if (name == "estimate") return ErrorVerify::Estimate;
+  if (name == "auto") return ErrorVerify::Auto;
+  throw ConfigError("unknown error.verify '" + name + "'" +
+                    suggestion(name, {"dense", "estimate", "auto"}));
+}
+
 double matrix_norm(const ComplexMatrix& A, ErrorNorm norm) {
   if (A.size() == 0) return 0.0;
   if (norm == ErrorNorm::Frobenius || A.rows() == 1 || A.cols() == 1) {
@@ -66,6 +85,15 @@ void BandErrorOptions::validate() const {
   if (!(zero_threshold >= 0.0) || !(zero_threshold < 1.0)) {
     bad("zero_threshold", std::to_string(zero_threshold), "must be in [0, 1)");
   }
+  if (dense_max_states < 0) bad("dense_max_states", std::to_string(dense_max_states), "must be >= 0");
+  if (estimate_points < 2 || estimate_points > 1000000)
+    bad("estimate_points", std::to_string(estimate_points), "must be in [2, 1e6]");
+  if (reference_points < 2 || reference_points > 10000)
+    bad("reference_points", std::to_string(reference_points), "must be in [2, 10000]");
+  if (check_peaks < 1) bad("check_peaks", std::to_string(check_peaks), "must be >= 1");
+  if (random_checks < 0) bad("random_checks", std::to_string(random_checks), "must be >= 0");
+  if (check_rounds < 1) bad("check_rounds", std::to_string(check_rounds), "must be >= 1");
+  if (probe_solves < 0) bad("probe_solves", std::to_string(probe_solves), "must be >= 0");
 }
 
 std::string BandError::sampling() const {
@@ -74,7 +102,16 @@ std::string BandError::sampling() const {
   if (pole_samples > 0) os << " + " << pole_samples << " pole";
   if (refinement_samples > 0) os << " + " << refinement_samples << " refinement";
   if (!undefined_f_hz.empty()) os << "; H vanishes at " << undefined_f_hz.size() << " samples";
+  if (reference_order > 0) {
+    os << "; estimate (reference order " << reference_order << "), " << checked_samples
+       << " checked by full solves";
+    if (new_full_solves > 0) os << " (" << new_full_solves << " new)";
+  }
   return os.str();
+}
+
+bool BandError::within(double tolerance) const {
+  return sup_relative <= tolerance && !(estimate_sup > tolerance);
 }
 
 namespace {
@@ -87,28 +124,33 @@ struct Sample {
   double ref2 = 0.0;    // ||H||_2
   double refF = 0.0;    // ||H||_F
   bool singular = false;  // Hr has a pole exactly here
+  bool exact = true;      // H is the full model's own (not a reference model's estimate)
+  ComplexMatrix H;        // the reference side (empty where the full model is singular)
 };
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// Samples the error at the given frequencies (full response from the cache, in parallel; the
-// reduced model's and the error norms in parallel too, with the cache's thread count).
-std::vector<Sample> sample(ResponseCache& full, const ReducedResponse& reduced,
-                           const std::vector<double>& f_hz) {
+// Samples the error at the given frequencies (the reference side from `source`, the reduced
+// model's and the error norms in parallel with `threads`).
+std::vector<Sample> sample(const detail::ReferenceSource& source, const ReducedResponse& reduced,
+                           const std::vector<double>& f_hz, int threads_wanted) {
   std::vector<Sample> out(f_hz.size());
   if (f_hz.empty()) return out;
-  std::vector<ComplexMatrix> H;
+  detail::ReferenceValues ref;
   std::vector<bool> full_singular(f_hz.size(), false);
   try {
-    H = full.evaluate(f_hz);
+    ref = source(f_hz);
   } catch (const NumericalError&) {
     // Some frequency is (numerically) a pole of the full model on the imaginary axis (an undamped
     // mode): evaluate one by one and mark those samples, instead of failing the whole batch.
-    H.assign(f_hz.size(), ComplexMatrix());
+    ref.H.assign(f_hz.size(), ComplexMatrix());
+    ref.exact.assign(f_hz.size(), 1);
     for (std::size_t k = 0; k < f_hz.size(); ++k) {
       try {
-        H[k] = full.evaluate(f_hz[k]);
+        detail::ReferenceValues one = source({f_hz[k]});
+        ref.H[k] = std::move(one.H[0]);
+        ref.exact[k] = one.exact[0];
       } catch (const NumericalError&) {
         full_singular[k] = true;
       }
@@ -117,17 +159,19 @@ std::vector<Sample> sample(ResponseCache& full, const ReducedResponse& reduced,
   auto evaluate = [&](std::size_t k) {
     Sample& s = out[k];
     s.f_hz = f_hz[k];
+    s.exact = ref.exact[k] != 0;
     if (full_singular[k]) {
       // |H| is unbounded here: the relative error is undefined (reported as such).
       s.ref2 = s.refF = kInf;
       s.abs2 = s.absF = kNaN;
       return;
     }
-    s.ref2 = matrix_norm(H[k], ErrorNorm::Spectral);
-    s.refF = H[k].norm();
+    s.H = std::move(ref.H[k]);
+    s.ref2 = matrix_norm(s.H, ErrorNorm::Spectral);
+    s.refF = s.H.norm();
     try {
       const ComplexMatrix Hr = reduced(s_from_hz(f_hz[k]));
-      const ComplexMatrix E = H[k] - Hr;
+      const ComplexMatrix E = s.H - Hr;
       if (!E.allFinite()) throw NumericalError("non-finite reduced response");
       s.abs2 = matrix_norm(E, ErrorNorm::Spectral);
       s.absF = E.norm();
@@ -140,11 +184,15 @@ std::vector<Sample> sample(ResponseCache& full, const ReducedResponse& reduced,
   };
   // The reduced evaluations are independent across frequencies, like the full model's: the same
   // threads share them (each sample is computed by one thread with the same code, so the result
-  // does not depend on the thread count, bitwise). As for the full model, a region for one or two
-  // frequencies costs more (thread wake-up) than it saves.
+  // does not depend on the thread count, bitwise). A parallel region costs more (thread wake-up,
+  // then spinning at the barrier) than a few reduced evaluations: measured on cdplayer in estimate
+  // mode, where the refinement samples a handful of frequencies per round, 65 % of the run was
+  // OpenMP spinning with regions for as few as 4 samples. Below 32 samples the loop is serial.
   const auto count = static_cast<Index>(f_hz.size());
-  const int threads = static_cast<int>(std::min<Index>(
-      full.threads() > 0 ? full.threads() : omp_get_max_threads(), std::max<Index>(count / 2, 1)));
+  const int threads =
+      count < 32 ? 1
+                 : static_cast<int>(std::min<Index>(
+                       threads_wanted > 0 ? threads_wanted : omp_get_max_threads(), count / 2));
   if (threads <= 1) {
     for (std::size_t k = 0; k < f_hz.size(); ++k) evaluate(k);
     return out;
@@ -176,101 +224,51 @@ double relative_of(const Sample& s, ErrorNorm norm, double zero_level2, double z
 
 }  // namespace
 
-BandErrorEstimator::BandErrorEstimator(ResponseCache& full, Band band, BandErrorOptions options)
-    : m_full(full), m_band(band), m_options(options) {
-  m_band.validate();
-  m_options.validate();
-  m_grid = log_grid(m_band.f_min_hz, m_band.f_max_hz, m_options.grid_points);
-  for (const ComplexMatrix& H : m_full.evaluate(m_grid)) {
-    m_scale2 = std::max(m_scale2, matrix_norm(H, ErrorNorm::Spectral));
-    m_scaleF = std::max(m_scaleF, H.norm());
+namespace detail {
+
+std::vector<std::pair<double, double>> pole_frequencies(const ComplexVector& p, const Band& band,
+                                                        Index max) {
+  std::vector<std::pair<double, double>> candidates;  // (damping ratio, f)
+  for (Index i = 0; i < p.size(); ++i) {
+    const double im = p(i).imag();
+    if (!(im > 0.0) || !std::isfinite(im)) continue;
+    const double fp = im / kTwoPi;
+    if (fp < band.f_min_hz || fp > band.f_max_hz) continue;
+    const double zeta = std::abs(p(i).real()) / std::abs(p(i));
+    // A (numerically) undamped pole: Hr, and near it H, are singular to working precision at
+    // Im(p); a sample there measures round-off, not the error. The grid and the refinement
+    // still see the resonance.
+    if (zeta < 1e-8) continue;
+    candidates.emplace_back(zeta, fp);
   }
+  std::sort(candidates.begin(), candidates.end());
+  if (static_cast<Index>(candidates.size()) > max) candidates.resize(static_cast<std::size_t>(max));
+  return candidates;
 }
 
-BandError BandErrorEstimator::evaluate(const ReducedModel& reduced) {
-  std::vector<double> f = m_grid;
-  Index pole_count = 0;
-  Index unstable = -1;
-  if (m_options.pole_samples && m_options.max_pole_samples > 0) {
-    // Resonances of lightly damped structures are narrower than any affordable grid spacing; the
-    // reduced poles locate them (and the full model's nearby ones) at no full-model cost.
-    const ComplexVector p = poles(reduced);
-    unstable = 0;
-    for (Index i = 0; i < p.size(); ++i) unstable += p(i).real() < 0.0 ? 0 : 1;
-    std::vector<std::pair<double, double>> candidates;  // (damping ratio, f)
-    for (Index i = 0; i < p.size(); ++i) {
-      const double im = p(i).imag();
-      if (!(im > 0.0) || !std::isfinite(im)) continue;
-      const double fp = im / kTwoPi;
-      if (fp < m_band.f_min_hz || fp > m_band.f_max_hz) continue;
-      const double zeta = std::abs(p(i).real()) / std::abs(p(i));
-      // A (numerically) undamped pole: Hr, and near it H, are singular to working precision at
-      // Im(p); a sample there measures round-off, not the error. The grid and the refinement
-      // still see the resonance.
-      if (zeta < 1e-8) continue;
-      candidates.emplace_back(zeta, fp);
-    }
-    std::sort(candidates.begin(), candidates.end());
-    // Successive reduced models of one run (a grown model, a pruned one, an optimiser's next
-    // trial) approximate the same resonances, but their poles agree only to the accuracy of the
-    // approximation, often 1e-4 relative: sampled exactly at Im(p), every model would cost its own
-    // full-model factorisations. So a pole sample reuses a frequency already in the response cache
-    // when one lies within zeta / 32 (relative) of Im(p), a small fraction of the resonance's
-    // relative width 2 zeta: there |H| near an isolated resonance is within 0.05 % of its value at
-    // Im(p) (1 / sqrt(1 + (1/32)^2)), and the refinement of the error's local maxima runs on top.
-    // Otherwise the sample is taken exactly at Im(p) (and cached for the next model).
-    for (const auto& c : candidates) {
-      if (pole_count >= m_options.max_pole_samples) break;
-      double fp = c.second;
-      if (const auto near = m_full.nearest_cached(fp, c.first / 32.0)) fp = *near;
-      f.push_back(fp);
-      ++pole_count;
-    }
-  }
-  BandError out = assemble(reduced, std::move(f), static_cast<Index>(m_grid.size()), pole_count,
-                           true, false);
-  out.unstable_poles = unstable;
-  return out;
+Index unstable_count(const ComplexVector& p) {
+  Index unstable = 0;
+  for (Index i = 0; i < p.size(); ++i) unstable += p(i).real() < 0.0 ? 0 : 1;
+  return unstable;
 }
 
-BandError BandErrorEstimator::evaluate_on(const ReducedModel& reduced,
-                                          const std::vector<double>& f_hz) {
-  return assemble(reduced, f_hz, static_cast<Index>(f_hz.size()), 0, false, false);
-}
-
-BandError BandErrorEstimator::verify(const ReducedModel& reduced, Index factor) {
-  if (factor < 1) throw ConfigError("verify factor = " + std::to_string(factor) + ": must be >= 1");
-  // Midpoints (in log f) of a grid `factor` times finer than the estimator's: with
-  // M = factor (G - 1) intervals, (k + 1/2)/M = j/(G - 1) would need an odd number to equal an even
-  // one, so no point coincides with the estimator's grid. The band edges are added: the supremum
-  // may sit there.
-  const Index G = m_options.grid_points;
-  const Index M = factor * (G - 1);
-  const double x0 = std::log(m_band.f_min_hz), x1 = std::log(m_band.f_max_hz);
-  std::vector<double> f;
-  f.reserve(static_cast<std::size_t>(M + 2));
-  f.push_back(m_band.f_min_hz);
-  for (Index k = 0; k < M; ++k) {
-    f.push_back(std::exp(x0 + (static_cast<double>(k) + 0.5) * (x1 - x0) / static_cast<double>(M)));
-  }
-  f.push_back(m_band.f_max_hz);
-  return assemble(reduced, std::move(f), M + 2, 0, true, true);
-}
-
-BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<double> f_hz,
-                                       Index grid, Index pole_count, bool refine,
-                                       bool dense_peaks) {
+BandError assemble_band_error(const ReducedModel& reduced, std::vector<double> f_hz,
+                              const ReferenceSource& source, const SamplingPlan& plan,
+                              const BandErrorOptions& options, const Band& band, double scale2,
+                              double scaleF, int threads) {
   std::sort(f_hz.begin(), f_hz.end());
   f_hz.erase(std::unique(f_hz.begin(), f_hz.end()), f_hz.end());
   const ReducedResponse reduced_response(reduced);
-  std::vector<Sample> samples = sample(m_full, reduced_response, f_hz);
-  const ErrorNorm norm = m_options.norm;
+  std::vector<Sample> samples = sample(source, reduced_response, f_hz, threads);
+  const ErrorNorm norm = options.norm;
+  const Index grid = plan.grid, pole_count = plan.poles;
+  const BandErrorOptions& m_options = options;
 
-  const double zero2 = m_options.zero_threshold * m_scale2;
-  const double zeroF = m_options.zero_threshold * m_scaleF;
+  const double zero2 = options.zero_threshold * scale2;
+  const double zeroF = options.zero_threshold * scaleF;
 
   Index refinement_count = 0;
-  if (refine && m_options.refine_peaks > 0 && m_options.refine_evaluations > 0 &&
+  if (plan.refine && m_options.refine_peaks > 0 && m_options.refine_evaluations > 0 &&
       samples.size() >= 3) {
     // Local maxima of the relative error on the sorted samples, largest first.
     auto rel = [&](const Sample& s) {
@@ -316,7 +314,7 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
       }
       std::vector<double> trial_f(trial.size());
       std::transform(trial.begin(), trial.end(), trial_f.begin(), [](double x) { return std::exp(x); });
-      const std::vector<Sample> got = sample(m_full, reduced_response, trial_f);
+      const std::vector<Sample> got = sample(source, reduced_response, trial_f, threads);
       std::vector<Bracket> next;
       for (std::size_t j = 0; j < brackets.size(); ++j) {
         Bracket br = brackets[j];
@@ -344,7 +342,7 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
     std::sort(samples.begin(), samples.end(),
               [](const Sample& x, const Sample& y) { return x.f_hz < y.f_hz; });
   }
-  if (dense_peaks && !samples.empty()) {
+  if (plan.dense_peaks && !samples.empty()) {
     // The re-check must not rest on the fast path alone: re-evaluate the largest errors with a
     // dense LU of P_r(s) (transfer_function), an independent computation of Hr.
     std::vector<std::size_t> order(samples.size());
@@ -358,10 +356,9 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
                       [&](std::size_t a, std::size_t b) { return rel(a) > rel(b); });
     for (std::size_t j = 0; j < top; ++j) {
       Sample& s = samples[order[j]];
-      if (s.singular || std::isinf(s.ref2)) continue;
+      if (s.singular || std::isinf(s.ref2) || s.H.size() == 0) continue;
       try {
-        const ComplexMatrix H = m_full.evaluate(s.f_hz);
-        const ComplexMatrix E = H - transfer_function(reduced, s_from_hz(s.f_hz));
+        const ComplexMatrix E = s.H - transfer_function(reduced, s_from_hz(s.f_hz));
         s.abs2 = std::max(s.abs2, matrix_norm(E, ErrorNorm::Spectral));
         s.absF = std::max(s.absF, E.norm());
       } catch (const NumericalError&) {
@@ -383,6 +380,7 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
   out.relative_frobenius.resize(n);
   out.absolute.resize(n);
   out.reference.resize(n);
+  out.exact.resize(n);
   double sup = -1.0, hinf = -1.0, h2sq = 0.0;
   for (std::size_t k = 0; k < n; ++k) {
     const Sample& s = samples[k];
@@ -392,6 +390,7 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
     out.relative[k] = norm == ErrorNorm::Spectral ? out.relative_spectral[k] : out.relative_frobenius[k];
     out.absolute[k] = s.abs2;
     out.reference[k] = s.ref2;
+    out.exact[k] = s.exact ? 1 : 0;
     out.reduced_singular = out.reduced_singular || s.singular;
     if (std::isnan(out.relative[k])) {
       out.undefined_f_hz.push_back(s.f_hz);
@@ -413,7 +412,7 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
   }
   if (sup < 0.0) {
     throw NumericalError("band error: H vanishes at every sampled frequency of the band [" +
-                         std::to_string(m_band.f_min_hz) + ", " + std::to_string(m_band.f_max_hz) +
+                         std::to_string(band.f_min_hz) + ", " + std::to_string(band.f_max_hz) +
                          "] Hz: the relative error is undefined");
   }
   out.sup_relative = sup;
@@ -421,6 +420,115 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
   // Both signs of omega: the band H2 norm squared is twice the integral over positive f.
   out.h2_absolute = std::sqrt(2.0 * h2sq);
   return out;
+}
+
+}  // namespace detail
+
+BandErrorEstimator::BandErrorEstimator(ResponseCache& full, Band band, BandErrorOptions options)
+    : m_full(full), m_band(band), m_options(options) {
+  m_band.validate();
+  m_options.validate();
+  m_grid = log_grid(m_band.f_min_hz, m_band.f_max_hz, m_options.grid_points);
+  const bool estimate =
+      m_options.verify == ErrorVerify::Estimate ||
+      (m_options.verify == ErrorVerify::Auto && size_of(full.model()) > m_options.dense_max_states);
+  if (estimate) {
+    m_engine = std::make_unique<detail::EstimateEngine>(m_full, m_band, m_options);
+    return;
+  }
+  for (const ComplexMatrix& H : m_full.evaluate(m_grid)) {
+    m_scale2 = std::max(m_scale2, matrix_norm(H, ErrorNorm::Spectral));
+    m_scaleF = std::max(m_scaleF, H.norm());
+  }
+}
+
+BandErrorEstimator::~BandErrorEstimator() = default;
+
+void BandErrorEstimator::offer_basis(const Matrix& basis) {
+  if (m_engine) m_engine->offer_basis(basis);
+}
+
+Index BandErrorEstimator::reference_order() const {
+  return m_engine ? m_engine->reference().order() : 0;
+}
+
+detail::ReferenceSource BandErrorEstimator::full_source() {
+  return [this](const std::vector<double>& f) {
+    detail::ReferenceValues v;
+    v.H = m_full.evaluate(f);
+    v.exact.assign(f.size(), 1);
+    return v;
+  };
+}
+
+BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<double> f_hz,
+                                       Index grid, Index pole_count, bool refine,
+                                       bool dense_peaks) {
+  const Index before = m_full.size();
+  BandError out = detail::assemble_band_error(
+      reduced, std::move(f_hz), full_source(),
+      detail::SamplingPlan{grid, pole_count, refine, dense_peaks}, m_options, m_band, m_scale2,
+      m_scaleF, m_full.threads());
+  out.checked_samples = static_cast<Index>(out.f_hz.size());
+  out.new_full_solves = m_full.size() - before;
+  return out;
+}
+
+BandError BandErrorEstimator::evaluate(const ReducedModel& reduced) {
+  if (m_engine) return m_engine->evaluate(reduced);
+  std::vector<double> f = m_grid;
+  Index pole_count = 0;
+  Index unstable = -1;
+  if (m_options.pole_samples && m_options.max_pole_samples > 0) {
+    // Resonances of lightly damped structures are narrower than any affordable grid spacing; the
+    // reduced poles locate them (and the full model's nearby ones) at no full-model cost.
+    const ComplexVector p = poles(reduced);
+    unstable = detail::unstable_count(p);
+    // Successive reduced models of one run (a grown model, a pruned one, an optimiser's next
+    // trial) approximate the same resonances, but their poles agree only to the accuracy of the
+    // approximation, often 1e-4 relative: sampled exactly at Im(p), every model would cost its own
+    // full-model factorisations. So a pole sample reuses a frequency already in the response cache
+    // when one lies within zeta / 32 (relative) of Im(p), a small fraction of the resonance's
+    // relative width 2 zeta: there |H| near an isolated resonance is within 0.05 % of its value at
+    // Im(p) (1 / sqrt(1 + (1/32)^2)), and the refinement of the error's local maxima runs on top.
+    // Otherwise the sample is taken exactly at Im(p) (and cached for the next model).
+    for (const auto& [zeta, f_pole] : detail::pole_frequencies(p, m_band, m_options.max_pole_samples)) {
+      double fp = f_pole;
+      if (const auto near = m_full.nearest_cached(fp, zeta / 32.0)) fp = *near;
+      f.push_back(fp);
+      ++pole_count;
+    }
+  }
+  BandError out = assemble(reduced, std::move(f), static_cast<Index>(m_grid.size()), pole_count,
+                           true, false);
+  out.unstable_poles = unstable;
+  return out;
+}
+
+BandError BandErrorEstimator::evaluate_on(const ReducedModel& reduced,
+                                          const std::vector<double>& f_hz) {
+  if (m_engine) return m_engine->evaluate_on(reduced, f_hz);
+  return assemble(reduced, f_hz, static_cast<Index>(f_hz.size()), 0, false, false);
+}
+
+BandError BandErrorEstimator::verify(const ReducedModel& reduced, Index factor) {
+  if (factor < 1) throw ConfigError("verify factor = " + std::to_string(factor) + ": must be >= 1");
+  if (m_engine) return m_engine->verify(reduced);
+  // Midpoints (in log f) of a grid `factor` times finer than the estimator's: with
+  // M = factor (G - 1) intervals, (k + 1/2)/M = j/(G - 1) would need an odd number to equal an even
+  // one, so no point coincides with the estimator's grid. The band edges are added: the supremum
+  // may sit there.
+  const Index G = m_options.grid_points;
+  const Index M = factor * (G - 1);
+  const double x0 = std::log(m_band.f_min_hz), x1 = std::log(m_band.f_max_hz);
+  std::vector<double> f;
+  f.reserve(static_cast<std::size_t>(M + 2));
+  f.push_back(m_band.f_min_hz);
+  for (Index k = 0; k < M; ++k) {
+    f.push_back(std::exp(x0 + (static_cast<double>(k) + 0.5) * (x1 - x0) / static_cast<double>(M)));
+  }
+  f.push_back(m_band.f_max_hz);
+  return assemble(reduced, std::move(f), M + 2, 0, true, true);
 }
 
 }  // namespace ecmor

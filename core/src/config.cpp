@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -444,7 +445,9 @@ RunConfig Parser::parse(const std::string& yaml) {
       section(m_root, "error",
               {"grid_points", "pole_samples", "max_pole_samples", "refine_peaks",
                "refine_evaluations", "zero_threshold", "verify_factor", "hinf_dense_states",
-               "stability_dense_states"});
+               "stability_dense_states", "verify", "dense_max_states", "estimate_points",
+               "reference_points", "check_peaks", "random_checks", "check_rounds",
+               "probe_solves"});
   BandErrorOptions& eo = config.error;
   eo.norm = config.norm;
   if (auto v = integer(error, "error", "grid_points", 2)) eo.grid_points = *v;
@@ -458,6 +461,27 @@ RunConfig Parser::parse(const std::string& yaml) {
                                                     error["zero_threshold"].Scalar()));
     eo.zero_threshold = *v;
   }
+  if (auto verify = text(error, "error", "verify", false)) {
+    const std::vector<std::string> modes = {"dense", "estimate", "auto"};
+    if (std::find(modes.begin(), modes.end(), *verify) == modes.end()) {
+      const std::string near = nearest(*verify, modes);
+      fail(at(error["verify"]),
+           fmt::format("error.verify = '{}': must be one of dense, estimate, auto{}", *verify,
+                       near.empty() ? std::string() : " (did you mean '" + near + "'?)"));
+    }
+    // Mapped here rather than by parse_error_verify (band_error.cpp): the config reader stays
+    // free of the error engine (the fuzz build links the readers alone).
+    eo.verify = *verify == "dense"      ? ErrorVerify::Dense
+                : *verify == "estimate" ? ErrorVerify::Estimate
+                                        : ErrorVerify::Auto;
+  }
+  if (auto v = integer(error, "error", "dense_max_states", 0)) eo.dense_max_states = *v;
+  if (auto v = integer(error, "error", "estimate_points", 2)) eo.estimate_points = *v;
+  if (auto v = integer(error, "error", "reference_points", 2)) eo.reference_points = *v;
+  if (auto v = integer(error, "error", "check_peaks", 1)) eo.check_peaks = *v;
+  if (auto v = integer(error, "error", "random_checks", 0)) eo.random_checks = *v;
+  if (auto v = integer(error, "error", "check_rounds", 1)) eo.check_rounds = *v;
+  if (auto v = integer(error, "error", "probe_solves", 0)) eo.probe_solves = *v;
   // The re-check grid must be denser than the estimator's to be a check at all.
   if (auto v = integer(error, "error", "verify_factor", 2)) config.verify_factor = *v;
   if (auto v = integer(error, "error", "hinf_dense_states", 0)) {

@@ -4,6 +4,7 @@
 #include <sys/resource.h>
 
 #include <chrono>
+#include <cmath>
 #include <fstream>
 #include <iomanip>
 #include <limits>
@@ -45,11 +46,14 @@ nlohmann::json counters_json(const SolverCounters& c) {
 // The verified error curve, for plots and for users who want to look rather than read.
 void write_error_curve(const std::filesystem::path& path, const BandError& e) {
   write_file_atomically(path, [&](std::ostream& os) {
-    os << "f_hz,relative_spectral,relative_frobenius,absolute_spectral,reference_spectral\n";
+    // exact: 1 where the full model was solved, 0 where its response is the estimator's
+    // reference model's (estimate mode).
+    os << "f_hz,relative_spectral,relative_frobenius,absolute_spectral,reference_spectral,exact\n";
     os << std::setprecision(10);
     for (std::size_t k = 0; k < e.f_hz.size(); ++k) {
       os << e.f_hz[k] << ',' << e.relative_spectral[k] << ',' << e.relative_frobenius[k] << ','
-         << e.absolute[k] << ',' << e.reference[k] << '\n';
+         << e.absolute[k] << ',' << e.reference[k] << ','
+         << (k < e.exact.size() ? static_cast<int>(e.exact[k]) : 1) << '\n';
     }
   });
 }
@@ -223,9 +227,61 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
 
   std::unique_ptr<ShiftedSolver> solver = make_shifted_solver(model, config.solver);
   ResponseCache cache(model, *solver, config.threads);
+  if (observer) cache.set_progress([observer](const SweepProgress& p) { observer->on_sweep(p); });
   BandErrorOptions error_options = config.error;
   error_options.norm = config.norm;
-  BandErrorEstimator estimator(cache, config.band, error_options);
+
+  // The time limit acts as an interrupt: strategies poll stop_requested() and finish with the
+  // best model so far; the message then says which of the two ended the run.
+  bool out_of_time = false;
+  auto time_is_up = [&] {
+    if (config.time_limit_s > 0.0 && elapsed() > config.time_limit_s) out_of_time = true;
+    return out_of_time;
+  };
+  bool user_stop = false;
+  // Collective under MPI: a time limit or a signal seen on one rank stops every rank at the same
+  // point (the solves are collective operations, entered by all ranks in the same order).
+  auto stop_requested = [&] {
+    if (observer != nullptr && observer->stop_requested()) user_stop = true;
+    const bool local = time_is_up() || user_stop;
+    if (any_process(local) && !local) user_stop = true;
+    return out_of_time || user_stop;
+  };
+
+  // The estimator samples the full model before any reduction (dense mode: its whole grid;
+  // estimate mode: the reference model's seeds): a signal ends that sweep too. The time limit
+  // does not: it bounds the search for a model, and without this sampling there is none.
+  auto signalled = [&] {
+    if (observer != nullptr && observer->stop_requested()) user_stop = true;
+    if (any_process(user_stop)) user_stop = true;
+    return user_stop;
+  };
+  std::unique_ptr<BandErrorEstimator> estimator_holder;
+  try {
+    InterruptScope interrupt(signalled);
+    estimator_holder = std::make_unique<BandErrorEstimator>(cache, config.band, error_options);
+  } catch (const Interrupted& e) {
+    RunSummary summary;
+    summary.termination = Termination::Interrupted;
+    summary.message = fmt::format(
+        "stopped by request before the first reduction, while sampling the full model ({} "
+        "frequencies done): {}",
+        cache.size(), e.what());
+    summary.tolerance = config.tolerance;
+    summary.output_dir = config.output_dir;
+    summary.reducer = config.reducer_name;
+    summary.strategy = config.strategy_name;
+    summary.full_order = size_of(model);
+    summary.counters = solver->counters();
+    summary.full_evaluations = cache.size();
+    summary.full_response_seconds = cache.seconds();
+    summary.load_seconds = load_seconds;
+    summary.seconds = elapsed();
+    summary.peak_memory_mb = peak_memory_mb();
+    if (observer) observer->on_finished(summary);
+    return summary;
+  }
+  BandErrorEstimator& estimator = *estimator_holder;
   // Created at the first record: a reducer that refuses the model in setup() leaves no output
   // directory behind (bad input is reported before anything is written).
   std::optional<HistoryWriter> history;
@@ -247,23 +303,6 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
     ++recorded;
     if (any_process(!failure.empty()))
       throw IoError(failure.empty() ? std::string("rank 0 could not write the history") : failure);
-  };
-
-  // The time limit acts as an interrupt: strategies poll stop_requested() and finish with the
-  // best model so far; the message then says which of the two ended the run.
-  bool out_of_time = false;
-  auto time_is_up = [&] {
-    if (config.time_limit_s > 0.0 && elapsed() > config.time_limit_s) out_of_time = true;
-    return out_of_time;
-  };
-  bool user_stop = false;
-  // Collective under MPI: a time limit or a signal seen on one rank stops every rank at the same
-  // point (the solves are collective operations, entered by all ranks in the same order).
-  auto stop_requested = [&] {
-    if (observer != nullptr && observer->stop_requested()) user_stop = true;
-    const bool local = time_is_up() || user_stop;
-    if (any_process(local) && !local) user_stop = true;
-    return out_of_time || user_stop;
   };
 
   std::vector<PortfolioAttempt> attempts;
@@ -455,13 +494,17 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
       write_matrix_market(config.output_dir / "V.mtx", best.V, "right projection basis V");
       write_matrix_market(config.output_dir / "W.mtx", best.W, "left projection basis W");
     }
-    // The reported model is always re-checked on the independent grid, converged or not.
+    // The reported model is always re-checked independently, converged or not (a stop request
+    // no longer applies here: the check of the model being written is part of writing it).
     const BandError verified = estimator.verify(best.model, config.verify_factor);
     if (writer) write_error_curve(config.output_dir / "band_error.csv", verified);
     summary.has_model = true;
     summary.order = best.V.cols();
-    summary.band_error = result.best_error.sup_relative;
-    summary.f_peak_hz = result.best_error.f_peak_hz;
+    // Estimate mode: the reported error is the re-check's, measured against the full model at
+    // every frequency it solved; the strategy's value of a model that never passed is an estimate.
+    const bool estimate_mode = estimator.mode() == ErrorVerify::Estimate;
+    summary.band_error = estimate_mode ? verified.sup_relative : result.best_error.sup_relative;
+    summary.f_peak_hz = estimate_mode ? verified.f_peak_hz : result.best_error.f_peak_hz;
     summary.verified_band_error = verified.sup_relative;
     summary.verified_f_peak_hz = verified.f_peak_hz;
     summary.hinf_absolute = verified.hinf_absolute;
@@ -480,13 +523,30 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
                                                            : nlohmann::json(nullptr)},
                        {"method", hinf.method},
                        {"seconds", hinf_seconds}};
-    if (summary.termination == Termination::Converged && verified.sup_relative > config.tolerance) {
+    if (summary.termination == Termination::Converged && !verified.within(config.tolerance)) {
       // Cannot happen for strategies that verify before accepting; guard the contract anyway.
       summary.termination = Termination::Failed;
       summary.message = "reported model fails the independent re-check: " + result.message;
     }
     j["undefined_frequencies_hz"] = verified.undefined_f_hz;
     j["sampling"] = {{"estimator", result.best_error.sampling()}, {"verify", verified.sampling()}};
+    // What the accepted error rests on: every frequency where the full model was solved (all of
+    // them enter the check), and how well the estimate predicted the error there.
+    auto number_or_null = [](double v) {
+      return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+    };
+    j["error_control"] = {
+        {"mode", to_string(estimator.mode())},
+        {"reference_order", estimator.reference_order()},
+        {"checked_frequencies", verified.checked_samples},
+        {"checked_f_hz", estimate_mode ? nlohmann::json(cache.frequencies()) : nlohmann::json(nullptr)},
+        {"estimate_sup_unchecked", number_or_null(verified.estimate_sup)},
+        {"reference_floor", verified.reference_floor},
+        {"effectivity",
+         {{"count", verified.effectivity_count},
+          {"min", number_or_null(verified.effectivity_min)},
+          {"median", number_or_null(verified.effectivity_median)},
+          {"max", number_or_null(verified.effectivity_max)}}}};
     j["points"] = nlohmann::json::array();
     for (const ExpansionPoint& p : best.points) {
       j["points"].push_back({{"re", p.s.real()}, {"im", p.s.imag()}, {"moments", p.moments}});

@@ -27,6 +27,14 @@ SecondOrderModel oscillator(double m, double d, double k) {
   return s;
 }
 
+// These tests are about the sampling itself: every sample a full-model response (dense mode). The
+// estimate mode is tested in test_error_estimate.cpp.
+BandErrorOptions dense_mode() {
+  BandErrorOptions o;
+  o.verify = ErrorVerify::Dense;
+  return o;
+}
+
 ReducedSecondOrderModel dense(const SecondOrderModel& s) {
   ReducedSecondOrderModel r;
   r.M = Matrix(s.M);
@@ -41,7 +49,7 @@ TEST(BandError, IdenticalModelsHaveZeroError) {
   const Model full = oscillator(1.0, 0.01, 4.0);
   auto solver = make_shifted_solver(full);
   ResponseCache cache(full, *solver);
-  BandErrorEstimator est(cache, Band{0.01, 10.0}, BandErrorOptions{});
+  BandErrorEstimator est(cache, Band{0.01, 10.0}, dense_mode());
   const BandError e = est.evaluate(dense(std::get<SecondOrderModel>(full)));
   // Sparse (UMFPACK) and dense (LU) evaluations of the same H agree to round-off.
   EXPECT_LT(e.sup_relative, 1e-14);
@@ -55,7 +63,7 @@ TEST(BandError, UndampedModelsAreHandled) {
   const Model full = oscillator(1.0, 0.0, 4.0);  // resonance at 1/pi Hz, inside the band
   auto solver = make_shifted_solver(full);
   ResponseCache cache(full, *solver);
-  BandErrorEstimator est(cache, Band{0.01, 10.0}, BandErrorOptions{});
+  BandErrorEstimator est(cache, Band{0.01, 10.0}, dense_mode());
   const BandError same = est.evaluate(dense(std::get<SecondOrderModel>(full)));
   EXPECT_TRUE(same.undefined_f_hz.empty()) << same.sampling();
   EXPECT_LT(same.sup_relative, 1e-8);
@@ -76,6 +84,7 @@ TEST(BandError, PoleSamplesReuseNearbyCachedFrequencies) {
   auto solver = make_shifted_solver(full);
   ResponseCache cache(full, *solver);
   BandErrorOptions no_refine;
+  no_refine.verify = ErrorVerify::Dense;  // the dense mode's sampling is tested here
   no_refine.refine_peaks = 0;  // count pole samples alone
   BandErrorEstimator est(cache, Band{0.01, 10.0}, no_refine);
   auto reduced = dense(std::get<SecondOrderModel>(full));
@@ -117,6 +126,7 @@ TEST(BandError, LocalisesANarrowResonancePeak) {
   auto solver = make_shifted_solver(full);
   ResponseCache cache(full, *solver);
   BandErrorOptions grid_only;
+  grid_only.verify = ErrorVerify::Dense;  // the dense mode's sampling is tested here
   grid_only.pole_samples = false;
   grid_only.refine_peaks = 0;
   BandErrorEstimator coarse(cache, Band{0.01, 10.0}, grid_only);
@@ -124,7 +134,7 @@ TEST(BandError, LocalisesANarrowResonancePeak) {
   // A plain 200-point grid misses the peak by orders of magnitude (this is why we refine).
   EXPECT_LT(plain.sup_relative, 0.1 * exact_sup);
 
-  BandErrorEstimator est(cache, Band{0.01, 10.0}, BandErrorOptions{});
+  BandErrorEstimator est(cache, Band{0.01, 10.0}, dense_mode());
   const BandError e = est.evaluate(reduced);
   EXPECT_NEAR(e.sup_relative, exact_sup, 1e-6 * exact_sup);
   EXPECT_NEAR(e.f_peak_hz, std::sqrt(w2) / kTwoPi, 1e-6 * std::sqrt(w2) / kTwoPi);
@@ -132,6 +142,7 @@ TEST(BandError, LocalisesANarrowResonancePeak) {
   // Without pole samples the golden-section refinement alone still has to climb the peak from the
   // nearest grid maximum; it gets within a factor that the pole samples then close.
   BandErrorOptions refine_only;
+  refine_only.verify = ErrorVerify::Dense;  // the dense mode's sampling is tested here
   refine_only.pole_samples = false;
   refine_only.refine_evaluations = 60;
   BandErrorEstimator est2(cache, Band{0.01, 10.0}, refine_only);
@@ -171,7 +182,7 @@ TEST(BandError, SpectralAndFrobeniusRelativeErrorsMatchClosedForm) {
   const Model full = c.full();
   auto solver = make_shifted_solver(full);
   ResponseCache cache(full, *solver);
-  BandErrorEstimator est(cache, Band{0.01, 100.0}, BandErrorOptions{});
+  BandErrorEstimator est(cache, Band{0.01, 100.0}, dense_mode());
   const BandError e = est.evaluate(c.reduced());
   ASSERT_GE(e.f_hz.size(), 200u);
   for (std::size_t k = 0; k < e.f_hz.size(); ++k) {
@@ -193,6 +204,7 @@ TEST(BandError, BandH2MatchesTheIntegralInClosedForm) {
   auto solver = make_shifted_solver(full);
   ResponseCache cache(full, *solver);
   BandErrorOptions fine;
+  fine.verify = ErrorVerify::Dense;  // the dense mode's sampling is tested here
   fine.grid_points = 20000;
   fine.pole_samples = false;
   fine.refine_peaks = 0;
@@ -228,6 +240,7 @@ TEST(BandError, ReportsWhereTheRelativeErrorIsUndefined) {
   auto solver = make_shifted_solver(full);
   ResponseCache cache(full, *solver);
   BandErrorOptions opt;
+  opt.verify = ErrorVerify::Dense;  // the dense mode's sampling is tested here
   opt.grid_points = 3;  // 0.1, 1, 10 Hz: the zero sits on the grid
   opt.refine_peaks = 0;
   opt.zero_threshold = 1e-10;
@@ -251,6 +264,7 @@ TEST(BandError, VerifyGridIsDenserAndSharesNoInteriorFrequency) {
   auto solver = make_shifted_solver(full);
   ResponseCache cache(full, *solver);
   BandErrorOptions opt;
+  opt.verify = ErrorVerify::Dense;  // the dense mode's sampling is tested here
   opt.grid_points = 50;
   opt.pole_samples = false;
   opt.refine_peaks = 0;

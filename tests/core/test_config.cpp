@@ -259,6 +259,30 @@ TEST(RunConfig, UnknownKeysSuggestTheNearest) {
             "strategy, error, solver, backend, output, plugins, check)");
 }
 
+TEST(RunConfig, ErrorControlModeAndItsBudgets) {
+  const RunConfig c = parse_run_config(
+      kMinimal + "error: {verify: estimate, dense_max_states: 500, estimate_points: 900,\n"
+                 "        reference_points: 9, check_peaks: 3, random_checks: 0, check_rounds: 2,\n"
+                 "        probe_solves: 0}\n",
+      "run.yaml");
+  EXPECT_EQ(c.error.verify, ErrorVerify::Estimate);
+  EXPECT_EQ(c.error.dense_max_states, 500);
+  EXPECT_EQ(c.error.estimate_points, 900);
+  EXPECT_EQ(c.error.reference_points, 9);
+  EXPECT_EQ(c.error.check_peaks, 3);
+  EXPECT_EQ(c.error.random_checks, 0);
+  EXPECT_EQ(c.error.check_rounds, 2);
+  EXPECT_EQ(c.error.probe_solves, 0);
+  EXPECT_EQ(parse_run_config(kMinimal, "run.yaml").error.verify, BandErrorOptions{}.verify);
+  EXPECT_EQ(parse_error(kMinimal + "error: {verify: estimat}\n"),
+            "run.yaml:12: error.verify = 'estimat': must be one of dense, estimate, auto (did you "
+            "mean 'estimate'?)");
+  EXPECT_NE(parse_error(kMinimal + "error: {reference_points: 1}\n").find("reference_points"),
+            std::string::npos);
+  EXPECT_NE(parse_error(kMinimal + "error: {check_peaks: 0}\n").find("check_peaks"),
+            std::string::npos);
+}
+
 TEST(RunConfig, DuplicateKeysAreErrors) {
   // yaml-cpp would silently keep the first value.
   EXPECT_EQ(parse_error(replace(kMinimal, "  tolerance: 1.0e-3\n",

@@ -664,6 +664,50 @@ TEST_F(Cli, SignalWritesHistoryAndBestModelAndExits130) {
   }
 }
 
+// A signal during the estimator's first sweep of full-model responses (here the dense mode's grid
+// of 200 000 frequencies, many minutes) ends it within a round of factorisations: exit 130, a
+// message saying where it stopped; a progress line was printed while it ran. (A 59 400-DOF solid
+// once kept factorising through its first sweep after a SIGTERM.)
+TEST_F(Cli, SignalDuringTheFirstSweepEndsIt) {
+  const fs::path out = output() / "sweep";
+  write_text(config(), "model:    {dir: ../shared/models/triplechain_mess_n1501}\n"
+                       "band:     {f_min_hz: 0.001, f_max_hz: 1.0}\n"
+                       "target:   {tolerance: 1.0e-3}\n"
+                       "reducer:  {name: modal}\n"
+                       "error:    {verify: dense, grid_points: 200000}\n"
+                       "output:   {dir: " + out.string() + "}\n");
+  const fs::path log = m_dir / "sweep_stdout.txt";
+  const std::string exe = std::string(ECMOR_TEST_BINARY_DIR) + "/bin/ecmor";
+  const std::string cfg = config().string();
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(fd, 1);
+    ::dup2(fd, 2);
+    ::execl(exe.c_str(), exe.c_str(), "reduce", cfg.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  const auto start = std::chrono::steady_clock::now();
+  int status = 0;
+  while (read_text(log).find("full-model responses") == std::string::npos &&
+         std::chrono::steady_clock::now() - start < std::chrono::seconds(120)) {
+    ASSERT_NE(::waitpid(pid, &status, WNOHANG), pid) << "ended before the signal: "
+                                                      << read_text(log);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_EQ(::kill(pid, SIGTERM), 0);
+  status = wait_for_exit(pid, 60.0, log);
+  const std::string text = read_text(log);
+  ASSERT_NE(text.find("full-model responses"), std::string::npos) << "no progress line: " << text;
+  ASSERT_TRUE(WIFEXITED(status)) << text;
+  EXPECT_EQ(WEXITSTATUS(status), 130) << text;
+  EXPECT_NE(text.find("before the first reduction, while sampling the full model"),
+            std::string::npos)
+      << text;
+  EXPECT_FALSE(fs::exists(out / "summary.json"));  // no model: nothing to write
+}
+
 // A second signal ends the process at once (exit 130) instead of waiting for the next poll, for a
 // run inside a step it cannot leave early. Deterministic: the child is stopped, SIGINT and SIGTERM
 // are both made pending (two SIGINTs would merge into one), and it is continued, so both handlers

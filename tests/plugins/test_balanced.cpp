@@ -409,6 +409,7 @@ double band_error(const Model& model, const ReducedModel& reduced, const Band& b
   ResponseCache cache(model, *solver);
   BandErrorOptions o;
   o.grid_points = 400;
+  o.verify = ErrorVerify::Dense;  // a full-model response at every sample: the reference here
   BandErrorEstimator est(cache, band, o);
   return est.evaluate(reduced).sup_relative;
 }

@@ -4,6 +4,7 @@
 /// of full (sparse) and reduced (dense) models, and a thread-safe cache of the full model's response:
 /// it never changes during a run, so every frequency is factorised at most once.
 
+#include <functional>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -46,6 +47,23 @@ ECMOR_API std::vector<ComplexMatrix> frequency_response(const ReducedModel& mode
 /// otherwise QZ on the pencil, and infinite eigenvalues (|beta| <= dim eps ||E||_F) are dropped.
 ECMOR_API ComplexVector poles(const ReducedModel& model);
 
+/// One full-model solve kept for reuse: Z = P(s)^-1 B (N x m) or, when the model has fewer outputs
+/// than inputs, Z = P(s)^-T (C + s Cv)^T (N x p; `transposed`), at s = i 2 pi f_hz. It is the
+/// solve that gave H(s), offered to whoever can use its directions (the error estimator's
+/// reference model, docs/error-measures.md).
+struct ECMOR_API FullSolution {
+  double f_hz = 0.0;
+  bool transposed = false;
+  ComplexMatrix Z;
+};
+
+/// Where a sweep of full-model responses stands, for a progress display.
+struct ECMOR_API SweepProgress {
+  Index done = 0;         ///< frequencies computed so far in this sweep
+  Index total = 0;        ///< frequencies this sweep computes
+  double seconds = 0.0;   ///< wall time since the sweep started
+};
+
 /// Memo of the full model's response H(i 2 pi f), keyed by the exact frequency value.
 class ECMOR_API ResponseCache {
  public:
@@ -59,6 +77,22 @@ class ECMOR_API ResponseCache {
   std::vector<ComplexMatrix> evaluate(const std::vector<double>& f_hz);
   /// H at one frequency.
   ComplexMatrix evaluate(double f_hz);
+  /// The missing frequencies are computed in rounds of a few per thread; between rounds the
+  /// calling thread polls check_interrupt() (interrupt.hpp), so a stop request ends a long sweep
+  /// within about one factorisation per thread, and every frequency finished before it stays
+  /// cached (nothing is lost). 	hrows Interrupted then.
+
+  /// Keep the solves behind every newly computed response (FullSolution) until take_solutions().
+  void keep_solutions(bool keep);
+  /// The solves kept since the last call, in ascending frequency within each sweep.
+  std::vector<FullSolution> take_solutions();
+  /// Called from the calling thread after each round of a sweep of more than one round (no call
+  /// for a sweep that fits one round). Must not call back into the cache.
+  void set_progress(std::function<void(const SweepProgress&)> progress);
+  /// The stored frequencies, ascending.
+  std::vector<double> frequencies() const;
+  /// True if H at exactly f_hz is stored.
+  bool contains(double f_hz) const;
 
   /// The stored frequency nearest to f_hz if it lies within relative distance rel_tol of it
   /// (|f - f_hz| <= rel_tol f_hz), else nothing. Lets callers that only need "a sample near f"
@@ -82,6 +116,9 @@ class ECMOR_API ResponseCache {
   mutable std::mutex m_mutex;
   std::map<double, ComplexMatrix> m_cache;
   double m_seconds = 0.0;
+  bool m_keep_solutions = false;
+  std::vector<FullSolution> m_solutions;
+  std::function<void(const SweepProgress&)> m_progress;
 };
 
 }  // namespace ecmor

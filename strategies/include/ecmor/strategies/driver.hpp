@@ -96,6 +96,8 @@ class RunObserver {
                                  const std::string& /*label*/) {}
   /// Return false to stop the run (it then ends as Interrupted and still writes its outputs).
   virtual bool on_iteration(const IterationRecord&) { return true; }
+  /// A long sweep of full-model responses progresses (called after each round of it).
+  virtual void on_sweep(const SweepProgress&) {}
   /// Polled often during a run (between records too); return true to stop it as Interrupted.
   virtual bool stop_requested() { return false; }
   virtual void on_finished(const RunSummary&) {}
