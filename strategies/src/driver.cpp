@@ -506,6 +506,8 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
     summary.band_error = estimate_mode ? verified.sup_relative : result.best_error.sup_relative;
     summary.f_peak_hz = estimate_mode ? verified.f_peak_hz : result.best_error.f_peak_hz;
     summary.verified_band_error = verified.sup_relative;
+    summary.error_mode = to_string(estimator.mode());
+    summary.checked_frequencies = verified.checked_samples;
     summary.verified_f_peak_hz = verified.f_peak_hz;
     summary.hinf_absolute = verified.hinf_absolute;
     summary.h2_absolute = verified.h2_absolute;

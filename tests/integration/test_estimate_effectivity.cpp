@@ -54,8 +54,9 @@ INSTANTIATE_TEST_SUITE_P(FastConfigs, EstimateEffectivity,
                                            "triplechain_cmess_n301.yaml",
                                            "triplechain_saak09_n451.yaml",
                                            "triplechain_mess_n1501.yaml"),
-                         [](const ::testing::TestParamInfo<std::string>& info) {
-                           std::string name = info.param.substr(0, info.param.find('.'));
+                         [](const ::testing::TestParamInfo<std::string>& param_info) {
+                           const std::string& file = param_info.param;
+                           std::string name = file.substr(0, file.find('.'));
                            for (char& c : name)
                              if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
                            return name;

@@ -43,7 +43,11 @@ struct RunSummary {
   Index order = 0;
   double band_error = 0.0;       ///< sup relative band error of the reported model
   double f_peak_hz = 0.0;
-  double verified_band_error = 0.0;  ///< on the independent denser grid
+  double verified_band_error = 0.0;  ///< on the independent re-check (denser grid or full solves)
+  /// How the error was established: "dense" or "estimate" (BandErrorEstimator::mode()), and on
+  /// how many frequencies the reported model was compared with the full model's own H.
+  std::string error_mode;
+  Index checked_frequencies = 0;
   double verified_f_peak_hz = 0.0;
   double hinf_absolute = 0.0;    ///< band H-infinity of the error (verify grid)
   double h2_absolute = 0.0;      ///< band H2 of the error (verify grid)
