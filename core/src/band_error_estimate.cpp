@@ -81,11 +81,16 @@ EstimateEngine::EstimateEngine(ResponseCache& full, const Band& band,
     throw NumericalError("band error estimate: the full model could not be solved at any of the " +
                          std::to_string(options.reference_points) +
                          " seed frequencies of the band");
-  // The scale of "H vanishes": the largest ||H|| over the estimate's grid.
-  const ReferenceValues v = values(m_grid);
-  for (const ComplexMatrix& H : v.H) {
-    m_scale2 = std::max(m_scale2, matrix_norm(H, ErrorNorm::Spectral));
-    m_scaleF = std::max(m_scaleF, H.norm());
+  // The scale of "H vanishes": the largest ||H|| over the estimate's grid. A frequency where the
+  // reference model has a pole on the axis (an unstable or undamped model) is left out here; the
+  // samples mark it as undefined.
+  for (double f : m_grid) {
+    try {
+      const ComplexMatrix H = values({f}).H.front();
+      m_scale2 = std::max(m_scale2, matrix_norm(H, ErrorNorm::Spectral));
+      m_scaleF = std::max(m_scaleF, H.norm());
+    } catch (const NumericalError&) {
+    }
   }
 }
 
@@ -212,7 +217,13 @@ ReferenceValues EstimateEngine::values(const std::vector<double>& f_hz) {
   parallel_for(static_cast<Index>(missing_at.size()), threads, [&](Index j) {
     const std::size_t k = missing_at[static_cast<std::size_t>(j)];
     const Complex s = s_from_hz(f_hz[k]);
-    out.H[k] = m_dense_lu ? transfer_function(reference, s) : response(s);
+    try {
+      out.H[k] = m_dense_lu ? transfer_function(reference, s) : response(s);
+    } catch (const NumericalError&) {
+      // Near a pole of the reference one path may give up where the other does not; if both
+      // do, the sample is undefined (sample() in band_error.cpp marks it).
+      out.H[k] = m_dense_lu ? response(s) : transfer_function(reference, s);
+    }
   });
   for (std::size_t k : missing_at) m_values.emplace(f_hz[k], out.H[k]);
   return out;

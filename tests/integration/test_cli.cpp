@@ -781,16 +781,23 @@ TEST_F(Cli, MetTargetWritesEveryOutput) {
   const std::vector<std::string> curve = read_lines(output() / "band_error.csv");
   ASSERT_GT(curve.size(), 2u);
   EXPECT_EQ(curve.front(),
-            "f_hz,relative_spectral,relative_frobenius,absolute_spectral,reference_spectral");
+            "f_hz,relative_spectral,relative_frobenius,absolute_spectral,reference_spectral,exact");
+  int exact_rows = 0;
   for (std::size_t k = 1; k < curve.size(); ++k) {
     std::istringstream ss(curve[k]);
-    std::string f, rel;
+    std::string f, rel, field;
     std::getline(ss, f, ',');
     std::getline(ss, rel, ',');
+    for (int skip = 0; skip < 4; ++skip) std::getline(ss, field, ',');
     EXPECT_GE(std::stod(f), kLf10BandHz[0] * (1 - 1e-12)) << curve[k];
     EXPECT_LE(std::stod(f), kLf10BandHz[1] * (1 + 1e-12)) << curve[k];
     EXPECT_LE(std::stod(rel), tolerance) << curve[k];
+    // exact: 1 where compared with the full model's own H, 0 with the reference model's.
+    EXPECT_TRUE(field == "0" || field == "1") << curve[k];
+    exact_rows += field == "1" ? 1 : 0;
   }
+  // The band edges at least were solved (estimate mode) or every sample (dense mode).
+  EXPECT_GE(exact_rows, 2);
 
   // Independently of the driver: the written model against the shared reference response
   // (omega, sigma_max, re_H_0_0, im_H_0_0) at every reference frequency inside the band. The

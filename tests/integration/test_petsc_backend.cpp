@@ -156,11 +156,14 @@ TEST_F(PetscBackend, SameOrderAndBandErrorOnOneAndTwoRanks) {
       // gave 8.053e-7 and 8.177e-7 (measured 2026-11-26), a rounding effect, not a backend one.
       EXPECT_LE(std::abs(a - b), 1e-3 * a + 5e-8) << a << " vs " << b;
       EXPECT_TRUE(sp["target_met"].get<bool>());
-      // MUMPS's analysis is reused across shifts: far fewer analyses than factorisations.
+      // MUMPS's analysis is reused across shifts: a few analyses (one per arithmetic and pool
+      // slot, measured 3-4), however many factorisations. Since the band error's estimate mode a
+      // run makes only ~20 factorisations (it made ~1 200), so the bound is on the analyses.
       const auto analyses = sp["counters"]["symbolic_analyses"].get<int>();
       const auto factorizations = sp["counters"]["factorizations"].get<int>();
       EXPECT_GE(analyses, 1);
-      EXPECT_LT(10 * analyses, factorizations) << analyses << " analyses";
+      EXPECT_LE(analyses, 4) << factorizations << " factorisations";
+      EXPECT_GT(factorizations, 3 * analyses) << analyses << " analyses";
       // Rank 0 alone wrote the history: one header and one row per iteration.
       std::ifstream csv(m_dir / ("out_" + tag) / "history.csv");
       int lines = 0;
