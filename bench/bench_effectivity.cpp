@@ -10,12 +10,13 @@
 // temporary directory; its reported model and V, W are measured with the config's error options
 // and norm (effectivity.hpp). Families generated here (no config; default error options, spectral
 // norm): for each k of --points, a Galerkin projection onto P(s_j)^-1 B at k log-spaced points
-// s_j = i 2 pi f_j of the band (real and imaginary parts; what a multipoint Krylov reducer builds),
-// so that the errors range from ~1 down to ~1e-4:
+// s_j = i 2 pi f_j of the band (real and imaginary parts; what a multipoint Krylov reducer builds);
+// choose --points so that the errors range from ~1 down to ~1e-4 (docs/error-measures.md):
 //   --triplechain N1   the triple chain of triple_chain.hpp (alpha = beta = 0.002, v = 5, the
 //                      triplechain_mess_n1501 instance for N1 = 500), band 1.6e-5 .. 0.01 Hz
-//                      (that config's band; some 40 modes for N1 = 500)
-//   --lattice NX NY NZ the lattice of lattice.hpp, band 0.5 .. 6.5 Hz (15 modes for 20x20x20)
+//                      (that config's band)
+//   --lattice NX NY NZ the lattice of lattice.hpp, band 0.5 .. 6.5 Hz (15 modes for 20x20x20,
+//                      counted with multiplicity from the separable formula of lattice.hpp)
 //   --solid NX NY NZ   the clamped steel bar of solid.hpp, band 20 .. 5000 Hz
 // --band overrides the family bands. Each row is printed when it is done (a run cut short keeps
 // the rows before); --out gets the whole table, rewritten after every row.
@@ -141,11 +142,12 @@ class Table {
 };
 
 int usage(const char* argv0) {
-  fmt::print(stderr,
-             "usage: {} [CONFIG.yaml ...] [--triplechain N1] [--lattice NX NY NZ] "
-             "[--solid NX NY NZ]\n"
-             "          [--points 2,4,8,16,32] [--band FMIN FMAX] [--plugin-dir DIR] [--out FILE.md]\n",
-             argv0);
+  fmt::print(
+      stderr,
+      "usage: {} [CONFIG.yaml ...] [--triplechain N1] [--lattice NX NY NZ] "
+      "[--solid NX NY NZ]\n"
+      "          [--points 2,4,8,16,32] [--band FMIN FMAX] [--plugin-dir DIR] [--out FILE.md]\n",
+      argv0);
   return 1;
 }
 
@@ -235,7 +237,8 @@ int main(int argc, char** argv) {
   Table table(opt.out);
   std::vector<fs::path> plugin_dirs;
   if (!opt.plugin_dir.empty()) plugin_dirs.emplace_back(opt.plugin_dir);
-  if (std::string(ECMOR_BENCH_PLUGIN_DIR).size() > 0) plugin_dirs.emplace_back(ECMOR_BENCH_PLUGIN_DIR);
+  if (std::string(ECMOR_BENCH_PLUGIN_DIR).size() > 0)
+    plugin_dirs.emplace_back(ECMOR_BENCH_PLUGIN_DIR);
 
   for (const fs::path& path : opt.configs) {
     const fs::path out = fs::temp_directory_path() /

@@ -116,8 +116,7 @@ EffectivityReport measure_effectivity(const Model& model, const Band& band,
     r.effectivity_min = ratios.front();
     r.effectivity_max = ratios.back();
     const std::size_t n = ratios.size();
-    r.effectivity_median =
-        n % 2 == 1 ? ratios[n / 2] : 0.5 * (ratios[n / 2 - 1] + ratios[n / 2]);
+    r.effectivity_median = n % 2 == 1 ? ratios[n / 2] : 0.5 * (ratios[n / 2 - 1] + ratios[n / 2]);
   }
   r.near_peak_count = static_cast<Index>(near.size());
   if (!near.empty()) {
@@ -128,11 +127,12 @@ EffectivityReport measure_effectivity(const Model& model, const Band& band,
   // 3. The estimate where the truth peaks, then the estimate mode's certified value.
   const auto t_certify = Clock::now();
   const BandError at_peak = estimate.evaluate_on(reduced, {r.true_f_peak_hz});
-  r.estimate_at_true_peak = at_peak.relative.empty() ? EffectivityReport::kNaN : at_peak.relative[0];
+  r.estimate_at_true_peak =
+      at_peak.relative.empty() ? EffectivityReport::kNaN : at_peak.relative[0];
   r.peak_frequency_located =
       std::abs(r.estimate_f_peak_hz - r.true_f_peak_hz) <= 0.01 * r.true_f_peak_hz;
-  r.peak_value_located = r.estimate_at_true_peak >= 0.5 * r.true_sup &&
-                         r.estimate_at_true_peak <= 2.0 * r.true_sup;
+  r.peak_value_located =
+      r.estimate_at_true_peak >= 0.5 * r.true_sup && r.estimate_at_true_peak <= 2.0 * r.true_sup;
   const BandError certified = estimate.verify(reduced, verify_factor);
   r.certified = certified.sup_relative;
   r.certified_f_peak_hz = certified.f_peak_hz;
@@ -166,8 +166,7 @@ DriverRun reduce_with_driver(RunConfig config, Registry& registry,
   run.verified_band_error = summary.verified_band_error;
   if (!summary.has_model) {
     throw std::runtime_error(fmt::format("{}: the run wrote no model ({}: {})",
-                                         config.source.string(), run.termination,
-                                         summary.message));
+                                         config.source.string(), run.termination, summary.message));
   }
   run.reduced = read_reduced_model(output_dir);
   if (std::filesystem::exists(output_dir / "V.mtx"))
@@ -178,21 +177,19 @@ DriverRun reduce_with_driver(RunConfig config, Registry& registry,
 }
 
 std::string effectivity_row(const EffectivityReport& r) {
-  const std::string ratio = "{:#.3g}";
+  const char* const ratio = "{:#.3g}";
   std::string row = fmt::format("| {} | {} | {} | {} | {} | {} | {} | ", r.name, r.full_order,
                                 r.order, r.reference_order, number(r.estimate_sup),
-                                number(r.true_sup), number(r.estimate_ratio(), ratio.c_str()));
-  row += fmt::format("{} | {} / {} / {} | {} / {} | {} ({}) | ", r.effectivity_count,
-                     number(r.effectivity_min, ratio.c_str()),
-                     number(r.effectivity_median, ratio.c_str()),
-                     number(r.effectivity_max, ratio.c_str()),
-                     number(r.near_peak_min, ratio.c_str()),
-                     number(r.near_peak_max, ratio.c_str()), r.peak_located(),
-                     number(r.true_sup > 0.0 ? r.estimate_at_true_peak / r.true_sup
-                                             : EffectivityReport::kNaN,
-                            ratio.c_str()));
+                                number(r.true_sup), number(r.estimate_ratio(), ratio));
+  row += fmt::format(
+      "{} | {} / {} / {} | {} / {} | {} ({}) | ", r.effectivity_count,
+      number(r.effectivity_min, ratio), number(r.effectivity_median, ratio),
+      number(r.effectivity_max, ratio), number(r.near_peak_min, ratio),
+      number(r.near_peak_max, ratio), r.peak_located(),
+      number(r.true_sup > 0.0 ? r.estimate_at_true_peak / r.true_sup : EffectivityReport::kNaN,
+             ratio));
   row += fmt::format("{} | {} | {} / {} / {} | {} / {} / {} |\n", number(r.certified),
-                     number(r.certified_ratio(), ratio.c_str()), r.estimate_solves,
+                     number(r.certified_ratio(), ratio), r.estimate_solves,
                      r.estimate_solves_with_verify, r.dense_solves,
                      number(r.reduction_seconds, "{:.1f}"), number(r.estimate_seconds, "{:.1f}"),
                      number(r.dense_seconds, "{:.1f}"));
@@ -201,9 +198,10 @@ std::string effectivity_row(const EffectivityReport& r) {
 
 std::string effectivity_table(const std::vector<EffectivityReport>& reports) {
   std::string out =
-      "| model | N | order | reference order | estimate sup | true sup | est / true | samples | effectivity min / "
-      "median / max | near peak min / max | peak located (est / true at true peak) | certified | cert / true | full solves "
-      "evaluate / +verify / dense | seconds reduce / estimate / dense |\n"
+      "| model | N | order | reference order | estimate sup | true sup | est / true | samples | "
+      "effectivity min / median / max | near peak min / max | "
+      "peak located (est / true at true peak) | certified | cert / true | "
+      "full solves evaluate / +verify / dense | seconds reduce / estimate / dense |\n"
       "|---|---:|---:|---:|---:|---:|---:|---:|---|---|---|---:|---:|---|---|\n";
   for (const EffectivityReport& r : reports) out += effectivity_row(r);
   return out;

@@ -34,9 +34,9 @@ namespace ecmor::bench {
 /// One reduced model's measurement (NaN: not available).
 struct EffectivityReport {
   static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-  std::string name;          ///< config file or family/candidate label
-  Index full_order = 0;      ///< N
-  Index order = 0;           ///< of the reduced model
+  std::string name;      ///< config file or family/candidate label
+  Index full_order = 0;  ///< N
+  Index order = 0;       ///< of the reduced model
   /// Estimate mode, evaluate(): sup of the estimated curve (probe solves included) and its peak.
   double estimate_sup = kNaN;
   double estimate_f_peak_hz = kNaN;
@@ -68,9 +68,9 @@ struct EffectivityReport {
   Index estimate_solves = 0;
   Index estimate_solves_with_verify = 0;
   Index dense_solves = 0;
-  Index reference_order = 0;  ///< of the estimate mode's reference model after evaluate()
-  double estimate_seconds = 0.0;  ///< wall time of the estimate mode (evaluate + verify)
-  double dense_seconds = 0.0;     ///< wall time of the dense mode (grid + verify)
+  Index reference_order = 0;        ///< of the estimate mode's reference model after evaluate()
+  double estimate_seconds = 0.0;    ///< wall time of the estimate mode (evaluate + verify)
+  double dense_seconds = 0.0;       ///< wall time of the dense mode (grid + verify)
   double reduction_seconds = kNaN;  ///< wall time of the reduction (driver runs), else NaN
 
   /// estimate_sup / true_sup and certified / true_sup (NaN if true_sup is 0).
@@ -93,7 +93,7 @@ EffectivityReport measure_effectivity(const Model& model, const Band& band,
 struct DriverRun {
   ReducedModel reduced;
   Matrix V, W;
-  double seconds = 0.0;   ///< wall time of run_reduction
+  double seconds = 0.0;  ///< wall time of run_reduction
   std::string termination;
   double verified_band_error = 0.0;  ///< as the driver reported it
 };
