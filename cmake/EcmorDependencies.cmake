@@ -2,6 +2,7 @@
 find_package(Eigen3 3.4 REQUIRED NO_MODULE)
 find_package(SuiteSparse 5.12 REQUIRED COMPONENTS CHOLMOD UMFPACK)   # cmake/FindSuiteSparse.cmake
 find_package(ARPACK REQUIRED)                                        # cmake/FindARPACK.cmake
+find_package(MUMPS REQUIRED)                                         # cmake/FindMUMPS.cmake (sequential)
 find_package(NLopt 2.7 REQUIRED)
 find_package(Ipopt 3.11 REQUIRED)                                    # cmake/FindIpopt.cmake
 find_package(yaml-cpp 0.7 REQUIRED)

@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
 # Configure and build ecmor (Release) into ./build. Installs the Debian packages first.
+# Usage: scripts/build.sh [TARGET...]   (default: everything; ecmor_runtime = the executable and
+#        the bundled plugins only, what scripts/run_example.sh needs)
 # Environment: BUILD_DIR (default build), JOBS (default: number of cores), CI=true adds -Werror.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,4 +17,6 @@ if [ ! -f "$build_dir/CMakeCache.txt" ]; then
 else
   cmake -S . -B "$build_dir" -DECMOR_WERROR=$werror >/dev/null
 fi
-cmake --build "$build_dir" -j "$jobs"
+targets=()
+for t in "$@"; do targets+=(--target "$t"); done
+cmake --build "$build_dir" -j "$jobs" "${targets[@]}"

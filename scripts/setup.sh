@@ -2,10 +2,10 @@
 # Install every build and run-time dependency of ecmor from Debian 12 packages.
 # Idempotent: packages already present are skipped; safe to run repeatedly.
 # Needs root (or sudo) and the Debian package registry; downloads nothing else.
-# ECMOR_OPENBLAS=1 also installs OpenBLAS (OpenMP), which Debian's alternatives then put behind
-# libblas.so.3 and liblapack.so.3: about 3x faster complex sparse LU on large 3-D models
-# (docs/benchmarks.md). Off by default: the shipped regression results are measured with the
-# reference BLAS.
+# OpenBLAS (its OpenMP build) comes with them: Debian's alternatives put it behind libblas.so.3
+# and liblapack.so.3, and it makes the sparse factorisations of 3-D models an order of magnitude
+# faster than the reference BLAS (docs/benchmarks.md). ECMOR_OPENBLAS=0 leaves it out; the
+# README's testing section says how to run the suite under the reference BLAS instead.
 set -euo pipefail
 
 packages=(
@@ -13,6 +13,7 @@ packages=(
   libeigen3-dev
   libsuitesparse-dev
   libarpack2-dev liblapack-dev libblas-dev
+  libmumps-seq-dev   # sequential MUMPS: complex symmetric LDL^T factorisations
   libnlopt-dev libnlopt-cxx-dev
   coinor-libipopt-dev
   libyaml-cpp-dev
@@ -28,7 +29,7 @@ packages=(
   libpetsc-complex-dev openmpi-bin   # the PETSc backend (complex scalars, MUMPS) over MPI
   libslepc-complex-dev               # its distributed eigensolver (modal reducer)
 )
-if [ "${ECMOR_OPENBLAS:-0}" = 1 ]; then packages+=(libopenblas0-openmp); fi
+if [ "${ECMOR_OPENBLAS:-1}" = 1 ]; then packages+=(libopenblas0-openmp); fi
 
 missing=()
 for p in "${packages[@]}"; do

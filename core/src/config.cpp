@@ -20,9 +20,9 @@ namespace ecmor {
 
 namespace {
 
-const std::vector<std::string> kSections = {"model",  "band",   "target",  "reducer",
-                                            "strategy", "error", "solver", "backend",
-                                            "output", "plugins", "check"};
+const std::vector<std::string> kSections = {"model",    "band",    "target", "reducer",
+                                            "strategy", "error",   "solver", "backend",
+                                            "output",   "plugins", "check"};
 
 std::string node_kind(const YAML::Node& node) {
   switch (node.Type()) {
@@ -446,8 +446,7 @@ RunConfig Parser::parse(const std::string& yaml) {
               {"grid_points", "pole_samples", "max_pole_samples", "refine_peaks",
                "refine_evaluations", "zero_threshold", "verify_factor", "hinf_dense_states",
                "stability_dense_states", "verify", "dense_max_states", "estimate_points",
-               "reference_points", "check_peaks", "random_checks", "check_rounds",
-               "probe_solves"});
+               "reference_points", "check_peaks", "random_checks", "check_rounds", "probe_solves"});
   BandErrorOptions& eo = config.error;
   eo.norm = config.norm;
   if (auto v = integer(error, "error", "grid_points", 2)) eo.grid_points = *v;
@@ -498,8 +497,9 @@ RunConfig Parser::parse(const std::string& yaml) {
     config.stability_dense_states = *v;
   }
 
-  const YAML::Node solver =
-      section(m_root, "solver", {"threads", "use_cholesky", "symmetry_tol", "singular_rcond"});
+  const YAML::Node solver = section(m_root, "solver",
+                                    {"threads", "use_cholesky", "symmetry_tol", "singular_rcond",
+                                     "ordering", "complex_symmetric", "ldlt_memory_fraction"});
   if (auto v = integer(solver, "solver", "threads", 0)) {
     if (*v > 1 << 16)
       fail(at(solver["threads"]), fmt::format("solver.threads = {}: must be <= 65536", *v));
@@ -514,6 +514,30 @@ RunConfig Parser::parse(const std::string& yaml) {
       (std::string(key) == "symmetry_tol" ? config.solver.symmetry_tol
                                           : config.solver.singular_rcond) = *v;
     }
+  }
+
+  auto one_of = [&](const char* key, std::initializer_list<const char*> allowed,
+                    std::string& field) {
+    const auto v = text(solver, "solver", key, false);
+    if (!v) return;
+    std::string list;
+    for (const char* a : allowed) {
+      if (*v == a) {
+        field = *v;
+        return;
+      }
+      list += (list.empty() ? "'" : ", '") + std::string(a) + "'";
+    }
+    fail(at(solver[key]), fmt::format("solver.{} = '{}': must be one of {}", key, *v, list));
+  };
+  one_of("ordering", {"auto", "amd", "metis"}, config.solver.ordering);
+  one_of("complex_symmetric", {"auto", "ldlt", "lu"}, config.solver.complex_symmetric);
+  if (auto v = number(solver, "solver", "ldlt_memory_fraction", false)) {
+    if (!(*v >= 0.0 && *v <= 1.0))
+      fail(at(solver["ldlt_memory_fraction"]),
+           fmt::format("solver.ldlt_memory_fraction = {}: must be in [0, 1]",
+                       solver["ldlt_memory_fraction"].Scalar()));
+    config.solver.ldlt_memory_fraction = *v;
   }
 
   // backend: {name: suitesparse | petsc}: which shifted solver does the sparse work.

@@ -135,8 +135,9 @@ ComplexVector pencil_eigenvalues(const Matrix& A, const Matrix& E) {
   detail::scale_by_powers_of_two(As, &Es);
   ges.compute(As, Es, /*computeEigenvectors=*/false);
   if (!ges.converged())
-    throw NumericalError("poles: generalized eigenvalue iteration (QZ) did not converge, also "
-                         "after equilibrating the pencil");
+    throw NumericalError(
+        "poles: generalized eigenvalue iteration (QZ) did not converge, also "
+        "after equilibrating the pencil");
   return finite_eigenvalues(ges.alphas(), ges.betas(), Es.norm());
 }
 
@@ -208,10 +209,12 @@ std::vector<ComplexMatrix> frequency_response(const Model& model, ShiftedSolver&
                                               const std::vector<double>& f_hz, int threads) {
   check_frequencies(f_hz);
   std::vector<ComplexMatrix> H(f_hz.size());
-  detail::parallel_for(static_cast<Index>(f_hz.size()), threads, [&](Index i) {
-    const auto k = static_cast<std::size_t>(i);
-    H[k] = transfer_function(model, solver, s_from_hz(f_hz[k]));
-  });
+  // A non-concurrent solver (MUMPS, PETSc) uses the cores inside each factorisation instead.
+  detail::parallel_for(static_cast<Index>(f_hz.size()), solver.concurrent() ? threads : 1,
+                       [&](Index i) {
+                         const auto k = static_cast<std::size_t>(i);
+                         H[k] = transfer_function(model, solver, s_from_hz(f_hz[k]));
+                       });
   return H;
 }
 
@@ -347,21 +350,22 @@ std::vector<ComplexMatrix> ResponseCache::evaluate(const std::vector<double>& f_
       const double round_start = since();
       const std::size_t count = std::min(round, missing.size() - first);
       std::vector<ComplexMatrix> H(count), Z(m_keep_solutions ? count : 0);
-      detail::parallel_for(static_cast<Index>(count), m_threads, [&](Index i) {
-        const auto k = static_cast<std::size_t>(i);
-        const Complex s = s_from_hz(missing[first + k]);
-        auto P = m_solver.factorize(s);
-        H[k] = std::visit(
-            [&](const auto& sys) {
-              return full_transfer(sys, *P, s, m_keep_solutions ? &Z[k] : nullptr);
-            },
-            m_model);
-      });
+      detail::parallel_for(
+          static_cast<Index>(count), m_solver.concurrent() ? m_threads : 1, [&](Index i) {
+            const auto k = static_cast<std::size_t>(i);
+            const Complex s = s_from_hz(missing[first + k]);
+            auto P = m_solver.factorize(s);
+            H[k] = std::visit(
+                [&](const auto& sys) {
+                  return full_transfer(sys, *P, s, m_keep_solutions ? &Z[k] : nullptr);
+                },
+                m_model);
+          });
       for (std::size_t k = 0; k < count; ++k) {
         m_cache.emplace(missing[first + k], std::move(H[k]));
         if (m_keep_solutions)
-          m_solutions.push_back({missing[first + k], outputs_of(m_model) < inputs_of(m_model),
-                                 std::move(Z[k])});
+          m_solutions.push_back(
+              {missing[first + k], outputs_of(m_model) < inputs_of(m_model), std::move(Z[k])});
       }
       m_seconds += since() - round_start;
       if (m_progress && total > static_cast<Index>(round))

@@ -88,8 +88,9 @@ MatrixQuadrature integrate_adaptive(const MatrixIntegrand& f, double a, double b
       detail::nodes_of(batch[i].a, batch[i].b, &x[i * kNodes]);
     const std::vector<Matrix> values = f(x);
     if (values.size() != x.size()) {
-      throw InputError(fmt::format("integrate_adaptive: the integrand returned {} values for {} points",
-                                   values.size(), x.size()));
+      throw InputError(
+          fmt::format("integrate_adaptive: the integrand returned {} values for {} points",
+                      values.size(), x.size()));
     }
     for (std::size_t i = 0; i < values.size(); ++i) {
       if (rows < 0) {
@@ -114,10 +115,15 @@ MatrixQuadrature integrate_adaptive(const MatrixIntegrand& f, double a, double b
   for (Index i = 0; i < options.initial_intervals; ++i) {
     const double t0 = static_cast<double>(i) / static_cast<double>(options.initial_intervals);
     const double t1 = static_cast<double>(i + 1) / static_cast<double>(options.initial_intervals);
-    pieces.push_back(MatrixPiece{a + (b - a) * t0, i + 1 == options.initial_intervals ? b : a + (b - a) * t1, {}, 0.0, true});
+    pieces.push_back(MatrixPiece{a + (b - a) * t0,
+                                 i + 1 == options.initial_intervals ? b : a + (b - a) * t1,
+                                 {},
+                                 0.0,
+                                 true});
   }
   // The first round may not fit the budget: then one rule over the whole interval.
-  if (options.initial_intervals * kNodes > options.max_evaluations) pieces = {MatrixPiece{a, b, {}, 0.0, true}};
+  if (options.initial_intervals * kNodes > options.max_evaluations)
+    pieces = {MatrixPiece{a, b, {}, 0.0, true}};
   evaluate(pieces);
 
   constexpr Index kMaxBatch = 16;
@@ -196,26 +202,27 @@ BandResolventIntegrals band_resolvent_integrals(FirstOrderView& view, const Band
     std::vector<Matrix> out(t.size());
     std::vector<ComplexMatrix> g(t.size());
     // Nodes in parallel, as frequency_response does (factorisations are independent).
-    detail::parallel_for(static_cast<Index>(t.size()), 0, [&](Index k) {
-      const double w = logarithmic ? std::exp(t[k]) : t[k];
-      const double jacobian = logarithmic ? w : 1.0;
-      const Complex s(0.0, w);
-      std::shared_ptr<const Factorization> factor;
-      try {
-        factor = view.solver().factorize(s);
-      } catch (const NumericalError& e) {
-        throw NumericalError(fmt::format(
-            "band_resolvent_integrals: factorisation at {} Hz failed (a pole on the imaginary "
-            "axis inside the band?): {}",
-            detail::number_text(w / kTwoPi), e.what()));
-      }
-      Matrix value(n, m + p);
-      const ComplexMatrix x = view.right(*factor, s, eye_m);
-      g[k] = output * x;
-      value.leftCols(m) = (2.0 * jacobian) * x.real();
-      value.rightCols(p) = (2.0 * jacobian) * view.left(*factor, s, eye_p).real();
-      out[k] = std::move(value);
-    });
+    detail::parallel_for(
+        static_cast<Index>(t.size()), view.solver().concurrent() ? 0 : 1, [&](Index k) {
+          const double w = logarithmic ? std::exp(t[k]) : t[k];
+          const double jacobian = logarithmic ? w : 1.0;
+          const Complex s(0.0, w);
+          std::shared_ptr<const Factorization> factor;
+          try {
+            factor = view.solver().factorize(s);
+          } catch (const NumericalError& e) {
+            throw NumericalError(fmt::format(
+                "band_resolvent_integrals: factorisation at {} Hz failed (a pole on the imaginary "
+                "axis inside the band?): {}",
+                detail::number_text(w / kTwoPi), e.what()));
+          }
+          Matrix value(n, m + p);
+          const ComplexMatrix x = view.right(*factor, s, eye_m);
+          g[k] = output * x;
+          value.leftCols(m) = (2.0 * jacobian) * x.real();
+          value.rightCols(p) = (2.0 * jacobian) * view.left(*factor, s, eye_p).real();
+          out[k] = std::move(value);
+        });
     for (std::size_t k = 0; k < t.size(); ++k) response[t[k]] = std::move(g[k]);
     return out;
   };
@@ -251,8 +258,9 @@ double band_h2_squared_error(const BandResolventIntegrals& integrals, const Redu
 Complex band_pole_integral(Complex s, const Band& band) {
   band.validate();
   if (!(s.real() > 0.0)) {
-    throw InputError("band_pole_integral: the point " + detail::number_text(s.real()) + (s.imag() < 0 ? "" : "+") +
-                     detail::number_text(s.imag()) + "i must have a positive real part");
+    throw InputError("band_pole_integral: the point " + detail::number_text(s.real()) +
+                     (s.imag() < 0 ? "" : "+") + detail::number_text(s.imag()) +
+                     "i must have a positive real part");
   }
   const double w1 = kTwoPi * band.f_min_hz, w2 = kTwoPi * band.f_max_hz;
   return 2.0 * (std::atan(Complex(w2) / s) - std::atan(Complex(w1) / s));

@@ -25,12 +25,18 @@
 //    the analysis is only used under the analysis mutex and to free the symbolic factor.
 //    (cholmod_start allocates nothing; the workspace of a factorisation is O(N), negligible next
 //    to the factor.)
+//  * Complex symmetric combinations of large models go to MUMPS's LDL^T (mumps_ldlt.hpp): one
+//    MUMPS instance per factorisation, the fill-reducing ordering found by the first one handed to
+//    the next ones (the analysis of a given ordering is only symbolic). MUMPS calls are serialised,
+//    so a solver that routes factorisations there reports itself non-concurrent.
 //  * Counters live in a mutex-protected block shared (via shared_ptr) by the solver and every
 //    factorisation it made, so solves are counted on the solver even after it is destroyed.
 #include "ecmor/shifted_solver.hpp"
 
 #include <cholmod.h>
+#include <omp.h>
 #include <umfpack.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
@@ -44,7 +50,7 @@
 #include <utility>
 
 #include "ecmor/error.hpp"
-
+#include "mumps_ldlt.hpp"
 #include "parallel_for.hpp"
 #include "petsc_solver.hpp"
 
@@ -58,6 +64,7 @@ SolverCounters& SolverCounters::operator+=(const SolverCounters& other) {
   factorizations += other.factorizations;
   cholesky_factorizations += other.cholesky_factorizations;
   lu_factorizations += other.lu_factorizations;
+  ldlt_factorizations += other.ldlt_factorizations;
   complex_factorizations += other.complex_factorizations;
   failed_cholesky += other.failed_cholesky;
   solves += other.solves;
@@ -72,6 +79,7 @@ SolverCounters operator-(SolverCounters a, const SolverCounters& b) {
   a.factorizations -= b.factorizations;
   a.cholesky_factorizations -= b.cholesky_factorizations;
   a.lu_factorizations -= b.lu_factorizations;
+  a.ldlt_factorizations -= b.ldlt_factorizations;
   a.complex_factorizations -= b.complex_factorizations;
   a.failed_cholesky -= b.failed_cholesky;
   a.solves -= b.solves;
@@ -109,6 +117,14 @@ void SolverOptions::validate() const {
   if (backend != "suitesparse" && backend != "petsc")
     throw ConfigError("SolverOptions::backend = '" + backend +
                       "': must be 'suitesparse' (embedded) or 'petsc' (distributed)");
+  if (ordering != "auto" && ordering != "amd" && ordering != "metis")
+    throw ConfigError("SolverOptions::ordering = '" + ordering +
+                      "': must be 'auto', 'amd' or 'metis'");
+  if (complex_symmetric != "auto" && complex_symmetric != "ldlt" && complex_symmetric != "lu")
+    throw ConfigError("SolverOptions::complex_symmetric = '" + complex_symmetric +
+                      "': must be 'auto', 'ldlt' or 'lu'");
+  if (!(ldlt_memory_fraction >= 0.0 && ldlt_memory_fraction <= 1.0))
+    fail("ldlt_memory_fraction", ldlt_memory_fraction, "must be in [0, 1]");
 }
 
 namespace {
@@ -201,6 +217,11 @@ struct SharedState {
   std::atomic<void*> umf_real{nullptr};
   std::atomic<void*> umf_complex{nullptr};
   std::atomic<cholmod_factor*> chol_symbolic{nullptr};
+  double chol_lnz = 0.0;  // nnz(L) predicted by the CHOLMOD analysis
+  // MUMPS LDL^T: the upper pattern in 1-based coordinates and the pivot order of the first
+  // factorisation (both under analysis_mutex until set; read-only afterwards).
+  detail::MumpsPattern mumps_pattern;
+  std::vector<int> mumps_order;
   bool chol_started = false;
   cholmod_common chol_common;
   std::shared_ptr<CounterBlock> counters;
@@ -235,6 +256,19 @@ struct SharedState {
     for (std::size_t k = 0; k < term.size(); ++k) {
       const double wk = w[k].real() * sign[k];
       if (wk == 0.0) continue;
+      const double* v = term[k]->valuePtr();
+      const int* m = umap[k].data();
+      const std::size_t ne = umap[k].size();
+      for (std::size_t e = 0; e < ne; ++e)
+        if (m[e] >= 0) x[m[e]] += wk * v[e];
+    }
+  }
+  /// Complex upper-triangle values of sum_k w_k T_k.
+  void assemble_upper_complex(std::span<const Complex> w, std::vector<Complex>& x) const {
+    x.assign(unnz(), Complex(0.0, 0.0));
+    for (std::size_t k = 0; k < term.size(); ++k) {
+      const Complex wk = w[k] * sign[k];
+      if (wk == Complex(0.0, 0.0)) continue;
       const double* v = term[k]->valuePtr();
       const int* m = umap[k].data();
       const std::size_t ne = umap[k].size();
@@ -322,6 +356,12 @@ struct SharedState {
     return A;
   }
 
+  /// Entries of the Cholesky factor of the union pattern (CHOLMOD's analysis, made once).
+  double cholmod_symbolic_nnz() {
+    cholmod_symbolic();
+    return chol_lnz;
+  }
+
   const cholmod_factor* cholmod_symbolic() {
     if (cholmod_factor* L = chol_symbolic.load(std::memory_order_acquire)) return L;
     std::lock_guard<std::mutex> lock(analysis_mutex);
@@ -331,6 +371,12 @@ struct SharedState {
       cholmod_start(&chol_common);
       chol_common.print = 0;
       chol_common.final_ll = 1;
+      // "auto" keeps CHOLMOD's default: AMD, then METIS when AMD's fill is large; take the better.
+      if (options.ordering != "auto") {
+        chol_common.nmethods = 1;
+        chol_common.method[0].ordering = options.ordering == "metis" ? CHOLMOD_METIS : CHOLMOD_AMD;
+        chol_common.postorder = 1;
+      }
       chol_started = true;
     }
     cholmod_sparse A = upper_view(nullptr);
@@ -338,6 +384,7 @@ struct SharedState {
     if (!L || chol_common.status < CHOLMOD_OK)
       throw NumericalError("CHOLMOD symbolic analysis failed with status " +
                            std::to_string(chol_common.status));
+    chol_lnz = chol_common.lnz;
     const double dt = seconds_since(t0);
     counters->update([&](SolverCounters& c) {
       ++c.symbolic_analyses;
@@ -390,9 +437,8 @@ class FactorizationBase : public Factorization {
  protected:
   void check_rows(Index rows) const {
     if (rows != m_shared->n)
-      throw InputError("Factorization::solve: right-hand side has " +
-                                  std::to_string(rows) + " rows, expected " +
-                                  std::to_string(m_shared->n));
+      throw InputError("Factorization::solve: right-hand side has " + std::to_string(rows) +
+                       " rows, expected " + std::to_string(m_shared->n));
   }
   void count_solves(Index columns, Clock::time_point t0) const {
     const double dt = seconds_since(t0);
@@ -534,6 +580,35 @@ class CholmodFactorization final : public FactorizationBase {
   cholmod_factor* m_L;
 };
 
+/// MUMPS LDL^T of a complex symmetric combination (P^T = P: transposed solves are solves).
+class MumpsFactorization final : public FactorizationBase {
+ public:
+  MumpsFactorization(std::shared_ptr<SharedState> shared, std::vector<Complex> w,
+                     std::unique_ptr<detail::MumpsLdlt> f)
+      : FactorizationBase(std::move(shared), std::move(w),
+                          std::numeric_limits<double>::quiet_NaN()),
+        m_f(std::move(f)) {}
+  bool is_complex() const override { return true; }
+  std::string method() const override { return "mumps-ldlt"; }
+
+  Matrix solve(const Matrix&) const override {
+    throw NumericalError("solve of a real right-hand side requested on a complex factorisation");
+  }
+  Matrix solve_transposed(const Matrix& B) const override { return solve(B); }
+  ComplexMatrix solve(const ComplexMatrix& B) const override {
+    check_rows(B.rows());
+    const auto t0 = Clock::now();
+    ComplexMatrix X = B;
+    m_f->solve(X.data(), static_cast<int>(X.cols()));
+    count_solves(B.cols(), t0);
+    return X;
+  }
+  ComplexMatrix solve_transposed(const ComplexMatrix& B) const override { return solve(B); }
+
+ private:
+  std::unique_ptr<detail::MumpsLdlt> m_f;
+};
+
 class SuiteSparseSolver final : public ShiftedSolver {
  public:
   SuiteSparseSolver(const SecondOrderModel& so, const SolverOptions& options)
@@ -577,6 +652,13 @@ class SuiteSparseSolver final : public ShiftedSolver {
     build_pattern();
     umfpack_di_defaults(S.umf_control);
     S.umf_control[UMFPACK_IRSTEP] = options.refinement_steps;
+    // "auto": CHOLMOD's rule (AMD, or METIS when AMD's fill is large) on the pattern UMFPACK's
+    // strategy orders. On the 50 400-DOF solid of docs/benchmarks.md METIS saves a quarter of the
+    // flops of AMD; on the small shipped models the rule keeps AMD.
+    S.umf_control[UMFPACK_ORDERING] = options.ordering == "amd"     ? UMFPACK_ORDERING_AMD
+                                      : options.ordering == "metis" ? UMFPACK_ORDERING_METIS
+                                                                    : UMFPACK_ORDERING_CHOLMOD;
+    m_all_symmetric = std::all_of(S.symmetric.begin(), S.symmetric.end(), [](bool b) { return b; });
   }
 
   Index size() const override { return m_shared->n; }
@@ -588,7 +670,7 @@ class SuiteSparseSolver final : public ShiftedSolver {
     SharedState& S = *m_shared;
     if (weights.size() != S.term.size())
       throw InputError("factorize_combination: " + std::to_string(weights.size()) +
-                                  " weights for " + std::to_string(S.term.size()) + " terms");
+                       " weights for " + std::to_string(S.term.size()) + " terms");
     bool is_cplx = false, symmetric = true;
     for (std::size_t k = 0; k < weights.size(); ++k) {
       const Complex w = weights[k];
@@ -609,8 +691,13 @@ class SuiteSparseSolver final : public ShiftedSolver {
     if (!is_cplx && symmetric && S.options.use_cholesky) {
       if (auto f = try_cholesky(w)) return f;
     }
+    if (is_cplx && symmetric && use_ldlt()) return mumps_ldlt(std::move(w));
     return umfpack_lu(std::move(w), is_cplx);
   }
+
+  /// MUMPS calls are serialised (mumps_ldlt.hpp): a solver that can route a factorisation there
+  /// lets MUMPS and the BLAS use the cores, not ecmor's loops over frequencies.
+  bool concurrent() const override { return !(m_all_symmetric && use_ldlt()); }
 
   ComplexMatrix apply_combination(std::span<const Complex> weights,
                                   const ComplexMatrix& x) const override {
@@ -633,8 +720,8 @@ class SuiteSparseSolver final : public ShiftedSolver {
     const SharedState& S = *m_shared;
     const char* what = transposed ? "apply_combination_transposed" : "apply_combination";
     if (weights.size() != S.term.size())
-      throw InputError(std::string(what) + ": " + std::to_string(weights.size()) +
-                       " weights for " + std::to_string(S.term.size()) + " terms");
+      throw InputError(std::string(what) + ": " + std::to_string(weights.size()) + " weights for " +
+                       std::to_string(S.term.size()) + " terms");
     if (x.rows() != S.n)
       throw InputError(std::string(what) + ": x has " + std::to_string(x.rows()) +
                        " rows, expected " + std::to_string(S.n));
@@ -812,8 +899,73 @@ class SuiteSparseSolver final : public ShiftedSolver {
     }
   }
 
+  /// Complex symmetric LDL^T with MUMPS; the first one's ordering serves the next ones.
+  std::shared_ptr<const Factorization> mumps_ldlt(std::vector<Complex> w) {
+    SharedState& S = *m_shared;
+    std::vector<int> order;
+    {
+      std::lock_guard<std::mutex> lock(S.analysis_mutex);
+      if (S.mumps_pattern.n == 0) {
+        S.mumps_pattern.n = S.n;
+        S.mumps_pattern.row.reserve(S.unnz());
+        S.mumps_pattern.col.reserve(S.unnz());
+        for (int j = 0; j < S.n; ++j)
+          for (int p = S.Up[j]; p < S.Up[j + 1]; ++p) {
+            S.mumps_pattern.row.push_back(S.Ui[p] + 1);
+            S.mumps_pattern.col.push_back(j + 1);
+          }
+      }
+      order = S.mumps_order;
+    }
+    const auto t0 = Clock::now();
+    std::vector<Complex> x;
+    S.assemble_upper_complex(w, x);
+    auto f = std::make_unique<detail::MumpsLdlt>(S.mumps_pattern, x, order,
+                                                 S.options.singular_rcond, S.options.ordering);
+    if (f->singular()) throw_singular(w, 0.0, "MUMPS LDL^T");
+    const bool analysed = order.empty();
+    if (analysed) {
+      std::lock_guard<std::mutex> lock(S.analysis_mutex);
+      if (S.mumps_order.empty()) S.mumps_order = f->pivot_order();
+    }
+    const double dt = seconds_since(t0);
+    S.counters->update([&](SolverCounters& c) {
+      if (analysed) ++c.symbolic_analyses;
+      ++c.factorizations;
+      ++c.ldlt_factorizations;
+      ++c.complex_factorizations;
+      c.factorization_seconds += dt;
+    });
+    return std::make_shared<MumpsFactorization>(m_shared, std::move(w), std::move(f));
+  }
+
+  /// Whether complex symmetric combinations go to MUMPS (decided once; see
+  /// SolverOptions::complex_symmetric). "auto" predicts an LU's memory from CHOLMOD's analysis of
+  /// the pattern: UMFPACK's symmetric strategy stores about 2 nnz(L) complex entries with their
+  /// indices, some 40 bytes per entry of L (the 50 400-DOF solid of docs/benchmarks.md: 730 MB
+  /// predicted from nnz(L) = 1.8e7, 750 MB measured).
+  bool use_ldlt() const {
+    const SharedState& S = *m_shared;
+    if (S.options.complex_symmetric != "auto") return S.options.complex_symmetric == "ldlt";
+    std::call_once(m_ldlt_decided, [&] {
+      const double threads = std::max(1, omp_get_max_threads());
+      const double physical =
+          static_cast<double>(sysconf(_SC_PHYS_PAGES)) * static_cast<double>(sysconf(_SC_PAGESIZE));
+      const double budget = S.options.ldlt_memory_fraction * physical;
+      auto too_large = [&](double lnz) { return threads * 40.0 * lnz > budget; };
+      // A dense factor bounds nnz(L): small models need no analysis to stay with LU.
+      const double n = S.n;
+      m_ldlt = physical > 0.0 && too_large(0.5 * n * (n + 1.0)) &&
+               too_large(m_shared->cholmod_symbolic_nnz());
+    });
+    return m_ldlt;
+  }
+
   std::shared_ptr<SharedState> m_shared;
   std::vector<std::string> m_names;
+  bool m_all_symmetric = false;  // every coefficient is symmetric
+  mutable std::once_flag m_ldlt_decided;
+  mutable bool m_ldlt = false;  // complex symmetric combinations go to MUMPS
 };
 
 }  // namespace
@@ -830,9 +982,9 @@ std::unique_ptr<ShiftedSolver> make_for(const System& sys, const Model* as_model
   if (options.backend == "petsc") {
     options.validate();
     // The PETSc backend copies the coefficients into its distributed matrices.
-    std::unique_ptr<ShiftedSolver> solver =
-        as_model != nullptr ? detail::make_petsc_solver(*as_model)
-                            : detail::make_petsc_solver(Model(sys));
+    std::unique_ptr<ShiftedSolver> solver = as_model != nullptr
+                                                ? detail::make_petsc_solver(*as_model)
+                                                : detail::make_petsc_solver(Model(sys));
     detail::g_serial_solves.store(true);
     return solver;
   }

@@ -184,6 +184,25 @@ TEST(RunConfig, BackendSection) {
             std::string::npos);
 }
 
+TEST(RunConfig, SolverOrderingAndComplexSymmetricFactorisation) {
+  const RunConfig d = parse_run_config(kMinimal, "run.yaml");
+  EXPECT_EQ(d.solver.ordering, "auto");
+  EXPECT_EQ(d.solver.complex_symmetric, "auto");
+  EXPECT_EQ(d.solver.ldlt_memory_fraction, SolverOptions{}.ldlt_memory_fraction);
+  const RunConfig c = parse_run_config(
+      kMinimal + "solver: {ordering: metis, complex_symmetric: ldlt, ldlt_memory_fraction: 0.5}\n",
+      "run.yaml");
+  EXPECT_EQ(c.solver.ordering, "metis");
+  EXPECT_EQ(c.solver.complex_symmetric, "ldlt");
+  EXPECT_EQ(c.solver.ldlt_memory_fraction, 0.5);
+  EXPECT_EQ(parse_error(kMinimal + "solver: {ordering: nd}\n"),
+            "run.yaml:12: solver.ordering = 'nd': must be one of 'auto', 'amd', 'metis'");
+  EXPECT_EQ(parse_error(kMinimal + "solver: {complex_symmetric: llt}\n"),
+            "run.yaml:12: solver.complex_symmetric = 'llt': must be one of 'auto', 'ldlt', 'lu'");
+  EXPECT_EQ(parse_error(kMinimal + "solver: {ldlt_memory_fraction: 2}\n"),
+            "run.yaml:12: solver.ldlt_memory_fraction = 2: must be in [0, 1]");
+}
+
 TEST(RunConfig, CheckSectionAndHinfDenseStates) {
   const RunConfig c = parse_run_config(
       kMinimal + "check: {max_order: 12, max_seconds: 30}\nerror: {hinf_dense_states: 0}\n",
@@ -261,9 +280,10 @@ TEST(RunConfig, UnknownKeysSuggestTheNearest) {
 
 TEST(RunConfig, ErrorControlModeAndItsBudgets) {
   const RunConfig c = parse_run_config(
-      kMinimal + "error: {verify: estimate, dense_max_states: 500, estimate_points: 900,\n"
-                 "        reference_points: 9, check_peaks: 3, random_checks: 0, check_rounds: 2,\n"
-                 "        probe_solves: 0}\n",
+      kMinimal +
+          "error: {verify: estimate, dense_max_states: 500, estimate_points: 900,\n"
+          "        reference_points: 9, check_peaks: 3, random_checks: 0, check_rounds: 2,\n"
+          "        probe_solves: 0}\n",
       "run.yaml");
   EXPECT_EQ(c.error.verify, ErrorVerify::Estimate);
   EXPECT_EQ(c.error.dense_max_states, 500);

@@ -1,5 +1,7 @@
 // Tests of the SuiteSparse ShiftedSolver on small systems with closed-form or dense references.
 #include <gtest/gtest.h>
+#include <omp.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <cmath>
@@ -42,15 +44,21 @@ SecondOrderModel two_dof() {
 // temporary, or a SecondOrderModel converted to a temporary Model, would die first (the sanitizer
 // run found the latter in a test: stack-use-after-scope).
 template <class T>
-concept SolverFrom = requires(T&& m) { make_shifted_solver(std::forward<T>(m)); };
+concept SolverFrom = requires(T&& m) {
+  make_shifted_solver(std::forward<T>(m));
+};
 static_assert(SolverFrom<const Model&> && SolverFrom<const SecondOrderModel&> &&
               SolverFrom<const DescriptorModel&> && SolverFrom<SecondOrderModel&>);
 static_assert(!SolverFrom<Model> && !SolverFrom<SecondOrderModel> && !SolverFrom<DescriptorModel>);
 template <class T>
-concept ViewFrom = requires(T&& m, ShiftedSolver& s) { FirstOrderView(std::forward<T>(m), s); };
+concept ViewFrom = requires(T&& m, ShiftedSolver& s) {
+  FirstOrderView(std::forward<T>(m), s);
+};
 static_assert(ViewFrom<const Model&> && !ViewFrom<Model> && !ViewFrom<const SecondOrderModel&>);
 template <class T>
-concept CacheFrom = requires(T&& m, ShiftedSolver& s) { ResponseCache(std::forward<T>(m), s); };
+concept CacheFrom = requires(T&& m, ShiftedSolver& s) {
+  ResponseCache(std::forward<T>(m), s);
+};
 static_assert(CacheFrom<const Model&> && !CacheFrom<Model> && !CacheFrom<const DescriptorModel&>);
 
 /// Undamped 1-DOF: s^2 + 4: eigenvalues +-2i.
@@ -542,6 +550,188 @@ TEST(ShiftedSolverUndamped, ZeroDampingGivesARealFactorisation) {
   EXPECT_EQ(solver->counters().complex_factorizations, 0);
   const ComplexMatrix H = transfer_function(model, *f, iw);
   EXPECT_NEAR(std::abs(H(0, 0) - 1.0 / (8.0 - 2.0 * 2.25)), 0.0, 1e-15);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Complex symmetric LDL^T (MUMPS) and the fill-reducing orderings.
+
+SolverOptions ldlt_options() {
+  SolverOptions o;
+  o.complex_symmetric = "ldlt";
+  return o;
+}
+
+TEST(ShiftedSolverLdlt, AgreesWithDenseLuAndReusesTheFirstOrdering) {
+  const auto sys = chain(300);
+  Model model = sys;
+  auto solver = make_shifted_solver(model, ldlt_options());
+  EXPECT_FALSE(solver->concurrent());  // MUMPS calls are serialised
+  const ComplexMatrix B = sys.B.cast<Complex>();
+  for (int k = 0; k < 6; ++k) {
+    const Complex s(0.05 * k, 0.5 + 3.0 * k);
+    auto f = solver->factorize(s);
+    EXPECT_TRUE(f->is_complex());
+    EXPECT_EQ(f->method(), "mumps-ldlt");
+    const ComplexMatrix P = dense_P(sys, s);
+    const ComplexMatrix Xref = P.partialPivLu().solve(B);
+    EXPECT_LT(rel_err(f->solve(B), Xref), 1e-12) << "s = " << s;
+    // P is complex symmetric: P^-T B = P^-1 B.
+    EXPECT_LT(rel_err(f->solve_transposed(B), P.transpose().partialPivLu().solve(B)), 1e-12);
+    EXPECT_THROW(f->solve(Matrix(Matrix::Ones(sys.M.rows(), 1))), NumericalError);
+  }
+  const auto c = solver->counters();
+  EXPECT_EQ(c.ldlt_factorizations, 6);
+  EXPECT_EQ(c.complex_factorizations, 6);
+  EXPECT_EQ(c.lu_factorizations, 0);
+  EXPECT_EQ(c.symbolic_analyses, 1);  // the first factorisation's ordering serves the others
+  EXPECT_EQ(c.solves, 24);
+}
+
+TEST(ShiftedSolverLdlt, AutoChoosesByPredictedMemoryAndSymmetry) {
+  const auto sys = chain(300);
+  Model model = sys;
+  SolverOptions o;  // complex_symmetric = auto: LU while the LUs of all threads fit the budget
+  auto lu = make_shifted_solver(model, o);
+  EXPECT_TRUE(lu->concurrent());
+  EXPECT_EQ(lu->factorize(Complex(0.1, 2.0))->method(), "umfpack");
+  EXPECT_EQ(lu->counters().symbolic_analyses, 1);  // small: no analysis needed to decide
+  o.ldlt_memory_fraction = 0.0;                    // no memory for any LU
+  auto ldlt = make_shifted_solver(model, o);
+  EXPECT_FALSE(ldlt->concurrent());
+  EXPECT_EQ(ldlt->factorize(Complex(0.1, 2.0))->method(), "mumps-ldlt");
+  // A budget between the chain's real factor (nnz(L) ~ 900: a band plus the end-to-end dashpot)
+  // and a dense one (45 150): the analysis decides, for LU.
+  const double threads = std::max(1, omp_get_max_threads());
+  const double physical =
+      static_cast<double>(sysconf(_SC_PHYS_PAGES)) * static_cast<double>(sysconf(_SC_PAGESIZE));
+  o.ldlt_memory_fraction = threads * 40.0 * 5000.0 / physical;
+  auto analysed = make_shifted_solver(model, o);
+  EXPECT_TRUE(analysed->concurrent());
+  EXPECT_EQ(analysed->counters().symbolic_analyses, 1);  // CHOLMOD's, to decide
+  EXPECT_EQ(analysed->factorize(Complex(0.1, 2.0))->method(), "umfpack");
+  o.complex_symmetric = "lu";
+  EXPECT_EQ(make_shifted_solver(model, o)->factorize(Complex(0.1, 2.0))->method(), "umfpack");
+  // Real shifts of SPD combinations stay with CHOLMOD, unsymmetric models with UMFPACK.
+  EXPECT_EQ(make_shifted_solver(model, ldlt_options())->factorize(Complex(0.5, 0.0))->method(),
+            "cholmod");
+  Model dae = small_descriptor();
+  auto unsym = make_shifted_solver(dae, ldlt_options());
+  EXPECT_TRUE(unsym->concurrent());
+  EXPECT_EQ(unsym->factorize(Complex(0.0, 1.0))->method(), "umfpack");
+}
+
+TEST(ShiftedSolverLdlt, SingularShiftThrowsNamingTheShift) {
+  // two_dof: K phi = lambda M phi has lambda = 5 and 20, and D = 0.1 M + 0.01 K, so P(s) is
+  // singular where s^2 + (0.1 + 0.01 lambda) s + lambda = 0: s = -0.075 +- i sqrt(5 - 0.075^2).
+  Model model = two_dof();
+  auto solver = make_shifted_solver(model, ldlt_options());
+  const Complex pole(-0.075, std::sqrt(5.0 - 0.075 * 0.075));
+  try {
+    solver->factorize(pole);
+    FAIL() << "expected NumericalError";
+  } catch (const NumericalError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("singular"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("s = -0.075+2.23"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("MUMPS"), std::string::npos) << msg;
+  }
+  EXPECT_NO_THROW(solver->factorize(Complex(-0.075, 2.3)));
+}
+
+TEST(ShiftedSolverLdlt, ConcurrentCallersGetTheSerialResults) {
+  const auto sys = chain(200);
+  Model model = sys;
+  const ComplexMatrix B = sys.B.cast<Complex>();
+  const int n = 12;
+  std::vector<ComplexMatrix> serial(n), parallel(n);
+  auto shift = [](int k) { return Complex(0.02 * k, 0.7 * (k + 1)); };
+  {
+    auto s1 = make_shifted_solver(model, ldlt_options());
+    for (int k = 0; k < n; ++k) serial[k] = s1->factorize(shift(k))->solve(B);
+  }
+  auto solver = make_shifted_solver(model, ldlt_options());
+  std::atomic<int> next{0};
+  std::vector<std::string> errors(n);
+  std::vector<std::thread> pool;
+  for (int t = 0; t < 3; ++t)
+    pool.emplace_back([&] {
+      for (int k = next++; k < n; k = next++) {
+        try {
+          parallel[k] = solver->factorize(shift(k))->solve(B);
+        } catch (const std::exception& e) {
+          errors[k] = e.what();
+        }
+      }
+    });
+  for (auto& t : pool) t.join();
+  for (int k = 0; k < n; ++k) {
+    EXPECT_EQ(errors[k], "");
+    EXPECT_LT(rel_err(parallel[k], serial[k]), 1e-13) << k;
+  }
+}
+
+TEST(ShiftedSolverOrdering, EveryOrderingAndMethodSolvesTheSameSystem) {
+  // A 3-D-like pattern (a 6 x 6 x 6 grid Laplacian plus mass) so that the orderings differ.
+  const int g = 6, n = g * g * g;
+  std::vector<Eigen::Triplet<double, int>> tk, tm;
+  auto id = [&](int i, int j, int k) { return i + g * (j + g * k); };
+  for (int k = 0; k < g; ++k)
+    for (int j = 0; j < g; ++j)
+      for (int i = 0; i < g; ++i) {
+        const int a = id(i, j, k);
+        tk.emplace_back(a, a, 6.5);
+        tm.emplace_back(a, a, 1.0 + 0.001 * a);
+        const int nb[3][3] = {{i + 1, j, k}, {i, j + 1, k}, {i, j, k + 1}};
+        for (const auto& q : nb) {
+          if (q[0] >= g || q[1] >= g || q[2] >= g) continue;
+          const int b = id(q[0], q[1], q[2]);
+          tk.emplace_back(a, b, -1.0);
+          tk.emplace_back(b, a, -1.0);
+        }
+      }
+  SecondOrderModel sys;
+  sys.K.resize(n, n);
+  sys.M.resize(n, n);
+  sys.K.setFromTriplets(tk.begin(), tk.end());
+  sys.M.setFromTriplets(tm.begin(), tm.end());
+  sys.D = 0.02 * sys.M + 0.01 * sys.K;
+  sys.B = Matrix::Zero(n, 2);
+  sys.B(0, 0) = 1.0;
+  sys.B(n - 1, 1) = 1.0;
+  sys.C = Matrix::Ones(1, n);
+  Model model = sys;
+  const ComplexMatrix B = sys.B.cast<Complex>();
+  for (const Complex s : {Complex(0.0, 1.3), Complex(0.0, 0.0)}) {
+    const ComplexMatrix Xref = dense_P(sys, s).partialPivLu().solve(B);
+    for (const char* ordering : {"auto", "amd", "metis"})
+      for (const char* method : {"lu", "ldlt"}) {
+        SolverOptions o;
+        o.ordering = ordering;
+        o.complex_symmetric = method;
+        auto solver = make_shifted_solver(model, o);
+        EXPECT_LT(rel_err(solver->factorize(s)->solve(B), Xref), 1e-12)
+            << ordering << " " << method << " s = " << s;
+      }
+  }
+}
+
+TEST(ShiftedSolverOrdering, OptionsValidation) {
+  for (auto set : {+[](SolverOptions& o) { o.ordering = "nested"; },
+                   +[](SolverOptions& o) { o.complex_symmetric = "cholesky"; },
+                   +[](SolverOptions& o) { o.ldlt_memory_fraction = 1.5; }}) {
+    SolverOptions o;
+    set(o);
+    EXPECT_THROW(o.validate(), ConfigError);
+  }
+  SolverOptions o;
+  o.ordering = "nested";
+  try {
+    o.validate();
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("SolverOptions::ordering = 'nested'"), std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace

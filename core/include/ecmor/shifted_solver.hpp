@@ -12,7 +12,10 @@
 ///  * the union sparsity pattern of all coefficients is built once, and symbolic analysis is done
 ///    once per pattern and arithmetic (real/complex), then reused by every numeric factorisation;
 ///  * real symmetric combinations try CHOLMOD (LL'), falling back to UMFPACK (LU) when the matrix is
-///    not positive definite; complex or unsymmetric combinations use UMFPACK;
+///    not positive definite; complex symmetric combinations of large models use MUMPS (LDL^T, about
+///    half the work of an LU); other complex or unsymmetric combinations use UMFPACK;
+///  * fill-reducing orderings: AMD, or METIS nested dissection where AMD's predicted fill is large
+///    (3-D solids), chosen from the symbolic analysis (SolverOptions::ordering);
 ///  * factorisations are immutable after construction and solves are thread-safe, so the band
 ///    response can be computed in parallel across frequencies (factorize_combination may be called
 ///    from many threads at once: UMFPACK's Symbolic object is shared read-only; CHOLMOD gets one
@@ -39,6 +42,7 @@ struct ECMOR_API SolverCounters {
   Index factorizations = 0;       ///< numeric factorisations of any kind
   Index cholesky_factorizations = 0;
   Index lu_factorizations = 0;
+  Index ldlt_factorizations = 0;  ///< complex symmetric LDL^T (MUMPS)
   Index complex_factorizations = 0;
   Index failed_cholesky = 0;      ///< Cholesky attempts that found the matrix indefinite
   Index solves = 0;               ///< right-hand-side columns solved
@@ -58,7 +62,7 @@ class ECMOR_API Factorization {
   virtual Index size() const = 0;
   /// True when the factorised matrix is complex (some weight had a non-zero imaginary part).
   virtual bool is_complex() const = 0;
-  /// "cholmod" or "umfpack" (or another backend's name).
+  /// "cholmod", "umfpack" or "mumps-ldlt" (or another backend's name).
   virtual std::string method() const = 0;
   /// The weights w_k that were factorised.
   virtual const std::vector<Complex>& weights() const = 0;
@@ -125,9 +129,24 @@ struct ECMOR_API SolverOptions {
   /// no shared reference model gained accuracy (all within 1e-12 without it). Raise it for badly
   /// scaled or nearly singular shifts when the accuracy of the solves matters more than speed.
   int refinement_steps = 0;
-  /// "suitesparse" (embedded: CHOLMOD, UMFPACK) or "petsc" (distributed: PETSc with MUMPS, over
-  /// the MPI ranks; only in builds with ECMOR_WITH_PETSC, see parallel.hpp). YAML backend.name.
+  /// "suitesparse" (embedded: CHOLMOD, UMFPACK, sequential MUMPS) or "petsc" (distributed: PETSc
+  /// with MUMPS, over the MPI ranks; only in builds with ECMOR_WITH_PETSC, see parallel.hpp).
+  /// YAML backend.name.
   std::string backend = "suitesparse";
+  /// Fill-reducing ordering of the embedded backend: "auto" (AMD; METIS nested dissection instead
+  /// when AMD's predicted fill is large, as on 3-D solids: CHOLMOD's rule, also used for UMFPACK),
+  /// "amd" or "metis". YAML backend.ordering.
+  std::string ordering = "auto";
+  /// Complex combinations of symmetric coefficients (s^2 M + s D + K with M, D, K symmetric):
+  /// "ldlt" (MUMPS's LDL^T: about half the memory and flops of an LU, one factorisation at a
+  /// time, using the cores inside it), "lu" (UMFPACK, several at once: ecmor's loops over
+  /// frequencies run in parallel) or "auto": LU while the LUs of all threads at once fit in
+  /// ldlt_memory_fraction of the physical memory, predicted from the symbolic analysis; LDL^T
+  /// above. Measured on 2 cores (docs/benchmarks.md): parallel LUs sweep a 50 400-DOF solid 1.3x
+  /// faster than serial LDL^T, with 2.5x its memory. YAML solver.complex_symmetric.
+  std::string complex_symmetric = "auto";
+  /// See complex_symmetric, in [0, 1]. YAML solver.ldlt_memory_fraction.
+  double ldlt_memory_fraction = 0.25;
   /// Throws ConfigError naming the field, value and rule.
   void validate() const;
 };
