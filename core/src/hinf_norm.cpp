@@ -21,7 +21,7 @@
 #include "ecmor/reduced_response.hpp"
 #include "model_checks.hpp"
 #include "number_text.hpp"
-#include "qz_solver.hpp"
+#include "real_schur.hpp"
 
 namespace ecmor {
 namespace {
@@ -168,18 +168,16 @@ std::vector<double> imaginary_eigenvalues(const Pencil& ss, double gamma) {
     Matrix N = Matrix::Zero(2 * n, 2 * n);
     N.topLeftCorner(n, n) = ss.E;
     N.bottomRightCorner(n, n) = ss.E.transpose();
-    detail::QzSolver qz;
-    // Eigen's default of 400 QZ iterations is too few for badly scaled pencils (measured: lf10
-    // reduced to order 2, a pencil of size 80 at level 1.9e-9, converges only with more).
-    qz.setMaxIterations(std::max<Index>(400, 60 * n));
-    qz.compute(H, N, false);
-    if (!qz.converged()) throw failed();
+    ComplexVector alpha;
+    Vector beta;
+    if (!detail::generalized_eigenvalues(H, N, alpha, beta)) throw failed();
     // E is nonsingular (checked), so every beta is nonzero in exact arithmetic; a rounding-size
-    // beta would stand for an eigenvalue beyond any frequency of interest.
+    // beta would stand for an eigenvalue beyond any frequency of interest. (dggev scales neither
+    // side: the floor is relative to N's norm, as it was with Eigen's RealQZ.)
     const double beta_floor = 100.0 * kEps * N.lpNorm<1>();
     std::vector<Complex> finite;
-    for (Index i = 0; i < qz.betas().size(); ++i)
-      if (std::abs(qz.betas()(i)) > beta_floor) finite.push_back(qz.alphas()(i) / qz.betas()(i));
+    for (Index i = 0; i < beta.size(); ++i)
+      if (std::abs(beta(i)) > beta_floor) finite.push_back(alpha(i) / beta(i));
     lambda = Eigen::Map<ComplexVector>(finite.data(), static_cast<Index>(finite.size()));
     scale /= N.lpNorm<1>();
   }

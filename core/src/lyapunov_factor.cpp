@@ -1,7 +1,7 @@
 // lyapunov_factor.cpp: Gramian factors by Hammarling's method. Templated on the real scalar type:
-// a long double instantiation was measured (heat_cont's s_10 = 7e-8 s_1 agreed with the reference to
-// 5.8e-11 instead of 9.0e-11 in double, at 10-20x the time) and dropped as not worth it; the
-// template stays so that the precision remains a one-line experiment.
+// a long double instantiation was measured (heat_cont's s_10 = 7e-8 s_1 agreed with the reference
+// to 5.8e-11 instead of 9.0e-11 in double, at 10-20x the time) and dropped as not worth it. The
+// Schur step is LAPACK's (double) since issue 27; another precision would need its own.
 #include "ecmor/lyapunov_factor.hpp"
 
 #include <Eigen/Cholesky>
@@ -12,9 +12,11 @@
 #include <complex>
 #include <limits>
 #include <string>
+#include <type_traits>
 
 #include "ecmor/error.hpp"
 #include "number_text.hpp"
+#include "real_schur.hpp"
 
 namespace ecmor {
 
@@ -46,41 +48,6 @@ struct Schur {
   Mat<S> Ur;
   CMat<S> T, U;
 };
-
-/// Rotates each 2 x 2 block of the real Schur form F = U T U' to upper triangular form: the first
-/// row of the rotation is the normalised eigenvector [lambda - t_kk; t_k,k-1] of the block.
-template <typename S>
-void triangularize_blocks(CMat<S>& T, CMat<S>& U) {
-  using C = std::complex<S>;
-  const Eigen::Index n = T.rows();
-  for (Eigen::Index k = n - 1; k >= 1; --k) {
-    const C c = T(k, k - 1);
-    if (c == S(0)) continue;
-    const C a = T(k - 1, k - 1), b = T(k - 1, k), dd = T(k, k);
-    const C half = S(0.5) * (a - dd);
-    const C lambda = S(0.5) * (a + dd) + std::sqrt(half * half + b * c);
-    const C mu = lambda - dd;
-    const S r = std::hypot(std::abs(mu), std::abs(c));
-    const C cs = mu / r, sn = c / r;
-    for (Eigen::Index j = k - 1; j < n; ++j) {
-      const C t1 = T(k - 1, j), t2 = T(k, j);
-      T(k - 1, j) = std::conj(cs) * t1 + std::conj(sn) * t2;
-      T(k, j) = -sn * t1 + cs * t2;
-    }
-    for (Eigen::Index i = 0; i <= k; ++i) {
-      const C t1 = T(i, k - 1), t2 = T(i, k);
-      T(i, k - 1) = t1 * cs + t2 * sn;
-      T(i, k) = -t1 * std::conj(sn) + t2 * std::conj(cs);
-    }
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const C u1 = U(i, k - 1), u2 = U(i, k);
-      U(i, k - 1) = u1 * cs + u2 * sn;
-      U(i, k) = -u1 * std::conj(sn) + u2 * std::conj(cs);
-    }
-    T(k, k - 1) = S(0);
-    --k;
-  }
-}
 
 /// Hammarling's recursion: the upper triangular R with R R^H = X for T X + X T^H + G G^H = 0
 /// (T upper triangular, or diagonal when `diagonal`, all Re t_kk < 0). With T = [T1 t; 0 tau],
@@ -252,13 +219,15 @@ LyapunovFactors factors_in(const Matrix& A_d, const Matrix& E_d, const Matrix& B
     s.d = es.eigenvalues();
     s.Ur = es.eigenvectors();
   } else {
-    const Eigen::RealSchur<Mat<S>> rs(F);
-    if (rs.info() != Eigen::Success)
+    // LAPACK's Schur form (real_schur.hpp), in double: another S needs its own Schur step.
+    static_assert(std::is_same_v<S, double>, "the Schur step is LAPACK's dgees (double)");
+    Matrix T, U;
+    if (!detail::real_schur(F, T, U))
       throw NumericalError(std::string(kOrigin) +
                            ": the Schur iteration (QR) of A did not converge");
-    s.T = rs.matrixT().template cast<std::complex<S>>();
-    s.U = rs.matrixU().template cast<std::complex<S>>();
-    triangularize_blocks<S>(s.T, s.U);
+    s.T = T.cast<std::complex<S>>();
+    s.U = U.cast<std::complex<S>>();
+    detail::triangularize_blocks(s.T, s.U);
   }
 
   const Mat<S> Yc = factor_from_schur<S>(s, Gc, false);

@@ -1,6 +1,7 @@
 // mumps_ldlt.cpp: see mumps_ldlt.hpp.
 #include "mumps_ldlt.hpp"
 
+#include <dlfcn.h>
 #include <zmumps_c.h>
 
 #include <mutex>
@@ -20,6 +21,30 @@ constexpr int kUseCommWorld = -987654;
 std::mutex& mumps_mutex() {
   static std::mutex m;
   return m;
+}
+
+// zmumps_c from the sequential MUMPS, opened on first use with RTLD_LOCAL. Linked into
+// libecmor_core, its zmumps_c and stub MPI would sit in the process's global symbol scope, where
+// the PETSc backend's parallel MUMPS (its own module, petsc_solver.hpp) would bind to them and
+// fail on two ranks ("could not be solved at any of the seed frequencies"). Opened locally, they
+// are seen only through this pointer.
+using ZmumpsEntry = void (*)(ZMUMPS_STRUC_C*);
+
+ZmumpsEntry zmumps_entry() {
+  static ZmumpsEntry entry = nullptr;  // guarded by mumps_mutex, held by every caller
+  if (entry) return entry;
+  void* lib = dlopen(ECMOR_ZMUMPS_SONAME, RTLD_NOW | RTLD_LOCAL);
+  if (!lib)
+    throw NumericalError(std::string("complex symmetric LDL^T: cannot open the sequential MUMPS "
+                                     "library (") +
+                         dlerror() +
+                         "); install Debian's libmumps-seq-5.5, or set solver.complex_symmetric: "
+                         "lu");
+  entry = reinterpret_cast<ZmumpsEntry>(dlsym(lib, "zmumps_c"));
+  if (!entry)
+    throw NumericalError(std::string("complex symmetric LDL^T: no zmumps_c in ") +
+                         ECMOR_ZMUMPS_SONAME);
+  return entry;
 }
 
 // ICNTL(k) and INFO(k) with MUMPS's 1-based numbering.
@@ -63,7 +88,7 @@ struct MumpsLdlt::Instance {
 
   void call(int job) {
     p.job = job;
-    zmumps_c(&p);
+    zmumps_entry()(&p);
   }
 };
 
@@ -79,6 +104,12 @@ MumpsLdlt::MumpsLdlt(const MumpsPattern& pattern, const std::vector<Complex>& va
   p.sym = 2;  // general symmetric (complex symmetric, not Hermitian): LDL^T with 2x2 pivots
   p.par = 1;  // the host works too (one process)
   p.comm_fortran = kUseCommWorld;
+  try {
+    zmumps_entry();  // the library opens, or nothing was made
+  } catch (...) {
+    delete m_instance;
+    throw;
+  }
   m_instance->call(kJobInit);
   if (info(p, 1) < 0) {
     delete m_instance;

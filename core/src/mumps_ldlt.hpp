@@ -12,6 +12,9 @@
 // process-wide mutex. The shifted solver reports itself non-concurrent when it routes
 // factorisations here, so that ecmor's loops over frequencies run serially and MUMPS and the BLAS
 // use the cores inside each factorisation instead.
+//
+// The library is opened on first use with RTLD_LOCAL, not linked (mumps_ldlt.cpp says why: the
+// PETSc backend's parallel MUMPS must not see its symbols).
 #include <cstdint>
 #include <string>
 #include <vector>

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdint>
@@ -258,12 +259,18 @@ void expect_sigma_csv_of(const fs::path& run) {
         << "row " << k;
   }
   const ReducedModel reduced = read_reduced_model(run);
+  double peak = 0.0;
+  for (const auto& row : sigma) peak = std::max(peak, number(row.at("reduced_sigma_max")));
   for (const std::size_t k : {std::size_t{0}, sigma.size() / 2, sigma.size() - 1}) {
     const double f_hz = number(sigma[k].at("f_hz"));
     const Eigen::MatrixXcd H = dense_response(reduced, Complex(0.0, kTwoPi * f_hz));
     const double expected = Eigen::JacobiSVD<Eigen::MatrixXcd>(H).singularValues()(0);
     const double got = number(sigma[k].at("reduced_sigma_max"));
-    EXPECT_NEAR(got, expected, 1e-8 * expected) << "f = " << f_hz << " Hz";
+    // Resolution: 1e-8 relative, or rounding of the largest response in the band (the run
+    // evaluates through a Hessenberg form, accurate relative to ||H|| over the band, not to a
+    // value decades below it: lf10's band top is 8.9e-11, where the two evaluations differed by
+    // 2e-8 relative under OpenBLAS, 1.9e-18 absolute).
+    EXPECT_NEAR(got, expected, 1e-8 * expected + 1e-14 * peak) << "f = " << f_hz << " Hz";
     // And the reduced curve is the full one within the run's error: |s_full - s_red| <= ||H - Hr||,
     // up to the 10 significant digits band_error.csv stores the full sigma_max with.
     const double full = number(sigma[k].at("full_sigma_max"));
