@@ -21,7 +21,7 @@
 #include "ecmor/reduced_response.hpp"
 #include "model_checks.hpp"
 #include "number_text.hpp"
-#include "real_schur.hpp"
+#include "dense_lapack.hpp"
 
 namespace ecmor {
 namespace {

@@ -19,7 +19,7 @@
 #include "ecmor/frequency_response.hpp"
 #include "number_text.hpp"
 #include "qz_solver.hpp"
-#include "real_schur.hpp"
+#include "dense_lapack.hpp"
 
 namespace ecmor {
 

@@ -7,16 +7,17 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
-#include <Eigen/QR>
 #include <cmath>
 #include <complex>
 #include <limits>
 #include <string>
 #include <type_traits>
+#include <vector>
 
+#include "ecmor/dense_kernels.hpp"
 #include "ecmor/error.hpp"
 #include "number_text.hpp"
-#include "real_schur.hpp"
+#include "dense_lapack.hpp"
 
 namespace ecmor {
 
@@ -100,16 +101,20 @@ CMat<S> hammarling(const CMat<S>& T, CMat<S> G, bool diagonal) {
 /// gives X = Pi K^H K Pi', so Pi K_k^H (the first k rows of K) is a factor with k columns; k keeps
 /// the pivots |K_jj| > eps |K_11| (what is dropped is below the rounding of the factor itself).
 /// Done in Schur coordinates, before the product with the n x n Schur vectors, which then costs
-/// n^2 k instead of n^3 (rail_1357: k ~ 300 of 1357).
+/// n^2 k instead of n^3 (rail_1357: k ~ 300 of 1357). The QR is LAPACK's (dense_lapack.hpp):
+/// Eigen's unblocked one took about half of a dense balanced truncation at n = 3 002.
 template <typename Scalar>
 Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> compress(
     const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>& R) {
   using M = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>;
   using Real = typename Eigen::NumTraits<Scalar>::Real;
-  const Eigen::ColPivHouseholderQR<M> qr(M(R.adjoint()));
+  static_assert(std::is_same_v<Real, double>, "the QR is LAPACK's (double)");
+  M K = R.adjoint();
+  std::vector<int> perm;
+  if (!detail::column_pivoted_qr(K, perm))
+    throw NumericalError(std::string(kOrigin) + ": LAPACK's column-pivoted QR refused a factor");
   const Eigen::Index n = R.rows();
   const Eigen::Index kmax = std::min(R.rows(), R.cols());
-  const auto& K = qr.matrixQR();
   const Real top = kmax > 0 ? std::abs(K(0, 0)) : Real(0);
   const Real floor = std::numeric_limits<Real>::epsilon() * top;
   Eigen::Index k = 0;
@@ -117,8 +122,8 @@ Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> compress(
   if (k == 0) return M::Zero(n, 1);
   const M Kk = K.topRows(k).template triangularView<Eigen::Upper>();
   M Z(n, k);
-  const auto& perm = qr.colsPermutation().indices();
-  for (Eigen::Index j = 0; j < n; ++j) Z.row(perm(j)) = Kk.col(j).adjoint();
+  for (Eigen::Index j = 0; j < n; ++j)
+    Z.row(perm[static_cast<std::size_t>(j)]) = Kk.col(j).adjoint();
   return Z;
 }
 
@@ -147,7 +152,7 @@ Mat<S> factor_from_schur(const Schur<S>& s, const Mat<S>& G, bool adjoint) {
   }
   // X = U R R^H U^H is real: X = Re(Z) Re(Z)' + Im(Z) Im(Z)' for Z = U Rk (k columns), a real
   // factor with 2k columns, compressed once more (now real, k <= n).
-  const CMat<S> Z = s.U * compress<C>(R);
+  const CMat<S> Z = dense_product(s.U, compress<C>(R));  // n x n by n x k: the BLAS's
   Mat<S> W(n, 2 * Z.cols());
   W << Z.real(), Z.imag();
   return compress<S>(W);
@@ -219,7 +224,7 @@ LyapunovFactors factors_in(const Matrix& A_d, const Matrix& E_d, const Matrix& B
     s.d = es.eigenvalues();
     s.Ur = es.eigenvectors();
   } else {
-    // LAPACK's Schur form (real_schur.hpp), in double: another S needs its own Schur step.
+    // LAPACK's Schur form (dense_lapack.hpp), in double: another S needs its own Schur step.
     static_assert(std::is_same_v<S, double>, "the Schur step is LAPACK's dgees (double)");
     Matrix T, U;
     if (!detail::real_schur(F, T, U))

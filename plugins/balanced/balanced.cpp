@@ -6,7 +6,6 @@
 #include <fmt/format.h>
 
 #include <Eigen/QR>
-#include <Eigen/SVD>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -16,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "ecmor/dense_kernels.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/first_order_view.hpp"
 #include "ecmor/frequency_response.hpp"
@@ -85,11 +85,10 @@ struct Balancing {
 /// (scaled by s^-1/2) meaningless, another reason not to go below it.
 Balancing balance(const Matrix& Zl, const Matrix& Zr, Index n) {
   Balancing b;
-  const Eigen::BDCSVD<Matrix> svd(Matrix(Zl.transpose() * Zr),
-                                  Eigen::ComputeThinU | Eigen::ComputeThinV);
-  b.U = svd.matrixU();
-  b.V = svd.matrixV();
-  b.s = svd.singularValues();
+  ThinSvd svd = thin_svd(dense_product(Zl, Zr, true, false));
+  b.U = std::move(svd.U);
+  b.V = std::move(svd.V);
+  b.s = std::move(svd.s);
   const double floor =
       std::sqrt(static_cast<double>(n) * kEps * Zl.squaredNorm() * Zr.squaredNorm());
   while (b.rank < b.s.size() && b.s(b.rank) > floor) ++b.rank;

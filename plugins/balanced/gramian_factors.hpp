@@ -57,6 +57,7 @@
 #include <variant>
 
 #include "ecmor/band_error.hpp"
+#include "ecmor/dense_kernels.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/lyapunov.hpp"
 #include "ecmor/lyapunov_factor.hpp"
@@ -79,9 +80,10 @@ struct GramianFactors {
 /// ||A Z Z' E' + E Z Z' A' + R||_F / ||R||_F without forming Z Z' (n^2 k instead of n^3 flops).
 inline double factored_lyapunov_residual(const Matrix& A, const Matrix& E, const Matrix& Z,
                                          const Matrix& R) {
-  const Matrix AZ = A * Z;
-  const Matrix EZ = E * Z;
-  Matrix res = AZ * EZ.transpose();
+  // n x n by n x k with k up to n: the BLAS's products (dense_kernels.hpp says why).
+  const Matrix AZ = dense_product(A, Z);
+  const Matrix EZ = dense_product(E, Z);
+  Matrix res = dense_product(AZ, EZ, false, true);
   res += res.transpose().eval();
   res += R;
   const double rn = R.norm();
