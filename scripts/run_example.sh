@@ -4,6 +4,6 @@
 # Usage: scripts/run_example.sh [CONFIG]   (default configs/triplechain_saak09_n451.yaml)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/build.sh ecmor_runtime
+bash scripts/build.sh --runtime ecmor_runtime
 config=${1:-configs/triplechain_saak09_n451.yaml}
 exec "${BUILD_DIR:-build}/bin/ecmor" reduce "$config"

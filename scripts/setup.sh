@@ -1,5 +1,10 @@
 #!/usr/bin/env bash
-# Install every build and run-time dependency of ecmor from Debian 12 packages.
+# Install the build and run-time dependencies of ecmor from Debian 12 packages.
+# Usage: scripts/setup.sh [runtime|all]   (default all)
+#   runtime: what the executable and the bundled plugins need (scripts/run_example.sh): a fresh
+#            machine's first run does not wait for the test, sanitizer and MPI/PETSc packages;
+#   all:     also GoogleTest, Google Benchmark, clang (fuzzing, sanitizers), PETSc/SLEPc over
+#            Open MPI (the optional backend), matio.
 # Idempotent: packages already present are skipped; safe to run repeatedly.
 # Needs root (or sudo) and the Debian package registry; downloads nothing else.
 # OpenBLAS (its OpenMP build) comes with them: Debian's alternatives put it behind libblas.so.3
@@ -7,6 +12,12 @@
 # faster than the reference BLAS (docs/benchmarks.md). ECMOR_OPENBLAS=0 leaves it out; the
 # README's testing section says how to run the suite under the reference BLAS instead.
 set -euo pipefail
+
+profile=${1:-all}
+case "$profile" in
+  runtime|all) ;;
+  *) echo "setup: unknown profile '$profile': use runtime or all" >&2; exit 2 ;;
+esac
 
 packages=(
   build-essential cmake pkg-config ninja-build
@@ -18,17 +29,22 @@ packages=(
   coinor-libipopt-dev
   libyaml-cpp-dev
   libboost-dev libboost-filesystem-dev
-  libgtest-dev libgmock-dev googletest
-  libbenchmark-dev
-  libspdlog-dev libfmt-dev
+  libfmt-dev
   libcli11-dev
   nlohmann-json3-dev
-  libmatio-dev
   gnuplot-nox
-  clang-14 libclang-rt-14-dev libomp-14-dev   # scripts/fuzz.sh, scripts/sanitize.sh: libFuzzer, the sanitizers, OpenMP
-  libpetsc-complex-dev openmpi-bin   # the PETSc backend (complex scalars, MUMPS) over MPI
-  libslepc-complex-dev               # its distributed eigensolver (modal reducer)
 )
+if [ "$profile" = all ]; then
+  packages+=(
+    libgtest-dev libgmock-dev googletest
+    libbenchmark-dev
+    libspdlog-dev
+    libmatio-dev
+    clang-14 libclang-rt-14-dev libomp-14-dev   # scripts/fuzz.sh, scripts/sanitize.sh: libFuzzer, the sanitizers, OpenMP
+    libpetsc-complex-dev openmpi-bin   # the PETSc backend (complex scalars, MUMPS) over MPI
+    libslepc-complex-dev               # its distributed eigensolver (modal reducer)
+  )
+fi
 if [ "${ECMOR_OPENBLAS:-1}" = 1 ]; then packages+=(libopenblas0-openmp); fi
 
 missing=()
@@ -39,7 +55,7 @@ for p in "${packages[@]}"; do
 done
 
 if [ ${#missing[@]} -eq 0 ]; then
-  echo "setup: all ${#packages[@]} Debian packages already installed"
+  echo "setup: all ${#packages[@]} Debian packages ($profile) already installed"
   exit 0
 fi
 
