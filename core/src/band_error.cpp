@@ -133,8 +133,9 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Samples the error at the given frequencies (the reference side from `source`, the reduced
 // model's and the error norms in parallel with `threads`).
-std::vector<Sample> sample(const detail::ReferenceSource& source, const ReducedResponse& reduced,
-                           const std::vector<double>& f_hz, int threads_wanted) {
+std::vector<Sample> sample(const detail::ReferenceSource& source,
+                           detail::CandidateResponse& candidate, const std::vector<double>& f_hz,
+                           int threads_wanted) {
   std::vector<Sample> out(f_hz.size());
   if (f_hz.empty()) return out;
   detail::ReferenceValues ref;
@@ -156,6 +157,17 @@ std::vector<Sample> sample(const detail::ReferenceSource& source, const ReducedR
       }
     }
   }
+  // The candidate's values computed before in this evaluation are reused; the others are computed
+  // below (in parallel) and kept afterwards (serially: the cache is not thread-safe).
+  const ReducedResponse& reduced = candidate.response();
+  std::vector<std::optional<ComplexMatrix>> known(f_hz.size());
+  std::vector<char> was_known(f_hz.size(), 0);
+  for (std::size_t k = 0; k < f_hz.size(); ++k) {
+    if (const auto* v = candidate.find(f_hz[k])) {
+      known[k] = *v;
+      was_known[k] = 1;
+    }
+  }
   auto evaluate = [&](std::size_t k) {
     Sample& s = out[k];
     s.f_hz = f_hz[k];
@@ -170,8 +182,15 @@ std::vector<Sample> sample(const detail::ReferenceSource& source, const ReducedR
     s.ref2 = matrix_norm(s.H, ErrorNorm::Spectral);
     s.refF = s.H.norm();
     try {
-      const ComplexMatrix Hr = reduced(s_from_hz(f_hz[k]));
-      const ComplexMatrix E = s.H - Hr;
+      if (!was_known[k]) {
+        try {
+          known[k] = reduced(s_from_hz(f_hz[k]));
+        } catch (const NumericalError&) {
+          known[k].reset();  // a pole of the reduced model: kept as such
+        }
+      }
+      if (!known[k]) throw NumericalError("reduced model: a pole");
+      const ComplexMatrix E = s.H - *known[k];
       if (!E.allFinite()) throw NumericalError("non-finite reduced response");
       s.abs2 = matrix_norm(E, ErrorNorm::Spectral);
       s.absF = E.norm();
@@ -193,8 +212,13 @@ std::vector<Sample> sample(const detail::ReferenceSource& source, const ReducedR
       count < 32 ? 1
                  : static_cast<int>(std::min<Index>(
                        threads_wanted > 0 ? threads_wanted : omp_get_max_threads(), count / 2));
+  auto keep_new = [&] {
+    for (std::size_t k = 0; k < f_hz.size(); ++k)
+      if (!was_known[k]) candidate.keep(f_hz[k], std::move(known[k]));
+  };
   if (threads <= 1) {
     for (std::size_t k = 0; k < f_hz.size(); ++k) evaluate(k);
+    keep_new();
     return out;
   }
   // Anything but the NumericalError handled per sample (say, bad_alloc) must not leave the
@@ -212,6 +236,7 @@ std::vector<Sample> sample(const detail::ReferenceSource& source, const ReducedR
     }
   }
   if (error) std::rethrow_exception(error);
+  keep_new();
   return out;
 }
 
@@ -252,14 +277,19 @@ Index unstable_count(const ComplexVector& p) {
   return unstable;
 }
 
-BandError assemble_band_error(const ReducedModel& reduced, std::vector<double> f_hz,
+const ComplexVector& CandidateResponse::poles() {
+  if (!m_poles) m_poles = ecmor::poles(m_model);
+  return *m_poles;
+}
+
+BandError assemble_band_error(CandidateResponse& candidate, std::vector<double> f_hz,
                               const ReferenceSource& source, const SamplingPlan& plan,
                               const BandErrorOptions& options, const Band& band, double scale2,
                               double scaleF, int threads) {
   std::sort(f_hz.begin(), f_hz.end());
   f_hz.erase(std::unique(f_hz.begin(), f_hz.end()), f_hz.end());
-  const ReducedResponse reduced_response(reduced);
-  std::vector<Sample> samples = sample(source, reduced_response, f_hz, threads);
+  const ReducedModel& reduced = candidate.model();
+  std::vector<Sample> samples = sample(source, candidate, f_hz, threads);
   const ErrorNorm norm = options.norm;
   const Index grid = plan.grid, pole_count = plan.poles;
   const BandErrorOptions& m_options = options;
@@ -314,7 +344,7 @@ BandError assemble_band_error(const ReducedModel& reduced, std::vector<double> f
       }
       std::vector<double> trial_f(trial.size());
       std::transform(trial.begin(), trial.end(), trial_f.begin(), [](double x) { return std::exp(x); });
-      const std::vector<Sample> got = sample(source, reduced_response, trial_f, threads);
+      const std::vector<Sample> got = sample(source, candidate, trial_f, threads);
       std::vector<Bracket> next;
       for (std::size_t j = 0; j < brackets.size(); ++j) {
         Bracket br = brackets[j];
@@ -465,8 +495,9 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
                                        Index grid, Index pole_count, bool refine,
                                        bool dense_peaks) {
   const Index before = m_full.size();
+  detail::CandidateResponse candidate(reduced);
   BandError out = detail::assemble_band_error(
-      reduced, std::move(f_hz), full_source(),
+      candidate, std::move(f_hz), full_source(),
       detail::SamplingPlan{grid, pole_count, refine, dense_peaks}, m_options, m_band, m_scale2,
       m_scaleF, m_full.threads());
   out.checked_samples = static_cast<Index>(out.f_hz.size());

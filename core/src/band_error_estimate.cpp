@@ -229,7 +229,7 @@ ReferenceValues EstimateEngine::values(const std::vector<double>& f_hz) {
   return out;
 }
 
-std::vector<double> EstimateEngine::sample_set(const ReducedModel& reduced, Index* pole_count,
+std::vector<double> EstimateEngine::sample_set(CandidateResponse& reduced, Index* pole_count,
                                                Index* unstable) {
   refresh();
   std::vector<double> f = m_grid;
@@ -238,7 +238,7 @@ std::vector<double> EstimateEngine::sample_set(const ReducedModel& reduced, Inde
   *unstable = -1;
   if (m_options.pole_samples) {
     try {
-      const ComplexVector p = poles(reduced);
+      const ComplexVector& p = reduced.poles();
       *unstable = unstable_count(p);
       for (const auto& [zeta, fp] : pole_frequencies(p, m_band, m_options.max_pole_samples)) {
         f.push_back(fp);
@@ -253,7 +253,7 @@ std::vector<double> EstimateEngine::sample_set(const ReducedModel& reduced, Inde
   return f;
 }
 
-BandError EstimateEngine::assemble(const ReducedModel& reduced, std::vector<double> f_hz,
+BandError EstimateEngine::assemble(CandidateResponse& reduced, std::vector<double> f_hz,
                                    Index grid, Index poles, bool refine, bool dense_peaks) {
   BandError e = assemble_band_error(
       reduced, std::move(f_hz), [this](const std::vector<double>& f) { return values(f); },
@@ -309,7 +309,8 @@ void EstimateEngine::finish(BandError& e, bool certify,
   }
 }
 
-BandError EstimateEngine::evaluate(const ReducedModel& reduced) {
+BandError EstimateEngine::evaluate(const ReducedModel& model) {
+  CandidateResponse reduced(model);
   std::map<double, double> before;
   Index solves = 0;
   Index pole_count = 0, unstable = -1;
@@ -330,14 +331,16 @@ BandError EstimateEngine::evaluate(const ReducedModel& reduced) {
   return e;
 }
 
-BandError EstimateEngine::evaluate_on(const ReducedModel& reduced,
+BandError EstimateEngine::evaluate_on(const ReducedModel& model,
                                       const std::vector<double>& f_hz) {
+  CandidateResponse reduced(model);
   BandError e = assemble(reduced, f_hz, static_cast<Index>(f_hz.size()), 0, false, false);
   finish(e, false, {}, 0);
   return e;
 }
 
-BandError EstimateEngine::verify(const ReducedModel& reduced) {
+BandError EstimateEngine::verify(const ReducedModel& model) {
+  CandidateResponse reduced(model);
   std::map<double, double> before;
   Index solves = 0;
   Index pole_count = 0, unstable = -1;

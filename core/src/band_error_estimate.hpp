@@ -39,8 +39,8 @@ class EstimateEngine {
   double floor_of(bool dense_lu) const;
   // Picks the more accurate evaluation of the reference model for its current version.
   void choose_evaluation();
-  std::vector<double> sample_set(const ReducedModel& reduced, Index* pole_count, Index* unstable);
-  BandError assemble(const ReducedModel& reduced, std::vector<double> f_hz, Index grid, Index poles,
+  std::vector<double> sample_set(CandidateResponse& reduced, Index* pole_count, Index* unstable);
+  BandError assemble(CandidateResponse& reduced, std::vector<double> f_hz, Index grid, Index poles,
                      bool refine, bool dense_peaks);
   // Fills the estimate fields of `e` (sup over exact samples, estimate_sup, effectivity).
   void finish(BandError& e, bool certify, const std::map<double, double>& estimate_before,

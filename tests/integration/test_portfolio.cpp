@@ -257,5 +257,27 @@ TEST(Portfolio, AStopRequestEndsTheWholePortfolio) {
   EXPECT_EQ(s.exit_code(), 2);
 }
 
+// The reducer's setup() is the reducer's work: low-rank ADI factorises there, and reduce() then only
+// projects. Those factorisations (and their time) count as the reducer's, not as error control.
+TEST(Driver, ReducerSetupWorkCountsAsTheReducers) {
+  test::TempDir dir;
+  Registry registry;
+  fill_registry(registry);
+  const RunSummary s = run_yaml(kHead +
+                                    "reducer:  {name: balanced, structure: second_order, variant: "
+                                    "pv, gramians: lowrank}\n"
+                                    "strategy: {name: grow_order, max_order: 20}\n"
+                                    "output: {dir: " +
+                                    (dir / "out").string() + "}\n",
+                                registry);
+  ASSERT_TRUE(s.has_model) << s.message;
+  // ADI: at least one factorisation per shift, all of them in setup().
+  EXPECT_GT(s.reducer_counters.factorizations, 0);
+  EXPECT_GT(s.reducer_seconds, 0.0);
+  // The rest are the error control's: at least one per full-model response.
+  EXPECT_LE(s.reducer_counters.factorizations, s.counters.factorizations);
+  EXPECT_GE(s.counters.factorizations - s.reducer_counters.factorizations, s.full_evaluations);
+}
+
 }  // namespace
 }  // namespace ecmor

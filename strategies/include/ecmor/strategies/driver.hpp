@@ -68,8 +68,9 @@ struct RunSummary {
   double tolerance = 0.0;
   double seconds = 0.0;
   double load_seconds = 0.0;
-  /// Time inside the reducer's reduce() calls (the reduction proper), how many calls, and the
-  /// solver work done inside them (the unavoidable sparse part of the reduction).
+  /// Time inside the reducer's setup() and reduce() calls (the reduction proper), how many
+  /// reduce() calls, and the solver work done inside them (the unavoidable sparse part of the
+  /// reduction; setup() holds, e.g., the low-rank ADI of balanced truncation).
   double reducer_seconds = 0.0;
   Index reducer_calls = 0;
   SolverCounters reducer_counters;
