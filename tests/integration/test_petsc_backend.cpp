@@ -87,7 +87,11 @@ class PetscBackend : public ::testing::Test {
     // Open MPI refuses root without these; single-copy shared memory is unavailable in some
     // containers (the vader transport then falls back to copies).
     cmd << "env -u ECMOR_PLUGIN_PATH OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 "
-        << "OMPI_MCA_btl_vader_single_copy_mechanism=none timeout 300 ";
+        << "OMPI_MCA_btl_vader_single_copy_mechanism=none ";
+    // One OpenMP thread per rank on two ranks, as docs/cluster.md advises (cores / ranks):
+    // OpenMP and OpenBLAS threads of both ranks spinning on two cores only slow the run.
+    if (ranks > 1) cmd << "OMP_NUM_THREADS=1 ";
+    cmd << "timeout 300 ";
     if (ranks > 0) cmd << "mpirun --oversubscribe -n " << ranks << " ";
     cmd << ECMOR_TEST_BINARY_DIR << "/bin/ecmor reduce " << config.string() << " --no-plot -q "
         << extra << " >" << out.string() << " 2>&1";
