@@ -21,6 +21,8 @@
 #include <cmath>
 #include <random>
 #include <cstdlib>
+#include <functional>
+#include <memory>
 #include <mutex>
 #include <vector>
 
@@ -122,19 +124,31 @@ struct Slot {
   }
 };
 
-class PetscFactorization;
-
-class PetscSolver final : public ShiftedSolver {
+// What the solver and every factorisation it made share: the owned rows' pattern and values
+// (to assemble and refill combinations), the counters, and the pool of analysed idle slots.
+//
+// A factorisation co-owns this state, so it stays valid after its solver is destroyed, as
+// shifted_solver.hpp promises of every backend. The driver (run_reduction) destroys the solver
+// before the reducers, whose factorisations are released afterwards. When a factorisation held a
+// reference to the solver instead, its release ran give_back() on the freed solver: the decision
+// "park this slot or destroy it" (m_idle.size() < kIdleSlots) and the parked slot were read from
+// freed memory whose contents depend on each rank's own heap history. A rank that parked a slot
+// which another rank destroyed, or destroyed a stale one, entered MUMPS's collective teardown
+// (MatDestroy_MUMPS) of a different instance than the other rank: the two-rank runs hung in
+// zmumps_c (valgrind: invalid reads of the freed solver in ~PetscFactorization -> give_back).
+// Now the slots are destroyed only by the release of a factorisation or of the last owner of
+// this state, at the same point of the program on every rank.
+class SolverState {
  public:
-  explicit PetscSolver(Terms terms) : m_terms(std::move(terms)) {
-    ensure_petsc();
-    build_pattern();
-  }
-  ~PetscSolver() override {
+  explicit SolverState(const Terms& terms) : m_n(terms.n) { build_pattern(terms); }
+  ~SolverState() {
     for (Slot& slot : m_idle) slot.destroy();
   }
-  PetscSolver(const PetscSolver&) = delete;
-  PetscSolver& operator=(const PetscSolver&) = delete;
+  SolverState(const SolverState&) = delete;
+  SolverState& operator=(const SolverState&) = delete;
+
+  Index size() const { return m_n; }
+  const RowPattern& pattern() const { return m_pattern; }
 
   // Every combination has the same pattern, so MUMPS's analysis (fill-reducing ordering and
   // symbolic factorisation) of one serves them all: a released factorisation leaves its analysed
@@ -144,7 +158,7 @@ class PetscSolver final : public ShiftedSolver {
   // same order, so the collective calls match.
   static constexpr std::size_t kIdleSlots = 1;
   Slot take_slot() const {
-    std::lock_guard<std::mutex> lock(m_counter_mutex);
+    std::lock_guard<std::mutex> lock(m_mutex);
     if (m_idle.empty()) return {};
     Slot slot = m_idle.back();
     m_idle.pop_back();
@@ -152,7 +166,7 @@ class PetscSolver final : public ShiftedSolver {
   }
   void give_back(Slot slot) const noexcept {
     {
-      std::lock_guard<std::mutex> lock(m_counter_mutex);
+      std::lock_guard<std::mutex> lock(m_mutex);
       if (m_idle.size() < kIdleSlots) {
         m_idle.push_back(slot);
         return;
@@ -161,70 +175,15 @@ class PetscSolver final : public ShiftedSolver {
     slot.destroy();
   }
 
-  Index size() const override { return m_terms.n; }
-  Index terms() const override { return static_cast<Index>(m_terms.t.size()); }
-  std::string backend() const override {
-    int size = 1;
-    MPI_Comm_size(PETSC_COMM_WORLD, &size);
-    return fmt::format("petsc (MUMPS, {} rank{})", size, size == 1 ? "" : "s");
-  }
-  bool concurrent() const override { return false; }
-
-  std::shared_ptr<const Factorization> factorize_combination(
-      std::span<const Complex> weights) override;
-
-  ComplexMatrix apply_combination(std::span<const Complex> weights,
-                                  const ComplexMatrix& x) const override {
-    return apply(weights, x, false);
-  }
-  ComplexMatrix apply_combination_transposed(std::span<const Complex> weights,
-                                             const ComplexMatrix& x) const override {
-    return apply(weights, x, true);
-  }
-
-  SolverCounters counters() const override {
-    std::lock_guard<std::mutex> lock(m_counter_mutex);
+  SolverCounters counters() const {
+    std::lock_guard<std::mutex> lock(m_mutex);
     return m_counters;
   }
   void count(const std::function<void(SolverCounters&)>& f) const {
-    std::lock_guard<std::mutex> lock(m_counter_mutex);
+    std::lock_guard<std::mutex> lock(m_mutex);
     f(m_counters);
   }
-  const RowPattern& pattern() const { return m_pattern; }
 
- private:
-  // sum_k w_k T_k x (or T_k^T x) on the replicated terms, with real sparse products on the real
-  // and imaginary parts of x: no complex or transposed copy of a term (a hot path of the Krylov
-  // recurrences and of low-rank ADI).
-  ComplexMatrix apply(std::span<const Complex> weights, const ComplexMatrix& x,
-                      bool transposed) const {
-    require_weights(weights);
-    if (x.rows() != m_terms.n)
-      throw InputError(fmt::format("PETSc backend: {}: x has {} rows, expected {}",
-                                   transposed ? "apply_combination_transposed"
-                                              : "apply_combination",
-                                   x.rows(), m_terms.n));
-    const Matrix xr = x.real(), xi = x.imag();
-    ComplexMatrix y = ComplexMatrix::Zero(m_terms.n, x.cols());
-    Matrix tr, ti;
-    for (std::size_t k = 0; k < m_terms.t.size(); ++k) {
-      if (weights[k] == Complex(0.0)) continue;
-      const SparseMatrix& t = m_terms.t[k];
-      if (transposed) {
-        tr.noalias() = t.transpose() * xr;
-        ti.noalias() = t.transpose() * xi;
-      } else {
-        tr.noalias() = t * xr;
-        ti.noalias() = t * xi;
-      }
-      const double a = weights[k].real(), b = weights[k].imag();
-      y.real() += a * tr - b * ti;
-      y.imag() += b * tr + a * ti;
-    }
-    return y;
-  }
-
- public:
   /// The combination sum_k w_k T_k as a distributed PETSc matrix (the caller destroys it).
   Mat assemble(std::span<const Complex> weights) const {
     const std::vector<PetscScalar> values = combination_values(weights);
@@ -300,7 +259,7 @@ class PetscSolver final : public ShiftedSolver {
   Mat make_matrix(const std::vector<PetscInt>& diag, const std::vector<PetscInt>& off,
                   Fill&& fill) const {
     const PetscInt local = m_pattern.row_end - m_pattern.row_begin;
-    const auto n = static_cast<PetscInt>(m_terms.n);
+    const auto n = static_cast<PetscInt>(m_n);
     Mat A = nullptr;
     ECMOR_PETSC(MatCreate(PETSC_COMM_WORLD, &A));
     try {
@@ -318,14 +277,8 @@ class PetscSolver final : public ShiftedSolver {
     return A;
   }
 
-  void require_weights(std::span<const Complex> weights) const {
-    if (weights.size() != m_terms.t.size())
-      throw InputError(fmt::format("PETSc backend: {} weights for {} coefficient matrices",
-                                   weights.size(), m_terms.t.size()));
-  }
-
-  void build_pattern() {
-    const Index n = m_terms.n;
+  void build_pattern(const Terms& terms) {
+    const Index n = terms.n;
     // Ownership as PETSc's PETSC_DECIDE would choose it: contiguous blocks of rows.
     PetscInt local = PETSC_DECIDE, global = static_cast<PetscInt>(n);
     ECMOR_PETSC(PetscSplitOwnership(PETSC_COMM_WORLD, &local, &global));
@@ -336,10 +289,10 @@ class PetscSolver final : public ShiftedSolver {
     p.row_end = end;
     // Row-major copies of the owned rows of every term, merged into one sorted pattern.
     std::vector<Eigen::SparseMatrix<double, Eigen::RowMajor, PetscInt>> rows;
-    for (const SparseMatrix& t : m_terms.t)
+    for (const SparseMatrix& t : terms.t)
       rows.emplace_back(t.middleRows(p.row_begin, local).template cast<double>());
     p.offset.assign(static_cast<std::size_t>(local) + 1, 0);
-    p.scatter.assign(m_terms.t.size(), {});
+    p.scatter.assign(terms.t.size(), {});
     std::vector<PetscInt> merged;
     for (PetscInt r = 0; r < local; ++r) {
       merged.clear();
@@ -372,25 +325,98 @@ class PetscSolver final : public ShiftedSolver {
       m_row_values.emplace_back(R.valuePtr(), R.valuePtr() + R.nonZeros());
   }
 
-  friend class PetscFactorization;
-  Terms m_terms;
+  Index m_n = 0;
   RowPattern m_pattern;
   std::vector<std::vector<double>> m_row_values;  // owned rows' values of each term
-  mutable std::mutex m_counter_mutex;  // also guards m_idle
+  mutable std::mutex m_mutex;                     // guards m_counters and m_idle
   mutable SolverCounters m_counters;
   mutable std::vector<Slot> m_idle;
+};
+
+class PetscSolver final : public ShiftedSolver {
+ public:
+  explicit PetscSolver(Terms terms) : m_terms(std::move(terms)) {
+    ensure_petsc();
+    m_state = std::make_shared<SolverState>(m_terms);
+  }
+  PetscSolver(const PetscSolver&) = delete;
+  PetscSolver& operator=(const PetscSolver&) = delete;
+
+  Index size() const override { return m_terms.n; }
+  Index terms() const override { return static_cast<Index>(m_terms.t.size()); }
+  std::string backend() const override {
+    int size = 1;
+    MPI_Comm_size(PETSC_COMM_WORLD, &size);
+    return fmt::format("petsc (MUMPS, {} rank{})", size, size == 1 ? "" : "s");
+  }
+  bool concurrent() const override { return false; }
+
+  std::shared_ptr<const Factorization> factorize_combination(
+      std::span<const Complex> weights) override;
+
+  ComplexMatrix apply_combination(std::span<const Complex> weights,
+                                  const ComplexMatrix& x) const override {
+    return apply(weights, x, false);
+  }
+  ComplexMatrix apply_combination_transposed(std::span<const Complex> weights,
+                                             const ComplexMatrix& x) const override {
+    return apply(weights, x, true);
+  }
+
+  SolverCounters counters() const override { return m_state->counters(); }
+
+ private:
+  // sum_k w_k T_k x (or T_k^T x) on the replicated terms, with real sparse products on the real
+  // and imaginary parts of x: no complex or transposed copy of a term (a hot path of the Krylov
+  // recurrences and of low-rank ADI).
+  ComplexMatrix apply(std::span<const Complex> weights, const ComplexMatrix& x,
+                      bool transposed) const {
+    require_weights(weights);
+    if (x.rows() != m_terms.n)
+      throw InputError(fmt::format("PETSc backend: {}: x has {} rows, expected {}",
+                                   transposed ? "apply_combination_transposed"
+                                              : "apply_combination",
+                                   x.rows(), m_terms.n));
+    const Matrix xr = x.real(), xi = x.imag();
+    ComplexMatrix y = ComplexMatrix::Zero(m_terms.n, x.cols());
+    Matrix tr, ti;
+    for (std::size_t k = 0; k < m_terms.t.size(); ++k) {
+      if (weights[k] == Complex(0.0)) continue;
+      const SparseMatrix& t = m_terms.t[k];
+      if (transposed) {
+        tr.noalias() = t.transpose() * xr;
+        ti.noalias() = t.transpose() * xi;
+      } else {
+        tr.noalias() = t * xr;
+        ti.noalias() = t * xi;
+      }
+      const double a = weights[k].real(), b = weights[k].imag();
+      y.real() += a * tr - b * ti;
+      y.imag() += b * tr + a * ti;
+    }
+    return y;
+  }
+
+  void require_weights(std::span<const Complex> weights) const {
+    if (weights.size() != m_terms.t.size())
+      throw InputError(fmt::format("PETSc backend: {} weights for {} coefficient matrices",
+                                   weights.size(), m_terms.t.size()));
+  }
+
+  Terms m_terms;
+  std::shared_ptr<SolverState> m_state;
 };
 
 // One MUMPS LU of a combination: its matrix, KSP (preonly + LU) and work vectors.
 class PetscFactorization final : public Factorization {
  public:
-  PetscFactorization(const PetscSolver& solver, std::vector<Complex> weights)
-      : m_solver(solver), m_weights(std::move(weights)) {
+  PetscFactorization(std::shared_ptr<const SolverState> state, std::vector<Complex> weights)
+      : m_state(std::move(state)), m_weights(std::move(weights)) {
     for (const Complex& w : m_weights) m_complex = m_complex || w.imag() != 0.0;
   }
   ~PetscFactorization() override {
     if (m_reusable) {
-      m_solver.give_back(m_slot);
+      m_state->give_back(m_slot);
     } else {
       m_slot.destroy();
     }
@@ -399,15 +425,15 @@ class PetscFactorization final : public Factorization {
   PetscFactorization& operator=(const PetscFactorization&) = delete;
 
   void factorize() {
-    m_slot = m_solver.take_slot();
+    m_slot = m_state->take_slot();
     if (m_slot.ksp != nullptr) {
       // Analysed before: new values, numeric factorisation only (PCSetUp sees the same nonzero
       // pattern).
-      m_solver.refill(m_slot.A, m_weights);
+      m_state->refill(m_slot.A, m_weights);
       ECMOR_PETSC(KSPSetOperators(m_slot.ksp, m_slot.A, m_slot.A));
     } else {
       m_analysed = true;
-      m_slot.A = m_solver.assemble(m_weights);
+      m_slot.A = m_state->assemble(m_weights);
       ECMOR_PETSC(KSPCreate(PETSC_COMM_WORLD, &m_slot.ksp));
       ECMOR_PETSC(KSPSetOperators(m_slot.ksp, m_slot.A, m_slot.A));
       ECMOR_PETSC(KSPSetType(m_slot.ksp, KSPPREONLY));
@@ -451,7 +477,7 @@ class PetscFactorization final : public Factorization {
   /// True when this factorisation needed MUMPS's analysis (no analysed slot was idle).
   bool analysed() const { return m_analysed; }
 
-  Index size() const override { return m_solver.size(); }
+  Index size() const override { return m_state->size(); }
   bool is_complex() const override { return m_complex; }
   std::string method() const override { return "mumps"; }
   const std::vector<Complex>& weights() const override { return m_weights; }
@@ -470,17 +496,17 @@ class PetscFactorization final : public Factorization {
   }
   ComplexMatrix solve_transposed(const ComplexMatrix& B) const override { return run(B, true); }
 
-  const PetscSolver& solver() const { return m_solver; }
+  const SolverState& state() const { return *m_state; }
   Mat matrix() const { return m_slot.A; }
   KSP ksp() const { return m_slot.ksp; }
 
  private:
   ComplexMatrix run(const ComplexMatrix& B, bool transposed) const {
-    if (B.rows() != m_solver.size())
+    if (B.rows() != m_state->size())
       throw InputError(fmt::format("Factorization::solve: right-hand side has {} rows, expected {}",
-                                   B.rows(), m_solver.size()));
+                                   B.rows(), m_state->size()));
     const auto t0 = Clock::now();
-    const RowPattern& p = m_solver.pattern();
+    const RowPattern& p = m_state->pattern();
     ComplexMatrix X(B.rows(), B.cols());
     for (Index j = 0; j < B.cols(); ++j) {
       PetscScalar* b = nullptr;
@@ -506,7 +532,7 @@ class PetscFactorization final : public Factorization {
       ECMOR_PETSC(VecRestoreArrayRead(m_slot.all, &x));
     }
     const double dt = seconds_since(t0);
-    m_solver.count([&](SolverCounters& c) {
+    m_state->count([&](SolverCounters& c) {
       c.solves += B.cols();
       c.solve_seconds += dt;
     });
@@ -515,7 +541,7 @@ class PetscFactorization final : public Factorization {
     return X;
   }
 
-  const PetscSolver& m_solver;
+  std::shared_ptr<const SolverState> m_state;  // co-owned: see SolverState
   std::vector<Complex> m_weights;
   bool m_complex = false;
   Slot m_slot;
@@ -528,11 +554,11 @@ std::shared_ptr<const Factorization> PetscSolver::factorize_combination(
   require_weights(weights);
   const auto t0 = Clock::now();
   auto f = std::make_shared<PetscFactorization>(
-      *this, std::vector<Complex>(weights.begin(), weights.end()));
+      m_state, std::vector<Complex>(weights.begin(), weights.end()));
   f->factorize();
   const double dt = seconds_since(t0);
   const bool cplx = f->is_complex();
-  count([&](SolverCounters& c) {
+  m_state->count([&](SolverCounters& c) {
     if (f->analysed()) ++c.symbolic_analyses;
     ++c.factorizations;
     ++c.lu_factorizations;
@@ -608,7 +634,7 @@ SymmetricEigenResult symmetric_eigs(const Factorization& factorization, const Sp
                                         options.nev);
   EpsObjects o;
   ShiftInvertContext ctx;
-  o.M = F->solver().distribute(M);
+  o.M = F->state().distribute(M);
   ECMOR_PETSC(MatCreateVecs(o.M, &o.x, nullptr));
   ctx.F = F;
 
@@ -658,7 +684,7 @@ SymmetricEigenResult symmetric_eigs(const Factorization& factorization, const Sp
   const auto t0 = Clock::now();
   ECMOR_PETSC(EPSSolve(o.eps));
   const double dt = seconds_since(t0);
-  F->solver().count([&](SolverCounters& c) {
+  F->state().count([&](SolverCounters& c) {
     c.solves += ctx.applications;
     c.solve_seconds += dt;
   });
