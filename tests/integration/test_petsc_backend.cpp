@@ -82,6 +82,14 @@ class PetscBackend : public ::testing::Test {
   // `ecmor reduce CONFIG --no-plot -q` on `ranks` MPI ranks (0: without mpirun), bounded by a
   // timeout so that a hang fails the test instead of the CI job.
   Result reduce(const fs::path& config, int ranks, const std::string& extra = "") {
+    return launch(ranks, 300,
+                  std::string(ECMOR_TEST_BINARY_DIR) + "/bin/ecmor reduce " + config.string() +
+                      " --no-plot -q " + extra);
+  }
+
+  // `command` on `ranks` MPI ranks (0: without mpirun), killed after `timeout_s` seconds (exit
+  // code 124 then); its stdout and stderr together.
+  Result launch(int ranks, int timeout_s, const std::string& command) {
     const fs::path out = m_dir / "stdout.txt";
     std::ostringstream cmd;
     // Open MPI refuses root without these; single-copy shared memory is unavailable in some
@@ -91,10 +99,9 @@ class PetscBackend : public ::testing::Test {
     // One OpenMP thread per rank on two ranks, as docs/cluster.md advises (cores / ranks):
     // OpenMP and OpenBLAS threads of both ranks spinning on two cores only slow the run.
     if (ranks > 1) cmd << "OMP_NUM_THREADS=1 ";
-    cmd << "timeout 300 ";
+    cmd << "timeout " << timeout_s << " ";
     if (ranks > 0) cmd << "mpirun --oversubscribe -n " << ranks << " ";
-    cmd << ECMOR_TEST_BINARY_DIR << "/bin/ecmor reduce " << config.string() << " --no-plot -q "
-        << extra << " >" << out.string() << " 2>&1";
+    cmd << command << " >" << out.string() << " 2>&1";
     const int status = std::system(cmd.str().c_str());
     Result r;
     r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -187,6 +194,20 @@ TEST_F(PetscBackend, SameOrderAndBandErrorOnOneAndTwoRanks) {
               std::count(p1.out.begin(), p1.out.end(), '\n'))
         << p2.out;
   }
+}
+
+// Regression of the two-rank deadlock in teardown (SameOrderAndBandErrorOnOneAndTwoRanks hung
+// after its outputs were written): factorisations used and released after their solver was
+// destroyed, in the order of the driver and the modal reducer (petsc_teardown_check.cpp). When a
+// factorisation still referred to its destroyed solver, the ranks decided from freed memory
+// whether to destroy a MUMPS instance and tore down different ones. A hang is killed after 60 s
+// and fails here (exit code 124); the run itself takes about a second.
+TEST_F(PetscBackend, FactorizationsOutliveTheirSolverOnTwoRanks) {
+  const Result r = launch(2, 60, std::string(ECMOR_TEST_BINARY_DIR) + "/bin/petsc_teardown_check");
+  EXPECT_EQ(r.exit_code, 0) << r.out;
+  for (const char* rank : {"rank 0 of 2 released 4", "rank 1 of 2 released 4"})
+    EXPECT_NE(r.out.find(rank), std::string::npos) << rank << "\n" << r.out;
+  EXPECT_EQ(r.out.find("FAILED"), std::string::npos) << r.out;
 }
 
 // An expansion point at a pole: MUMPS finds P(0) = K singular on every rank; the strategy ends the
