@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <string>
 
+#include "common/reject_case.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/calculix.hpp"
 #include "ecmor/error.hpp"
@@ -18,6 +19,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::message_of;
+using test::RejectCase;
 using test::TempDir;
 using test::write_raw;
 
@@ -57,18 +59,12 @@ TEST(CalculixDeck, ReadsNodesSetsIncludesAndSteps) {
   EXPECT_EQ(flat.find("*INCLUDE"), std::string::npos);
 }
 
-struct DeckCase {
-  const char* name;
-  const char* deck;
-  const char* expected;
-};
-
-class CalculixDeckRejects : public ::testing::TestWithParam<DeckCase> {};
+class CalculixDeckRejects : public ::testing::TestWithParam<RejectCase> {};
 
 TEST_P(CalculixDeckRejects, NamingFileLineAndRule) {
-  const DeckCase& c = GetParam();
+  const RejectCase& c = GetParam();
   TempDir dir;
-  write_raw(dir / "d.inp", c.deck);
+  write_raw(dir / "d.inp", c.first);
   const std::string msg = message_of<InputError>([&] { read_calculix_deck(dir / "d.inp"); });
   EXPECT_PRED_FORMAT2(::testing::IsSubstring, c.expected, msg) << c.name;
 }
@@ -76,41 +72,43 @@ TEST_P(CalculixDeckRejects, NamingFileLineAndRule) {
 INSTANTIATE_TEST_SUITE_P(
     Rules, CalculixDeckRejects,
     ::testing::Values(
-        DeckCase{"data first", "1, 0, 0, 0\n",
-                 "d.inp: line 1: data line outside any keyword block"},
-        DeckCase{"node id", "*NODE\nA, 0, 0, 0\n",
-                 "d.inp: line 2: *NODE: node id 'A' is not an integer"},
-        DeckCase{"node negative", "*NODE\n-3, 0, 0, 0\n",
-                 "d.inp: line 2: *NODE: node id -3: must be > 0"},
-        DeckCase{"coordinate", "*NODE\n1, 0, x, 0\n",
-                 "d.inp: line 2: *NODE 1: coordinate 'x' is not a finite number"},
-        DeckCase{"fields", "*NODE\n1, 0, 0, 0, 0\n",
-                 "d.inp: line 2: *NODE: 5 fields: expected id, x[, y[, z]]"},
-        DeckCase{"node twice", "*NODE\n1, 0, 0, 0\n*NODE\n1, 1, 0, 0\n",
-                 "d.inp: line 4: node 1 defined twice (first at "},
-        DeckCase{"system", "*NODE, SYSTEM=C\n1, 0, 0, 0\n",
-                 "d.inp: line 1: *NODE: parameter SYSTEM is not supported"},
-        DeckCase{"nset name", "*NSET\n1\n", "d.inp: line 1: *NSET without NSET=name"},
-        DeckCase{"undefined node", "*NODE\n1, 0, 0, 0\n*NSET, NSET=S\n1, 7\n",
-                 "d.inp: line 4: *NSET S: node 7 is not defined by any *NODE"},
-        DeckCase{"unknown set", "*NODE\n1, 0, 0, 0\n*NSET, NSET=S\nT\n",
-                 "d.inp: line 4: *NSET S: 'T' is neither a node id nor a node set defined above"},
-        DeckCase{"generate increment", "*NSET, NSET=S, GENERATE\n1, 5, 0\n",
-                 "d.inp: line 2: *NSET, GENERATE: increment '0': must be an integer > 0"},
-        DeckCase{"generate order", "*NSET, NSET=S, GENERATE\n5, 1\n",
-                 "d.inp: line 2: *NSET, GENERATE: first 5 > last 1"},
-        DeckCase{"generate fields", "*NSET, NSET=S, GENERATE\n1\n",
-                 "d.inp: line 2: *NSET, GENERATE: 1 fields"},
-        DeckCase{"include input", "*INCLUDE\n", "d.inp: line 1: *INCLUDE without INPUT=file"},
-        DeckCase{"include missing", "*INCLUDE, INPUT=nothere.inp\n",
-                 "d.inp: line 1: *INCLUDE, INPUT=nothere.inp: no such file"},
-        DeckCase{"include cycle", "*INCLUDE, INPUT=d.inp\n", "nested more than 16 deep"},
-        DeckCase{"open step", "*STEP\n*STATIC\n", "d.inp: line 1: *STEP without *END STEP"},
-        DeckCase{"end step", "*END STEP\n", "d.inp: line 1: *END STEP without *STEP"},
-        DeckCase{"long line",
-                 "*NODE\n1, 0.000000000000000000000000000000000000000000000000000000000000000000,"
-                 " 0.0000000000000000000000000000000000000000000000000000000000000000000000\n",
-                 "d.inp: line 2: 145 columns: ccx reads at most 132 per line"}));
+        RejectCase{"data first", "1, 0, 0, 0\n", nullptr,
+                   "d.inp: line 1: data line outside any keyword block"},
+        RejectCase{"node id", "*NODE\nA, 0, 0, 0\n", nullptr,
+                   "d.inp: line 2: *NODE: node id 'A' is not an integer"},
+        RejectCase{"node negative", "*NODE\n-3, 0, 0, 0\n", nullptr,
+                   "d.inp: line 2: *NODE: node id -3: must be > 0"},
+        RejectCase{"coordinate", "*NODE\n1, 0, x, 0\n", nullptr,
+                   "d.inp: line 2: *NODE 1: coordinate 'x' is not a finite number"},
+        RejectCase{"fields", "*NODE\n1, 0, 0, 0, 0\n", nullptr,
+                   "d.inp: line 2: *NODE: 5 fields: expected id, x[, y[, z]]"},
+        RejectCase{"node twice", "*NODE\n1, 0, 0, 0\n*NODE\n1, 1, 0, 0\n", nullptr,
+                   "d.inp: line 4: node 1 defined twice (first at "},
+        RejectCase{"system", "*NODE, SYSTEM=C\n1, 0, 0, 0\n", nullptr,
+                   "d.inp: line 1: *NODE: parameter SYSTEM is not supported"},
+        RejectCase{"nset name", "*NSET\n1\n", nullptr, "d.inp: line 1: *NSET without NSET=name"},
+        RejectCase{"undefined node", "*NODE\n1, 0, 0, 0\n*NSET, NSET=S\n1, 7\n", nullptr,
+                   "d.inp: line 4: *NSET S: node 7 is not defined by any *NODE"},
+        RejectCase{"unknown set", "*NODE\n1, 0, 0, 0\n*NSET, NSET=S\nT\n", nullptr,
+                   "d.inp: line 4: *NSET S: 'T' is neither a node id nor a node set defined above"},
+        RejectCase{"generate increment", "*NSET, NSET=S, GENERATE\n1, 5, 0\n", nullptr,
+                   "d.inp: line 2: *NSET, GENERATE: increment '0': must be an integer > 0"},
+        RejectCase{"generate order", "*NSET, NSET=S, GENERATE\n5, 1\n", nullptr,
+                   "d.inp: line 2: *NSET, GENERATE: first 5 > last 1"},
+        RejectCase{"generate fields", "*NSET, NSET=S, GENERATE\n1\n", nullptr,
+                   "d.inp: line 2: *NSET, GENERATE: 1 fields"},
+        RejectCase{"include input", "*INCLUDE\n", nullptr,
+                   "d.inp: line 1: *INCLUDE without INPUT=file"},
+        RejectCase{"include missing", "*INCLUDE, INPUT=nothere.inp\n", nullptr,
+                   "d.inp: line 1: *INCLUDE, INPUT=nothere.inp: no such file"},
+        RejectCase{"include cycle", "*INCLUDE, INPUT=d.inp\n", nullptr, "nested more than 16 deep"},
+        RejectCase{"open step", "*STEP\n*STATIC\n", nullptr,
+                   "d.inp: line 1: *STEP without *END STEP"},
+        RejectCase{"end step", "*END STEP\n", nullptr, "d.inp: line 1: *END STEP without *STEP"},
+        RejectCase{"long line",
+                   "*NODE\n1, 0.000000000000000000000000000000000000000000000000000000000000000000,"
+                   " 0.0000000000000000000000000000000000000000000000000000000000000000000000\n",
+                   nullptr, "d.inp: line 2: 145 columns: ccx reads at most 132 per line"}));
 
 TEST(CalculixDeck, MissingFileIsAnInputError) {
   TempDir dir;
@@ -150,19 +148,12 @@ TEST(CalculixMatrices, UpperTriangleExpandsToTheSymmetricMatrix) {
   EXPECT_EQ(m.dofs[2].node, 2);
 }
 
-struct MatrixCase {
-  const char* name;
-  const char* sti;
-  const char* dof;
-  const char* expected;
-};
-
-class CalculixMatricesReject : public ::testing::TestWithParam<MatrixCase> {};
+class CalculixMatricesReject : public ::testing::TestWithParam<RejectCase> {};
 
 TEST_P(CalculixMatricesReject, NamingFileLineAndRule) {
-  const MatrixCase& c = GetParam();
+  const RejectCase& c = GetParam();  // first: the .sti file, second: the .dof file
   TempDir dir;
-  write_matrices(dir.path(), "j", c.sti, kMas, c.dof);
+  write_matrices(dir.path(), "j", c.first, kMas, c.second);
   const std::string msg = message_of<InputError>(
       [&] { read_calculix_matrices(dir / "j.sti", dir / "j.mas", dir / "j.dof"); });
   EXPECT_PRED_FORMAT2(::testing::IsSubstring, c.expected, msg) << c.name;
@@ -171,22 +162,22 @@ TEST_P(CalculixMatricesReject, NamingFileLineAndRule) {
 INSTANTIATE_TEST_SUITE_P(
     Rules, CalculixMatricesReject,
     ::testing::Values(
-        MatrixCase{"lower", "1 1 1.0\n2 1 1.0\n", kDof,
+        RejectCase{"lower", "1 1 1.0\n2 1 1.0\n", kDof,
                    "j.sti: line 2: entry (2, 1) below the diagonal"},
-        MatrixCase{"order", "1 2 1.0\n1 1 1.0\n", kDof, "j.sti: line 2: entry (1, 1) after (1, 2)"},
-        MatrixCase{"repeat", "1 1 1.0\n1 1 1.0\n", kDof,
+        RejectCase{"order", "1 2 1.0\n1 1 1.0\n", kDof, "j.sti: line 2: entry (1, 1) after (1, 2)"},
+        RejectCase{"repeat", "1 1 1.0\n1 1 1.0\n", kDof,
                    "j.sti: line 2: entry (1, 1) after (1, 1)"},
-        MatrixCase{"range", "1 4 1.0\n", kDof, "j.sti: line 1: entry (1, 4) outside 1..N = 3"},
-        MatrixCase{"value", "1 1 nan\n", kDof, "j.sti: line 1: expected 'row column value'"},
-        MatrixCase{"fields", "1 1\n", kDof, "j.sti: line 1: expected 'row column value'"},
-        MatrixCase{"blank", "1 1 1.0\n\n2 2 1.0\n", kDof, "j.sti: line 2: blank line"},
-        MatrixCase{"thermal", kSti, "1.1\n1.0\n2.1\n",
+        RejectCase{"range", "1 4 1.0\n", kDof, "j.sti: line 1: entry (1, 4) outside 1..N = 3"},
+        RejectCase{"value", "1 1 nan\n", kDof, "j.sti: line 1: expected 'row column value'"},
+        RejectCase{"fields", "1 1\n", kDof, "j.sti: line 1: expected 'row column value'"},
+        RejectCase{"blank", "1 1 1.0\n\n2 2 1.0\n", kDof, "j.sti: line 2: blank line"},
+        RejectCase{"thermal", kSti, "1.1\n1.0\n2.1\n",
                    "j.dof: line 2: '1.0': a thermal degree of freedom"},
-        MatrixCase{"direction", kSti, "1.1\n1.7\n2.1\n",
+        RejectCase{"direction", kSti, "1.1\n1.7\n2.1\n",
                    "j.dof: line 2: '1.7': direction 7: must be 1..6"},
-        MatrixCase{"dof syntax", kSti, "1.1\n12\n2.1\n",
+        RejectCase{"dof syntax", kSti, "1.1\n12\n2.1\n",
                    "j.dof: line 2: '12': expected node.direction"},
-        MatrixCase{"empty", kSti, "", "j.dof: no degrees of freedom"}));
+        RejectCase{"empty", kSti, "", "j.dof: no degrees of freedom"}));
 
 // ---- the import YAML -------------------------------------------------------------------------
 

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <string>
 
+#include "common/reject_case.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/fe_geometry.hpp"
@@ -14,6 +15,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::message_of;
+using test::RejectCase;
 using test::TempDir;
 using test::write_raw;
 
@@ -53,20 +55,13 @@ TEST(FeGeometry, ReadSortsRowsGivenInAnyOrder) {
   EXPECT_EQ(g->dofs[1].node, 20);
 }
 
-struct GeometryCase {
-  const char* name;
-  const char* nodes;
-  const char* dofs;
-  const char* expected;  // substring of the message
-};
-
-class FeGeometryRejects : public ::testing::TestWithParam<GeometryCase> {};
+class FeGeometryRejects : public ::testing::TestWithParam<RejectCase> {};
 
 TEST_P(FeGeometryRejects, NamingFileLineAndRule) {
-  const GeometryCase& c = GetParam();
+  const RejectCase& c = GetParam();  // first: nodes.csv, second: dofs.csv
   TempDir dir;
-  if (c.nodes != nullptr) write_raw(dir / "nodes.csv", c.nodes);
-  if (c.dofs != nullptr) write_raw(dir / "dofs.csv", c.dofs);
+  if (c.first != nullptr) write_raw(dir / "nodes.csv", c.first);
+  if (c.second != nullptr) write_raw(dir / "dofs.csv", c.second);
   const std::string msg = message_of<InputError>([&] { read_fe_geometry(dir.path(), 2); });
   EXPECT_PRED_FORMAT2(::testing::IsSubstring, c.expected, msg) << c.name;
 }
@@ -76,37 +71,36 @@ constexpr const char* kDofs = "row,node,direction\n1,1,1\n2,2,1\n";
 
 INSTANTIATE_TEST_SUITE_P(
     Rules, FeGeometryRejects,
-    ::testing::Values(GeometryCase{"nodes only", kNodes, nullptr, "nodes.csv without dofs.csv"},
-                      GeometryCase{"dofs only", nullptr, kDofs, "dofs.csv without nodes.csv"},
-                      GeometryCase{"header", "id,x,y,z\n1,0,0,0\n", kDofs,
-                                   "nodes.csv: line 1: the header must be 'node,x,y,z'"},
-                      GeometryCase{"fields", "node,x,y,z\n1,0,0\n", kDofs,
-                                   "nodes.csv: line 2: 3 fields, expected 4"},
-                      GeometryCase{"coordinate", "node,x,y,z\n1,0,nan,0\n2,0,0,0\n", kDofs,
-                                   "nodes.csv: line 2: y 'nan' is not a finite number"},
-                      GeometryCase{"node id", "node,x,y,z\n1.5,0,0,0\n", kDofs,
-                                   "nodes.csv: line 2: node '1.5' is not an integer"},
-                      GeometryCase{"node twice", "node,x,y,z\n1,0,0,0\n1,1,0,0\n", kDofs,
-                                   "nodes.csv: line 3: node 1 given twice (first at line 2)"},
-                      GeometryCase{"node id zero", "node,x,y,z\n0,0,0,0\n", kDofs,
-                                   "nodes.csv: line 2: node id 0: must be in 1..2^60"},
-                      GeometryCase{"blank line", "node,x,y,z\n1,0,0,0\n\n2,0,0,0\n", kDofs,
-                                   "nodes.csv: line 3: blank line"},
-                      GeometryCase{"too few rows", kNodes, "row,node,direction\n1,1,1\n",
-                                   "1 rows, but the model has N = 2"},
-                      GeometryCase{"row range", kNodes, "row,node,direction\n1,1,1\n3,2,1\n",
-                                   "dofs.csv: line 3: row 3: must be in 1..N = 2"},
-                      GeometryCase{"row twice", kNodes, "row,node,direction\n1,1,1\n1,2,1\n",
-                                   "dofs.csv: line 3: row 1 given twice (first at line 2)"},
-                      GeometryCase{"direction 0", kNodes, "row,node,direction\n1,1,0\n2,2,1\n",
-                                   "dofs.csv: line 2: row 1: direction 0: must be 1..6"},
-                      GeometryCase{"direction 7", kNodes, "row,node,direction\n1,1,1\n2,2,7\n",
-                                   "dofs.csv: line 3: row 2: direction 7: must be 1..6"},
-                      GeometryCase{"unknown node", kNodes, "row,node,direction\n1,1,1\n2,5,1\n",
-                                   "dofs.csv: line 3: row 2: node 5 is not in"},
-                      GeometryCase{
-                          "pair twice", kNodes, "row,node,direction\n1,1,2\n2,1,2\n",
-                          "dofs.csv: line 3: row 2: node 1 direction 2 already has row 1"}));
+    ::testing::Values(RejectCase{"nodes only", kNodes, nullptr, "nodes.csv without dofs.csv"},
+                      RejectCase{"dofs only", nullptr, kDofs, "dofs.csv without nodes.csv"},
+                      RejectCase{"header", "id,x,y,z\n1,0,0,0\n", kDofs,
+                                 "nodes.csv: line 1: the header must be 'node,x,y,z'"},
+                      RejectCase{"fields", "node,x,y,z\n1,0,0\n", kDofs,
+                                 "nodes.csv: line 2: 3 fields, expected 4"},
+                      RejectCase{"coordinate", "node,x,y,z\n1,0,nan,0\n2,0,0,0\n", kDofs,
+                                 "nodes.csv: line 2: y 'nan' is not a finite number"},
+                      RejectCase{"node id", "node,x,y,z\n1.5,0,0,0\n", kDofs,
+                                 "nodes.csv: line 2: node '1.5' is not an integer"},
+                      RejectCase{"node twice", "node,x,y,z\n1,0,0,0\n1,1,0,0\n", kDofs,
+                                 "nodes.csv: line 3: node 1 given twice (first at line 2)"},
+                      RejectCase{"node id zero", "node,x,y,z\n0,0,0,0\n", kDofs,
+                                 "nodes.csv: line 2: node id 0: must be in 1..2^60"},
+                      RejectCase{"blank line", "node,x,y,z\n1,0,0,0\n\n2,0,0,0\n", kDofs,
+                                 "nodes.csv: line 3: blank line"},
+                      RejectCase{"too few rows", kNodes, "row,node,direction\n1,1,1\n",
+                                 "1 rows, but the model has N = 2"},
+                      RejectCase{"row range", kNodes, "row,node,direction\n1,1,1\n3,2,1\n",
+                                 "dofs.csv: line 3: row 3: must be in 1..N = 2"},
+                      RejectCase{"row twice", kNodes, "row,node,direction\n1,1,1\n1,2,1\n",
+                                 "dofs.csv: line 3: row 1 given twice (first at line 2)"},
+                      RejectCase{"direction 0", kNodes, "row,node,direction\n1,1,0\n2,2,1\n",
+                                 "dofs.csv: line 2: row 1: direction 0: must be 1..6"},
+                      RejectCase{"direction 7", kNodes, "row,node,direction\n1,1,1\n2,2,7\n",
+                                 "dofs.csv: line 3: row 2: direction 7: must be 1..6"},
+                      RejectCase{"unknown node", kNodes, "row,node,direction\n1,1,1\n2,5,1\n",
+                                 "dofs.csv: line 3: row 2: node 5 is not in"},
+                      RejectCase{"pair twice", kNodes, "row,node,direction\n1,1,2\n2,1,2\n",
+                                 "dofs.csv: line 3: row 2: node 1 direction 2 already has row 1"}));
 
 TEST(FeGeometry, ValidateInMemoryNamesTheEntry) {
   FeGeometry g = two_nodes();
