@@ -210,38 +210,31 @@ std::string replaced(std::string s, const std::string& from, const std::string& 
 }
 
 TEST(CalculixConfig, RejectsNamingLineAndKey) {
-  const auto msg = [](const std::string& yaml) {
-    return message_of<ConfigError>([&] { parse_calculix_import_config(yaml, "imp.yaml"); });
+  struct Edit {
+    std::string from, to;  // kYaml with `from` replaced by `to` ...
+    const char* expected;  // ... must fail with this in its message
   };
-  EXPECT_PRED_FORMAT2(::testing::IsSubstring,
-                      "imp.yaml:1: unknown key 'dek' in 'calculix' (did you mean 'deck'?)",
-                      msg(replaced(kYaml, "deck:", "dek:")));
-  EXPECT_PRED_FORMAT2(::testing::IsSubstring, "imp.yaml:1: missing required key 'calculix.deck'",
-                      msg(replaced(kYaml, "deck: d.inp, ", "")));
-  EXPECT_PRED_FORMAT2(::testing::IsSubstring,
-                      "imp.yaml:3: inputs[0].directions[1] = 7: must be an integer 1..6",
-                      msg(replaced(kYaml, "[1, 2]", "[1, 7]")));
-  EXPECT_PRED_FORMAT2(::testing::IsSubstring, "imp.yaml:3: inputs[0].directions: 2 given twice",
-                      msg(replaced(kYaml, "[1, 2]", "[2, 2]")));
-  EXPECT_PRED_FORMAT2(::testing::IsSubstring,
-                      "imp.yaml:5: outputs[0]: give either 'direction' or 'directions'",
-                      msg(replaced(kYaml, "direction: 1}", "direction: 1, directions: [2]}")));
-  EXPECT_PRED_FORMAT2(::testing::IsSubstring, "imp.yaml:6: damping.alpha = -0.5: must be >= 0",
-                      msg(replaced(kYaml, "alpha: 0.5", "alpha: -0.5")));
-  EXPECT_PRED_FORMAT2(::testing::IsSubstring,
-                      "imp.yaml:6: damping.beta = 'fast': must be a finite number",
-                      msg(replaced(kYaml, "beta: 1.0e-3", "beta: fast")));
-  EXPECT_PRED_FORMAT2(::testing::IsSubstring, "missing required key 'damping.beta'",
-                      msg(replaced(kYaml, ", beta: 1.0e-3", "")));
-  EXPECT_PRED_FORMAT2(
-      ::testing::IsSubstring, "imp.yaml:2: 'inputs' must be a non-empty list",
-      msg(replaced(kYaml, "inputs:\n  - {nset: LEFT, directions: [1, 2]}", "inputs: []")));
-  EXPECT_PRED_FORMAT2(::testing::IsSubstring,
-                      "imp.yaml:1: calculix.run = maybe: must be true or false",
-                      msg(replaced(kYaml, "run: false", "run: maybe")));
-  EXPECT_PRED_FORMAT2(::testing::IsSubstring,
-                      "imp.yaml:8: unknown key 'extra' in the import configuration",
-                      msg(std::string(kYaml) + "extra: 1\n"));
+  const std::vector<Edit> edits = {
+      {"deck:", "dek:", "imp.yaml:1: unknown key 'dek' in 'calculix' (did you mean 'deck'?)"},
+      {"deck: d.inp, ", "", "imp.yaml:1: missing required key 'calculix.deck'"},
+      {"[1, 2]", "[1, 7]", "imp.yaml:3: inputs[0].directions[1] = 7: must be an integer 1..6"},
+      {"[1, 2]", "[2, 2]", "imp.yaml:3: inputs[0].directions: 2 given twice"},
+      {"direction: 1}", "direction: 1, directions: [2]}",
+       "imp.yaml:5: outputs[0]: give either 'direction' or 'directions'"},
+      {"alpha: 0.5", "alpha: -0.5", "imp.yaml:6: damping.alpha = -0.5: must be >= 0"},
+      {"beta: 1.0e-3", "beta: fast", "imp.yaml:6: damping.beta = 'fast': must be a finite number"},
+      {", beta: 1.0e-3", "", "missing required key 'damping.beta'"},
+      {"inputs:\n  - {nset: LEFT, directions: [1, 2]}", "inputs: []",
+       "imp.yaml:2: 'inputs' must be a non-empty list"},
+      {"run: false", "run: maybe", "imp.yaml:1: calculix.run = maybe: must be true or false"},
+      {"output: {dir: out}\n", "output: {dir: out}\nextra: 1\n",
+       "imp.yaml:8: unknown key 'extra' in the import configuration"}};
+  for (const Edit& e : edits) {
+    const std::string yaml = replaced(kYaml, e.from, e.to);
+    EXPECT_PRED_FORMAT2(::testing::IsSubstring, e.expected, message_of<ConfigError>([&] {
+                          parse_calculix_import_config(yaml, "imp.yaml");
+                        }));
+  }
 }
 
 // ---- an import from matrices ccx wrote (run: false) -------------------------------------------
