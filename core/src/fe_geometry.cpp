@@ -164,8 +164,7 @@ void write_fe_geometry(const fs::path& dir, const FeGeometry& geometry) {
   validate(geometry, static_cast<Index>(geometry.dofs.size()), dir.string());
   write_file_atomically(dir / "nodes.csv", [&](std::ostream& out) {
     out << kNodesHeader << '\n';
-    for (const FeNode& p : geometry.nodes)
-      out << fmt::format("{},{},{},{}\n", p.id, p.x, p.y, p.z);
+    for (const FeNode& p : geometry.nodes) out << fmt::format("{},{},{},{}\n", p.id, p.x, p.y, p.z);
   });
   write_file_atomically(dir / "dofs.csv", [&](std::ostream& out) {
     out << kDofsHeader << '\n';
