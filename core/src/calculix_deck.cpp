@@ -153,9 +153,9 @@ class DeckReader {
       throw InputError(where + "*INCLUDE, INPUT=" + *input + ": no such file (" + file.string() +
                        "; relative names are taken from the including file's directory)");
     m_block = Block::None;
-    m_deck.flattened.push_back("** ecmor: begin of " + file.string());
+    m_deck.flattened.push_back("** ecmor: begin of " + file.filename().string());
     read_file(file, depth + 1);
-    m_deck.flattened.push_back("** ecmor: end of " + file.string());
+    m_deck.flattened.push_back("** ecmor: end of " + file.filename().string());
     m_block = Block::None;  // a data line after *INCLUDE belongs to no keyword of this file
   }
 
@@ -171,6 +171,12 @@ class DeckReader {
   void start_block(const Keyword& kw, const std::string& where) {
     m_block = Block::Other;
     m_set.clear();
+    // ccx runs the deck in another directory (OUTPUT/calculix), where a relative INPUT= of a
+    // card would name another file, and ecmor would not read what the card brings in.
+    if (const std::string* input = kw.param("INPUT"))
+      throw InputError(where + fmt::format("{}, INPUT={}: data from other files only through "
+                                           "*INCLUDE",
+                                           kw.name, *input));
     if (kw.name == "*NODE") {
       allow_only(kw, where, {"NSET"});
       m_block = Block::Node;

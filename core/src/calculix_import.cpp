@@ -424,7 +424,8 @@ CalculixImportSummary import_calculix(const CalculixImportConfig& c) {
     files = matrix_files(summary.calculix_dir, job);
     for (const fs::path& p : {files.sti, files.mas, files.dof}) fs::remove(p, ec);
     write_file_atomically(summary.calculix_dir / (job + ".inp"), [&](std::ostream& os) {
-      os << "** ecmor import calculix: " << c.deck.string() << ", *INCLUDEs expanded\n";
+      // File names only in these comments: ccx reads at most 132 columns a line.
+      os << "** ecmor import calculix: " << c.deck.filename().string() << ", *INCLUDEs expanded\n";
       for (const std::string& line : deck.flattened) os << line << '\n';
       if (!has_step) os << kMatrixStorageStep;
     });

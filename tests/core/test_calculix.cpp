@@ -101,6 +101,9 @@ INSTANTIATE_TEST_SUITE_P(
                    "d.inp: line 1: *INCLUDE without INPUT=file"},
         RejectCase{"include missing", "*INCLUDE, INPUT=nothere.inp\n", nullptr,
                    "d.inp: line 1: *INCLUDE, INPUT=nothere.inp: no such file"},
+        RejectCase{"input on a card", "*BOUNDARY, INPUT=fix.bou\n", nullptr,
+                   "d.inp: line 1: *BOUNDARY, INPUT=fix.bou: data from other files only through "
+                   "*INCLUDE"},
         RejectCase{"include cycle", "*INCLUDE, INPUT=d.inp\n", nullptr, "nested more than 16 deep"},
         RejectCase{"open step", "*STEP\n*STATIC\n", nullptr,
                    "d.inp: line 1: *STEP without *END STEP"},

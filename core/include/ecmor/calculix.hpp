@@ -55,7 +55,8 @@ struct CalculixDeck {
 ///         the first keyword, a node given twice, a set naming a node no *NODE defines (with the
 ///         line of the set), a set name never defined, GENERATE with an increment <= 0 or
 ///         first > last, *NODE, SYSTEM=..., *NSET without NSET=, *INCLUDE without INPUT= or of a
-///         missing file, an *INCLUDE cycle, a *STEP without *END STEP.
+///         missing file, an *INCLUDE cycle, a *STEP without *END STEP, INPUT= on any other card
+///         (ccx runs the deck elsewhere), a line longer than ccx's 132 columns.
 ECMOR_API CalculixDeck read_calculix_deck(const std::filesystem::path& path);
 
 /// K and M as ccx stored them, expanded to full symmetric matrices (exact zeros dropped), and the
