@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Install the build and run-time dependencies of ecmor from Debian 12 packages.
 # Usage: scripts/setup.sh [runtime|all]   (default all)
-#   runtime: what the executable and the bundled plugins need (scripts/run_example.sh): a fresh
+#   runtime: what the executable and the bundled plugins need (scripts/run_example.sh), with the
+#            programs of the CalculiX import pipeline (ccx, gmsh; the suite tests it too): a fresh
 #            machine's first run does not wait for the test, sanitizer and MPI/PETSc packages;
 #   all:     also GoogleTest, Google Benchmark, clang (fuzzing, sanitizers), PETSc/SLEPc over
 #            Open MPI (the optional backend), matio.
@@ -33,6 +34,7 @@ packages=(
   libcli11-dev
   nlohmann-json3-dev
   gnuplot-nox
+  calculix-ccx gmsh   # `ecmor import calculix` runs ccx; examples/calculix-beam meshes with gmsh
 )
 if [ "$profile" = all ]; then
   packages+=(

@@ -84,6 +84,10 @@ struct SimulateOptions {
 /// the output error y - yr (time_response.csv, time_error.json). 0 on success, 1 on an error.
 int simulate(const SimulateOptions& options, const CommonOptions& common);
 
+/// `ecmor import calculix CONFIG [-o DIR]`: a model directory from a CalculiX deck (calculix.hpp).
+/// 0 when written, 1 on an error.
+int import_calculix(const std::filesystem::path& config, const CommonOptions& common);
+
 /// Options of `ecmor conform`.
 struct ConformOptions {
   std::string reducer;                ///< the reducer's YAML name

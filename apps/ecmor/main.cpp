@@ -146,6 +146,19 @@ int main(int argc, char** argv) {
   simulate->add_flag("--no-plot", common.no_plot,
                      "do not render time_response.png/.svg (needs gnuplot)");
 
+  std::filesystem::path import_config;
+  auto* import_cmd = cli.add_subcommand(
+      "import", "build a model directory (M, D, K, B, C .mtx, nodes.csv, dofs.csv) from another "
+                "program's model");
+  import_cmd->require_subcommand(1);
+  auto* import_ccx = import_cmd->add_subcommand(
+      "calculix", "from a CalculiX input deck: runs ccx for K and M, B and C on node sets, "
+                  "Rayleigh D (docs/import-calculix.md)");
+  import_ccx->add_option("config", import_config, "YAML import configuration")->required();
+  import_ccx->add_option("-o,--output", common.output_dir,
+                         "model directory to write (overrides output.dir)");
+  import_ccx->add_flag("-q,--quiet", common.quiet, "print only the summary line");
+
   try {
     cli.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -159,5 +172,6 @@ int main(int argc, char** argv) {
   if (*info) return ecmor::app::info(model_dir, eigenfrequencies, common);
   if (*simulate) return ecmor::app::simulate(sim, common);
   if (*conform) return ecmor::app::conform(conform_options, common);
+  if (*import_ccx) return ecmor::app::import_calculix(import_config, common);
   return 1;
 }

@@ -3,9 +3,7 @@
 // curve on a picture can be checked against a file.
 #include "plot.hpp"
 
-#include <fcntl.h>
 #include <fmt/core.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -18,6 +16,7 @@
 #include "ecmor/band_error.hpp"
 #include "ecmor/model_io.hpp"
 #include "ecmor/reduced_response.hpp"
+#include "ecmor/subprocess.hpp"
 #include "ecmor/types.hpp"
 
 namespace fs = std::filesystem;
@@ -133,33 +132,14 @@ std::string script_text(const PlotScript& p, PlotFormat format) {
       p.name, formats, p.width, p.height, body);
 }
 
-// Runs `gnuplot NAME.gp` in `dir` (fork/exec, no shell): the directory name never passes through
-// a command line. gnuplot's stderr goes to NAME.gp.log, kept only when gnuplot fails.
+// Runs `gnuplot NAME.gp` in `dir` (run_program: no shell, so the directory name never passes
+// through a command line). gnuplot's stderr goes to NAME.gp.log, kept only when gnuplot fails.
 void run_gnuplot(const fs::path& gnuplot, const fs::path& dir, const std::string& name) {
   const std::string script = name + ".gp";
-  // Absolute: the child changes into `dir` before it opens the log.
   const fs::path log = fs::absolute(dir) / (script + ".log");
-  const pid_t pid = ::fork();
-  if (pid < 0) throw IoError(fmt::format("cannot start gnuplot for {}", (dir / script).string()));
-  if (pid == 0) {
-    // Child: only async-signal-safe calls until exec.
-    if (::chdir(dir.c_str()) != 0) ::_exit(126);
-    const int err = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    const int null = ::open("/dev/null", O_RDWR);
-    if (err < 0 || null < 0) ::_exit(126);
-    ::dup2(null, STDIN_FILENO);
-    ::dup2(null, STDOUT_FILENO);
-    ::dup2(err, STDERR_FILENO);
-    const char* argv[] = {"gnuplot", script.c_str(), nullptr};
-    ::execv(gnuplot.c_str(), const_cast<char* const*>(argv));
-    ::_exit(127);
-  }
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0) {
-    if (errno != EINTR) throw IoError(fmt::format("waiting for gnuplot on {} failed", script));
-  }
-  const bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
-  if (ok) {
+  const ProgramExit finished =
+      run_program(gnuplot.string(), {script}, dir, log, /*stdout_to_log=*/false);
+  if (finished.ok()) {
     std::error_code ignored;
     fs::remove(log, ignored);
     return;
@@ -171,9 +151,9 @@ void run_gnuplot(const fs::path& gnuplot, const fs::path& dir, const std::string
     first_error = line;
     if (line.find("rror") != std::string::npos) break;
   }
-  throw IoError(fmt::format(
-      "gnuplot failed on {} ({}); its messages are in {}", (dir / script).string(),
-      first_error.empty() ? fmt::format("exit status {}", status) : first_error, log.string()));
+  throw IoError(fmt::format("gnuplot failed on {} ({}); its messages are in {}",
+                            (dir / script).string(),
+                            first_error.empty() ? finished.describe() : first_error, log.string()));
 }
 
 nlohmann::json read_summary(const fs::path& path) {
