@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # Install the build and run-time dependencies of ecmor from Debian 12 packages.
-# Usage: scripts/setup.sh [runtime|all]   (default all)
-#   runtime: what the executable and the bundled plugins need (scripts/run_example.sh), with the
-#            programs of the CalculiX import pipeline (ccx, gmsh; the suite tests it too): a fresh
-#            machine's first run does not wait for the test, sanitizer and MPI/PETSc packages;
-#   all:     also GoogleTest, Google Benchmark, clang (fuzzing, sanitizers), PETSc/SLEPc over
+# Usage: scripts/setup.sh [runtime|fe|all]   (default all)
+#   runtime: what the executable and the bundled plugins need (scripts/run_example.sh): a fresh
+#            machine's first run does not wait for the test, sanitizer, FE and MPI/PETSc packages;
+#   fe:      runtime and the programs of the CalculiX import pipeline (`ecmor import calculix`
+#            runs ccx; examples/calculix-beam meshes with gmsh, which brings OpenCASCADE and X11
+#            libraries: about 130 packages, kept out of the first run);
+#   all:     fe and GoogleTest, Google Benchmark, clang (fuzzing, sanitizers), PETSc/SLEPc over
 #            Open MPI (the optional backend), matio.
 # Idempotent: packages already present are skipped; safe to run repeatedly.
 # Needs root (or sudo) and the Debian package registry; downloads nothing else.
@@ -16,8 +18,8 @@ set -euo pipefail
 
 profile=${1:-all}
 case "$profile" in
-  runtime|all) ;;
-  *) echo "setup: unknown profile '$profile': use runtime or all" >&2; exit 2 ;;
+  runtime|fe|all) ;;
+  *) echo "setup: unknown profile '$profile': use runtime, fe or all" >&2; exit 2 ;;
 esac
 
 packages=(
@@ -34,8 +36,10 @@ packages=(
   libcli11-dev
   nlohmann-json3-dev
   gnuplot-nox
-  calculix-ccx gmsh   # `ecmor import calculix` runs ccx; examples/calculix-beam meshes with gmsh
 )
+if [ "$profile" != runtime ]; then
+  packages+=(calculix-ccx gmsh)   # `ecmor import calculix` runs ccx; the example meshes with gmsh
+fi
 if [ "$profile" = all ]; then
   packages+=(
     libgtest-dev libgmock-dev googletest

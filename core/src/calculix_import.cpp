@@ -209,7 +209,7 @@ double run_ccx(const std::string& exe, const fs::path& dir, const std::string& j
     finished = run_program(exe, {"-i", job}, dir, log, /*stdout_to_log=*/true);
   } catch (const IoError& e) {
     throw IoError(std::string(e.what()) +
-                  " (install calculix-ccx: scripts/setup.sh; or set calculix.executable)");
+                  " (install calculix-ccx: bash scripts/setup.sh fe; or set calculix.executable)");
   }
   if (!finished.ok())
     throw IoError(fmt::format("{} failed ({}) on {}: {}; its log is {}", exe, finished.describe(),

@@ -17,7 +17,7 @@ ecmor=$(realpath "${1:-build/bin/ecmor}")
 work=${2:-out/calculix-beam}
 for tool in gmsh ccx; do
   if ! command -v "$tool" >/dev/null; then
-    echo "run.sh: $tool not found: bash scripts/setup.sh runtime installs it" >&2
+    echo "run.sh: $tool not found: bash scripts/setup.sh fe installs it" >&2
     exit 1
   fi
 done
