@@ -117,6 +117,7 @@ class TablePrinter final : public RunObserver {
           s.order, s.band_error, check,
           s.stable ? "stable" : "NOT asymptotically stable", s.seconds, s.counters.factorizations,
           s.counters.solves, s.peak_memory_mb);
+      if (!s.error_mode_switch.empty()) fmt::print("error control: {}\n", s.error_mode_switch);
       fmt::print("outputs in {}\n", s.output_dir.string());
     }
   }

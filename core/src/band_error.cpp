@@ -8,7 +8,10 @@
 #include <numeric>
 #include <sstream>
 
+#include <fmt/format.h>
+
 #include "ecmor/error.hpp"
+#include "ecmor/parallel.hpp"
 #include "ecmor/parameters.hpp"
 #include "ecmor/reduced_response.hpp"
 #include "band_error_estimate.hpp"
@@ -466,10 +469,60 @@ BandErrorEstimator::BandErrorEstimator(ResponseCache& full, Band band, BandError
     m_engine = std::make_unique<detail::EstimateEngine>(m_full, m_band, m_options);
     return;
   }
+  start_dense();
+}
+
+void BandErrorEstimator::start_dense() {
+  m_scale2 = 0.0;
+  m_scaleF = 0.0;
   for (const ComplexMatrix& H : m_full.evaluate(m_grid)) {
     m_scale2 = std::max(m_scale2, matrix_norm(H, ErrorNorm::Spectral));
     m_scaleF = std::max(m_scaleF, H.norm());
   }
+}
+
+double BandErrorEstimator::seconds_per_full_solve() const {
+  return m_full.size() > 0 ? m_full.seconds() / static_cast<double>(m_full.size()) : 0.0;
+}
+
+void BandErrorEstimator::consider_switch(Index verify_factor) {
+  ++m_evaluations;
+  if (!m_engine || m_options.verify != ErrorVerify::Auto) return;
+  // Ski rental. Per evaluation the estimate pays its reference model (its reduced forms, poles
+  // and values: the overhead) and the dense mode would pay full solves at the candidate's pole
+  // and refinement samples; the dense mode also pays its grid and a re-check grid once. The
+  // estimate's excess over the dense mode's per-evaluation cost accumulates as "rent"; when it
+  // reaches the one-off "purchase" the run switches. That costs at most about twice the better
+  // of the two choices made in hindsight, whatever the length of the run. A full solve of a large
+  // model costs seconds and its reference milliseconds: such runs never switch; small models of
+  // high order, whose reference costs more than their full solves, do.
+  const double per_solve = seconds_per_full_solve();
+  const double dense_samples =
+      static_cast<double>(m_options.grid_points + verify_factor * (m_options.grid_points - 1) + 2);
+  const double buy = dense_samples * per_solve;
+  // Collective: under MPI every rank must take the same mode (the full solves are collective).
+  if (!any_process(m_rent_seconds > buy)) return;
+  use_dense(fmt::format(
+      "estimate, then dense from evaluation {}: the reference model had cost {:.3g} s more than "
+      "the dense mode's full solves at the same samples, over the {:.3g} s predicted for its "
+      "grids ({:.0f} full solves at {:.3g} s)",
+      m_evaluations, m_rent_seconds, buy, dense_samples, per_solve));
+}
+
+void BandErrorEstimator::use_dense(std::string reason) {
+  if (!m_engine) return;
+  m_switch_note = std::move(reason);
+  m_full.keep_solutions(false);
+  (void)m_full.take_solutions();  // the reference model's food; without it, memory
+  m_engine.reset();
+  start_dense();
+}
+
+BandError BandErrorEstimator::rented(BandError e, double overhead_before) {
+  const double dense = static_cast<double>(e.pole_samples + e.refinement_samples);
+  m_rent_seconds +=
+      (m_engine->overhead_seconds() - overhead_before) - dense * seconds_per_full_solve();
+  return e;
 }
 
 BandErrorEstimator::~BandErrorEstimator() = default;
@@ -506,7 +559,11 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
 }
 
 BandError BandErrorEstimator::evaluate(const ReducedModel& reduced) {
-  if (m_engine) return m_engine->evaluate(reduced);
+  consider_switch(4);
+  if (m_engine) {
+    const double overhead = m_engine->overhead_seconds();
+    return rented(m_engine->evaluate(reduced), overhead);
+  }
   std::vector<double> f = m_grid;
   Index pole_count = 0;
   Index unstable = -1;
@@ -538,13 +595,21 @@ BandError BandErrorEstimator::evaluate(const ReducedModel& reduced) {
 
 BandError BandErrorEstimator::evaluate_on(const ReducedModel& reduced,
                                           const std::vector<double>& f_hz) {
-  if (m_engine) return m_engine->evaluate_on(reduced, f_hz);
+  consider_switch(4);
+  if (m_engine) {
+    const double overhead = m_engine->overhead_seconds();
+    return rented(m_engine->evaluate_on(reduced, f_hz), overhead);
+  }
   return assemble(reduced, f_hz, static_cast<Index>(f_hz.size()), 0, false, false);
 }
 
 BandError BandErrorEstimator::verify(const ReducedModel& reduced, Index factor) {
   if (factor < 1) throw ConfigError("verify factor = " + std::to_string(factor) + ": must be >= 1");
-  if (m_engine) return m_engine->verify(reduced);
+  consider_switch(factor);
+  if (m_engine) {
+    const double overhead = m_engine->overhead_seconds();
+    return rented(m_engine->verify(reduced), overhead);
+  }
   // Midpoints (in log f) of a grid `factor` times finer than the estimator's: with
   // M = factor (G - 1) intervals, (k + 1/2)/M = j/(G - 1) would need an odd number to equal an even
   // one, so no point coincides with the estimator's grid. The band edges are added: the supremum

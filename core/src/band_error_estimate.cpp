@@ -12,6 +12,7 @@
 #include "band_error_estimate.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <exception>
 #include <numeric>
@@ -69,6 +70,22 @@ std::vector<double> seed_frequencies(const Band& band, Index count) {
   return f;
 }
 
+// Adds the wall time of its scope to a total.
+class OverheadTimer {
+ public:
+  explicit OverheadTimer(double& total)
+      : m_total(total), m_start(std::chrono::steady_clock::now()) {}
+  ~OverheadTimer() {
+    m_total += std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
+  }
+  OverheadTimer(const OverheadTimer&) = delete;
+  OverheadTimer& operator=(const OverheadTimer&) = delete;
+
+ private:
+  double& m_total;
+  std::chrono::steady_clock::time_point m_start;
+};
+
 }  // namespace
 
 EstimateEngine::EstimateEngine(ResponseCache& full, const Band& band,
@@ -118,6 +135,7 @@ void EstimateEngine::refresh() {
   // Every full solve made through the cache, by anyone, enriches the reference.
   m_reference.add(m_full.take_solutions());
   if (m_reference.version() == m_version) return;
+  const OverheadTimer timer(m_overhead_seconds);
   m_response = std::make_unique<ReducedResponse>(m_reference.reduced());
   m_values.clear();
   m_version = m_reference.version();
@@ -210,6 +228,7 @@ ReferenceValues EstimateEngine::values(const std::vector<double>& f_hz) {
       out.exact[exact_at[j]] = 1;
     }
   }
+  const OverheadTimer timer(m_overhead_seconds);
   const ReducedResponse& response = *m_response;
   const ReducedModel& reference = m_reference.reduced();
   // Serial for a few frequencies (the refinement's rounds): see sample() in band_error.cpp.

@@ -20,6 +20,7 @@
 #include "ecmor/matrix_market.hpp"
 #include "ecmor/model_io.hpp"
 #include "ecmor/parallel.hpp"
+#include "ecmor/recent_factorizations.hpp"
 #include "ecmor/version.hpp"
 
 namespace ecmor {
@@ -114,7 +115,8 @@ namespace {
 /// summary once left out of the reducer's count).
 class TimedReducer final : public Reducer {
  public:
-  TimedReducer(Reducer& inner, const ShiftedSolver& solver) : m_inner(inner), m_solver(solver) {}
+  TimedReducer(Reducer& inner, const RecentFactorizations& solver)
+      : m_inner(inner), m_solver(solver) {}
   void setup(const ReductionContext& context) override {
     const Account account{*this};
     m_inner.setup(context);
@@ -130,6 +132,8 @@ class TimedReducer final : public Reducer {
   double seconds() const { return m_seconds; }
   Index calls() const { return m_calls; }
   const SolverCounters& counters() const { return m_counters; }
+  /// Factorisations the reducer asked for and got from the error control's full solves.
+  std::int64_t reuses() const { return m_reuses; }
 
  private:
   // Counts the time and solver work of one call, also when it throws: the work was done.
@@ -137,24 +141,28 @@ class TimedReducer final : public Reducer {
     explicit Account(TimedReducer& reducer)
         : self(reducer),
           start(std::chrono::steady_clock::now()),
-          before(reducer.m_solver.counters()) {}
+          before(reducer.m_solver.counters()),
+          reuses_before(reducer.m_solver.reuses()) {}
     ~Account() {
       self.m_seconds +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       self.m_counters += self.m_solver.counters() - before;
+      self.m_reuses += self.m_solver.reuses() - reuses_before;
     }
     Account(const Account&) = delete;
     Account& operator=(const Account&) = delete;
     TimedReducer& self;
     std::chrono::steady_clock::time_point start;
     SolverCounters before;
+    std::int64_t reuses_before;
   };
 
   Reducer& m_inner;
-  const ShiftedSolver& m_solver;
+  const RecentFactorizations& m_solver;
   double m_seconds = 0.0;
   Index m_calls = 0;
   SolverCounters m_counters;
+  std::int64_t m_reuses = 0;
 };
 
 }  // namespace
@@ -236,7 +244,10 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   std::vector<PreparedMember> members = prepare_members(config, registry);
   const bool portfolio = !config.portfolio.empty();
 
-  std::unique_ptr<ShiftedSolver> solver = make_shifted_solver(model, config.solver);
+  std::unique_ptr<ShiftedSolver> backend = make_shifted_solver(model, config.solver);
+  // Shared by the error control and the reducers: the most recent factorisation serves the
+  // reducer when it asks for P(s) where the error control has just solved (a greedy point).
+  const auto solver = std::make_unique<RecentFactorizations>(*backend, 1);
   ResponseCache cache(model, *solver, config.threads);
   if (observer) cache.set_progress([observer](const SweepProgress& p) { observer->on_sweep(p); });
   BandErrorOptions error_options = config.error;
@@ -321,6 +332,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   double reducer_seconds = 0.0;
   Index reducer_calls = 0;
   SolverCounters reducer_counters;
+  std::int64_t reducer_reuses = 0;
   Index smallest_met_order = 0;  // of the members so far; 0: none met yet
   for (std::size_t k = 0; k < members.size(); ++k) {
     PreparedMember& m = members[k];
@@ -434,6 +446,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
     reducer_seconds += timed.seconds();
     reducer_calls += timed.calls();
     reducer_counters += timed.counters();
+    reducer_reuses += timed.reuses();
     attempts.push_back(attempt);
     results.push_back(std::move(result));
   }
@@ -518,6 +531,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
     summary.f_peak_hz = estimate_mode ? verified.f_peak_hz : result.best_error.f_peak_hz;
     summary.verified_band_error = verified.sup_relative;
     summary.error_mode = to_string(estimator.mode());
+    summary.error_mode_switch = estimator.switch_note();
     summary.checked_frequencies = verified.checked_samples;
     summary.verified_f_peak_hz = verified.f_peak_hz;
     summary.hinf_absolute = verified.hinf_absolute;
@@ -550,6 +564,8 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
     };
     j["error_control"] = {
         {"mode", to_string(estimator.mode())},
+        {"switch", estimator.switch_note().empty() ? nlohmann::json(nullptr)
+                                                   : nlohmann::json(estimator.switch_note())},
         {"reference_order", estimator.reference_order()},
         {"checked_frequencies", verified.checked_samples},
         {"checked_f_hz", estimate_mode ? nlohmann::json(cache.frequencies()) : nlohmann::json(nullptr)},
@@ -590,6 +606,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   summary.reducer_seconds = reducer_seconds;
   summary.reducer_calls = reducer_calls;
   summary.reducer_counters = reducer_counters;
+  summary.reducer_reused_factorizations = reducer_reuses;
   summary.full_response_seconds = cache.seconds();
   summary.full_evaluations = cache.size();
   summary.seconds = elapsed();
@@ -651,6 +668,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
                   {"full_response", summary.full_response_seconds}};
   j["reducer_calls"] = summary.reducer_calls;
   j["reducer_counters"] = counters_json(summary.reducer_counters);
+  j["reducer_reused_factorizations"] = summary.reducer_reused_factorizations;
   j["counters"] = counters_json(summary.counters);
   j["full_evaluations"] = summary.full_evaluations;
   j["peak_memory_mb"] = summary.peak_memory_mb;

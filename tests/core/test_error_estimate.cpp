@@ -209,6 +209,38 @@ TEST(EstimateMode, AutoChoosesByTheModelSize) {
   }
 }
 
+// Leaving the estimate mid-run (what auto does when the reference costs more than the dense
+// sampling would): from then on the errors are the dense mode's, computed afresh from full solves.
+TEST(EstimateMode, AfterASwitchTheErrorsAreTheDenseModes) {
+  const Model model = chain();
+  const Band band{1e-3, 0.4};
+  auto solver = make_shifted_solver(model);
+  const ReducedModel candidate = krylov_candidate(model, *solver, band, 6);
+  const std::vector<double> f = log_grid(band.f_min_hz, band.f_max_hz, 37);
+
+  auto dense_solver = make_shifted_solver(model);
+  ResponseCache dense_cache(model, *dense_solver);
+  BandErrorEstimator dense(dense_cache, band, options(ErrorVerify::Dense));
+  const BandError truth = dense.evaluate_on(candidate, f);
+
+  auto switch_solver = make_shifted_solver(model);
+  ResponseCache cache(model, *switch_solver);
+  BandErrorEstimator estimator(cache, band, options(ErrorVerify::Auto));
+  ASSERT_EQ(estimator.mode(), ErrorVerify::Estimate);
+  const BandError before = estimator.evaluate_on(candidate, f);
+  EXPECT_LT(before.checked_samples, static_cast<Index>(f.size()));
+  EXPECT_TRUE(estimator.switch_note().empty());
+  estimator.use_dense("forced by the test");
+  EXPECT_EQ(estimator.mode(), ErrorVerify::Dense);
+  EXPECT_EQ(estimator.switch_note(), "forced by the test");
+  EXPECT_EQ(estimator.reference_order(), 0);
+  const BandError after = estimator.evaluate_on(candidate, f);
+  ASSERT_EQ(after.relative.size(), truth.relative.size());
+  for (std::size_t k = 0; k < f.size(); ++k)
+    EXPECT_NEAR(after.relative[k], truth.relative[k], 1e-12 * truth.relative[k]) << f[k];
+  EXPECT_TRUE(std::all_of(after.exact.begin(), after.exact.end(), [](char e) { return e != 0; }));
+}
+
 // A stop request ends a sweep of full-model responses within a round (two frequencies per
 // thread), keeps what was computed, and the progress callback saw the rounds.
 TEST(ResponseCache, AStopRequestEndsASweepAndKeepsWhatWasComputed) {

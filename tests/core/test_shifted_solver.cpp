@@ -13,6 +13,7 @@
 #include "ecmor/error.hpp"
 #include "ecmor/first_order_view.hpp"
 #include "ecmor/frequency_response.hpp"
+#include "ecmor/recent_factorizations.hpp"
 #include "ecmor/shifted_solver.hpp"
 
 namespace {
@@ -144,6 +145,41 @@ TEST(ShiftedSolver, BasicProperties) {
   const auto c = solver->counters();
   EXPECT_EQ(c.symbolic_analyses, 0);  // lazy
   EXPECT_EQ(c.factorizations, 0);
+}
+
+// The driver's shared solver: a request for exactly the combination most recently factorised is
+// served without a new factorisation (the reducer asking for P(s) where the error control has
+// just solved); anything else, even one bit off, is factorised anew.
+TEST(RecentFactorizations, ServesTheMostRecentCombinationOnly) {
+  Model model = two_dof();
+  auto inner = make_shifted_solver(model);
+  RecentFactorizations solver(*inner, 1);
+  const Complex s1(0.0, 2.0), s2(0.0, 3.0);
+  const auto a = solver.factorize(s1);
+  const auto b = solver.factorize(s1);
+  EXPECT_EQ(a.get(), b.get());
+  EXPECT_EQ(solver.reuses(), 1);
+  EXPECT_EQ(solver.counters().factorizations, 1);
+  const auto c = solver.factorize(Complex(0.0, std::nextafter(2.0, 3.0)));
+  EXPECT_NE(c.get(), a.get());
+  EXPECT_EQ(solver.counters().factorizations, 2);
+  // Keeps one: s1 was evicted by the last request.
+  (void)solver.factorize(s2);
+  (void)solver.factorize(s1);
+  EXPECT_EQ(solver.counters().factorizations, 4);
+  EXPECT_EQ(solver.reuses(), 1);
+  // The kept factorisation is the real one: it solves P(s1) x = b.
+  const Matrix rhs = Matrix::Ones(2, 1);
+  const ComplexMatrix x = solver.factorize(s1)->solve(ComplexMatrix(rhs.cast<Complex>()));
+  const std::vector<Complex> w = {1.0, s1, s1 * s1};
+  EXPECT_LT((solver.apply_combination(w, x) - rhs.cast<Complex>()).norm(), 1e-12);
+  EXPECT_EQ(solver.reuses(), 2);
+
+  RecentFactorizations none(*inner, 0);
+  (void)none.factorize(s1);
+  (void)none.factorize(s1);
+  EXPECT_EQ(none.reuses(), 0);
+  EXPECT_THROW(RecentFactorizations(*inner, -1), ConfigError);
 }
 
 TEST(ShiftedSolver, RealSpdShiftUsesCholesky) {

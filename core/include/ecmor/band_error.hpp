@@ -58,7 +58,7 @@ ECMOR_API double matrix_norm(const ComplexMatrix& A, ErrorNorm norm);
 enum class ErrorVerify {
   Dense,     ///< every sample is a full-model response (a factorisation per frequency)
   Estimate,  ///< a reference model estimates; full solves only where the estimate peaks
-  Auto,      ///< Dense when N <= dense_max_states, else Estimate
+  Auto,      ///< Dense when N <= dense_max_states, else Estimate until it costs more than Dense
 };
 ECMOR_API std::string to_string(ErrorVerify verify);
 /// Parses "dense" | "estimate" | "auto". \throws ConfigError listing the valid names.
@@ -177,8 +177,14 @@ class ECMOR_API BandErrorEstimator {
   /// model, so that the reference is at least as rich as the candidates it judges. Ignored in
   /// dense mode and for bases that do not have N rows (a first-order basis of a second-order model).
   void offer_basis(const Matrix& basis);
-  /// The resolved mode: Dense or Estimate.
+  /// The resolved mode: Dense or Estimate (Dense after a switch, see switch_note()).
   ErrorVerify mode() const { return m_engine ? ErrorVerify::Estimate : ErrorVerify::Dense; }
+  /// Auto mode, after it left the estimate for the dense sampling: when and why (else empty).
+  const std::string& switch_note() const { return m_switch_note; }
+  /// Leaves the estimate mode for good (no-op in dense mode): samples the full model on the grid
+  /// now; later evaluations are dense. `reason` becomes switch_note(). Auto mode calls it when
+  /// the estimate has cost more than the dense mode would; under MPI, call it on every rank.
+  void use_dense(std::string reason);
   /// Order of the reference model (0 in dense mode).
   Index reference_order() const;
 
@@ -190,6 +196,13 @@ class ECMOR_API BandErrorEstimator {
   BandError assemble(const ReducedModel& reduced, std::vector<double> f_hz, Index grid,
                      Index poles, bool refine, bool dense_peaks);
   std::function<detail::ReferenceValues(const std::vector<double>&)> full_source();
+  // Dense mode from here on: the full model on the whole grid, and the scales taken from it.
+  void start_dense();
+  // Auto mode: leaves the estimate once its own work exceeds what the dense sampling would cost.
+  void consider_switch(Index verify_factor);
+  // Adds an estimate-mode evaluation's excess cost over the dense mode's to the rent; returns e.
+  BandError rented(BandError e, double overhead_before);
+  double seconds_per_full_solve() const;
   ResponseCache& m_full;
   Band m_band;
   BandErrorOptions m_options;
@@ -199,6 +212,9 @@ class ECMOR_API BandErrorEstimator {
   double m_scale2 = 0.0;
   double m_scaleF = 0.0;
   std::unique_ptr<detail::EstimateEngine> m_engine;  // estimate mode only
+  Index m_evaluations = 0;     // evaluate/evaluate_on/verify calls so far
+  double m_rent_seconds = 0.0;  // auto mode: the estimate's cost over the dense mode's so far
+  std::string m_switch_note;
 };
 
 }  // namespace ecmor

@@ -7,6 +7,7 @@
 ///   V.mtx W.mtx history.csv history.jsonl band_error.csv summary.json
 /// The history is written after every iteration, so an interrupted run keeps it.
 
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -47,6 +48,8 @@ struct RunSummary {
   /// How the error was established: "dense" or "estimate" (BandErrorEstimator::mode()), and on
   /// how many frequencies the reported model was compared with the full model's own H.
   std::string error_mode;
+  /// error.verify auto: when and why the run left the estimate for the dense sampling (else empty).
+  std::string error_mode_switch;
   Index checked_frequencies = 0;
   double verified_f_peak_hz = 0.0;
   double hinf_absolute = 0.0;    ///< band H-infinity of the error (verify grid)
@@ -74,6 +77,9 @@ struct RunSummary {
   double reducer_seconds = 0.0;
   Index reducer_calls = 0;
   SolverCounters reducer_counters;
+  /// Factorisations the reducers asked for and got from the error control's most recent full
+  /// solves (RecentFactorizations): requested, not made again; not in reducer_counters.
+  std::int64_t reducer_reused_factorizations = 0;
   /// Time spent computing full-model responses for the error estimates.
   double full_response_seconds = 0.0;
   SolverCounters counters;
