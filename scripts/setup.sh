@@ -4,7 +4,7 @@
 #   runtime: what the executable and the bundled plugins need (scripts/run_example.sh): a fresh
 #            machine's first run does not wait for the test, sanitizer and MPI/PETSc packages;
 #   all:     also GoogleTest, Google Benchmark, clang (fuzzing, sanitizers), PETSc/SLEPc over
-#            Open MPI (the optional backend), matio.
+#            Open MPI (the optional backend).
 # Idempotent: packages already present are skipped; safe to run repeatedly.
 # Needs root (or sudo) and the Debian package registry; downloads nothing else.
 # OpenBLAS (its OpenMP build) comes with them: Debian's alternatives put it behind libblas.so.3
@@ -32,6 +32,7 @@ packages=(
   libfmt-dev
   libcli11-dev
   nlohmann-json3-dev
+  libmatio-dev       # MATLAB .mat models and outputs (core/src/mat_file.cpp)
   gnuplot-nox
 )
 if [ "$profile" = all ]; then
@@ -39,7 +40,6 @@ if [ "$profile" = all ]; then
     libgtest-dev libgmock-dev googletest
     libbenchmark-dev
     libspdlog-dev
-    libmatio-dev
     clang-14 libclang-rt-14-dev libomp-14-dev   # scripts/fuzz.sh, scripts/sanitize.sh: libFuzzer, the sanitizers, OpenMP
     libpetsc-complex-dev openmpi-bin   # the PETSc backend (complex scalars, MUMPS) over MPI
     libslepc-complex-dev               # its distributed eigensolver (modal reducer)
