@@ -22,7 +22,12 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The zeros a dense read of a sparse variable materialises are not backed by the file; as in the
+// Matrix Market reader (matrix_market.cpp), they get a budget: 256 MiB of doubles.
+constexpr std::size_t kMaxDenseFromSparse = std::size_t{1} << 25;
+
 std::string dims_text(const matvar_t& v) {
+  if (v.dims == nullptr) return "(no dimensions)";
   std::string s;
   for (int k = 0; k < v.rank; ++k) {
     if (k > 0) s += " x ";
@@ -203,17 +208,30 @@ SparseMatrix MatReader::sparse_of(const void* var_ptr, const std::string& name) 
 
 Matrix MatReader::dense_of(const void* var_ptr, const std::string& name) const {
   const matvar_t& m = *static_cast<const matvar_t*>(var_ptr);
-  if (m.class_type == MAT_C_SPARSE) return Matrix(sparse_of(var_ptr, name));
-  Matrix A(static_cast<Index>(m.dims[0]), static_cast<Index>(m.dims[1]));
-  if (m.class_type == MAT_C_EMPTY || A.size() == 0) return A;
+  const auto rows = static_cast<Index>(m.dims[0]);
+  const auto cols = static_cast<Index>(m.dims[1]);
+  std::size_t count = 0;
+  const bool overflow = __builtin_mul_overflow(m.dims[0], m.dims[1], &count);
+  if (m.class_type == MAT_C_SPARSE) {
+    // The zeros of a sparse variable are not in the file: bound what densifying it allocates
+    // (B and C are N x m and p x N with m, p small).
+    if (overflow || count > kMaxDenseFromSparse)
+      fail(var(name) + " is a sparse " + dims_text(m) +
+           " matrix: too large to hold densely (at most 2^25 entries)");
+    return Matrix(sparse_of(var_ptr, name));
+  }
+  if (m.class_type == MAT_C_EMPTY || count == 0) return Matrix(rows, cols);
   const ElementReader get = element_reader(m.data_type);
   if (get == nullptr)
     fail(var(name) + ": its data (matio type " + std::to_string(m.data_type) +
          ") is not a real number");
-  const auto count = static_cast<std::size_t>(A.size());
-  if (m.data == nullptr || m.nbytes < count * Mat_SizeOf(m.data_type))
+  // matio allocated the data; check that it holds every entry before allocating the result.
+  std::size_t needed = 0;
+  if (overflow || __builtin_mul_overflow(count, Mat_SizeOf(m.data_type), &needed) ||
+      m.data == nullptr || m.nbytes < needed)
     fail(var(name) + " is " + dims_text(m) + " but holds only " + std::to_string(m.nbytes) +
          " bytes of data");
+  Matrix A(rows, cols);
   for (std::size_t k = 0; k < count; ++k) A.data()[k] = get(m.data, k);  // both column-major
   return A;
 }

@@ -213,20 +213,37 @@ TEST(MatModel, VariablesRenameTheMatrices) {
 // Bad input: one test per rule, each message naming the file, the variable and the rule
 // ---------------------------------------------------------------------------------------------
 
-/// A valid second-order file in which `replace` writes (or leaves out) the variables it names.
-fs::path second_order_file(const TempDir& dir, mat_ft version,
-                           const std::function<bool(MatTestFile&, const std::string&)>& replace) {
+/// A valid second-order file (M, K, B, C, N = 4, two outputs) in `dir`, with the variable `role`
+/// written by `replace` instead (left out when `replace` is empty).
+fs::path second_order_file(const TempDir& dir, mat_ft version, const std::string& role = "",
+                           const std::function<void(MatTestFile&)>& replace = {}) {
   const SecondOrderModel s = second_order(4, 1, 2);
   const fs::path file = dir / ("bad_" + version_name(version) + ".mat");
   MatTestFile f(file, version);
   const auto put = [&](const std::string& name, const auto& write) {
-    if (!replace(f, name)) write();
+    if (name != role)
+      write();
+    else if (replace)
+      replace(f);
   };
   put("M", [&] { f.sparse("M", s.M); });
   put("K", [&] { f.sparse("K", s.K); });
   put("B", [&] { f.dense("B", s.B); });
   put("C", [&] { f.dense("C", s.C); });
   return file;
+}
+
+/// load_model of second_order_file(version, role, replace) must fail with a message naming the
+/// file and containing every one of `parts`.
+void expect_refused(mat_ft version, const std::string& role,
+                    const std::function<void(MatTestFile&)>& replace,
+                    const std::vector<std::string>& parts) {
+  SCOPED_TRACE(version_name(version) + ", variable " + role);
+  TempDir dir{"ecmor_test_mat"};
+  const fs::path file = second_order_file(dir, version, role, replace);
+  std::vector<std::string> all = parts;
+  all.push_back("model " + file.string() + ": ");
+  expect_load_error({file, {}}, all);
 }
 
 TEST(MatModelErrors, MissingOrUnreadableFile) {
@@ -238,125 +255,81 @@ TEST(MatModelErrors, MissingOrUnreadableFile) {
 }
 
 TEST(MatModelErrors, MissingVariable) {
-  for (const mat_ft version : kVersions) {
-    SCOPED_TRACE(version_name(version));
-    TempDir dir{"ecmor_test_mat"};
-    const fs::path file = second_order_file(dir, version, [](MatTestFile&, const std::string& n) {
-      return n == "C";  // left out
-    });
-    expect_load_error({file, {}},
-                      {"model " + file.string(), "the second-order model is missing variable C",
-                       "(found: B, K, M)"});
-  }
+  for (const mat_ft version : kVersions)
+    expect_refused(version, "C", {},
+                   {"the second-order model is missing variable C", "(found: B, K, M)"});
 }
 
 TEST(MatModelErrors, WrongDimensionsNameBothVariables) {
-  TempDir dir{"ecmor_test_mat"};
-  const fs::path b = second_order_file(dir, MAT_FT_MAT5, [](MatTestFile& f, const std::string& n) {
-    if (n != "B") return false;
-    f.dense("B", Matrix::Ones(3, 1));
-    return true;
-  });
-  expect_load_error({b, {}}, {b.string(),
-                              "variable B is 3 x 1 but variable K is 4 x 4: B must "
-                              "have N = 4 rows"});
-  TempDir dir2{"ecmor_test_mat"};
-  const fs::path k =
-      second_order_file(dir2, MAT_FT_MAT73, [](MatTestFile& f, const std::string& n) {
-        if (n != "K") return false;
-        f.sparse("K", Matrix::Ones(4, 3).sparseView());
-        return true;
-      });
-  expect_load_error({k, {}}, {k.string(), "variable K is 4 x 3: must be square"});
+  expect_refused(MAT_FT_MAT5, "B", [](MatTestFile& f) { f.dense("B", Matrix::Ones(3, 1)); },
+                 {"variable B is 3 x 1 but variable K is 4 x 4: B must have N = 4 rows"});
+  expect_refused(MAT_FT_MAT73, "K",
+                 [](MatTestFile& f) { f.sparse("K", Matrix::Ones(4, 3).sparseView()); },
+                 {"variable K is 4 x 3: must be square"});
+}
+
+TEST(MatModelErrors, SparseVariableTooLargeToHoldDenselyIsRefusedBeforeAllocating) {
+  // 2^24 outputs x 4 states: no entries in the file, 512 MiB once dense.
+  expect_refused(MAT_FT_MAT5, "C",
+                 [](MatTestFile& f) { f.sparse("C", SparseMatrix(Index{1} << 24, 4)); },
+                 {"variable C is a sparse 16777216 x 4 matrix: too large to hold densely"});
 }
 
 TEST(MatModelErrors, NonNumericClassesAndArraysThatAreNotMatrices) {
   for (const mat_ft version : kVersions) {
-    SCOPED_TRACE(version_name(version));
-    TempDir dir{"ecmor_test_mat"};
-    const fs::path text = second_order_file(dir, version, [](MatTestFile& f, const std::string& n) {
-      if (n != "C") return false;
-      f.text("C", "ones(1, 4)");
-      return true;
-    });
-    expect_load_error({text, {}}, {text.string(), "variable C is a char array",
-                                   "must be a numeric or logical matrix"});
-    TempDir dir2{"ecmor_test_mat"};
-    const fs::path cube =
-        second_order_file(dir2, version, [](MatTestFile& f, const std::string& n) {
-          if (n != "M") return false;
-          f.three_d("M", 4, 4, 2);
-          return true;
-        });
-    expect_load_error({cube, {}}, {cube.string(),
-                                   "variable M has 3 dimensions (4 x 4 x 2): must "
-                                   "be a 2-D matrix"});
+    expect_refused(version, "C", [](MatTestFile& f) { f.text("C", "ones(1, 4)"); },
+                   {"variable C is a char array", "must be a numeric or logical matrix"});
+    expect_refused(version, "M", [](MatTestFile& f) { f.three_d("M", 4, 4, 2); },
+                   {"variable M has 3 dimensions (4 x 4 x 2): must be a 2-D matrix"});
   }
 }
 
 TEST(MatModelErrors, ComplexVariablesDenseOrSparse) {
-  for (const mat_ft version : kVersions) {
-    for (const bool as_sparse : {false, true}) {
-      SCOPED_TRACE(version_name(version) + (as_sparse ? " sparse" : " dense"));
-      TempDir dir{"ecmor_test_mat"};
-      const fs::path file =
-          second_order_file(dir, version, [&](MatTestFile& f, const std::string& n) {
-            if (n != "K") return false;
-            f.complex("K", Matrix::Identity(4, 4), as_sparse);
-            return true;
-          });
-      expect_load_error(
-          {file, {}}, {file.string(), "variable K is complex", "only real matrices are accepted"});
-    }
-  }
+  for (const mat_ft version : kVersions)
+    for (const bool as_sparse : {false, true})
+      expect_refused(version, "K",
+                     [&](MatTestFile& f) { f.complex("K", Matrix::Identity(4, 4), as_sparse); },
+                     {"variable K is complex", "only real matrices are accepted"});
 }
 
 TEST(MatModelErrors, NonFiniteValuesAreNamedWithTheirPosition) {
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  constexpr double kInf = std::numeric_limits<double>::infinity();
   for (const mat_ft version : kVersions) {
-    SCOPED_TRACE(version_name(version));
-    TempDir dir{"ecmor_test_mat"};
-    const fs::path nan = second_order_file(dir, version, [](MatTestFile& f, const std::string& n) {
-      if (n != "K") return false;
-      SparseMatrix K = tridiagonal(4, 2.0, -1.0);
-      K.coeffRef(1, 2) = std::numeric_limits<double>::quiet_NaN();
-      f.sparse("K", K);
-      return true;
-    });
-    expect_load_error({nan, {}}, {nan.string(), "K has a non-finite value (NaN) at (2, 3)"});
-    TempDir dir2{"ecmor_test_mat"};
-    const fs::path inf = second_order_file(dir2, version, [](MatTestFile& f, const std::string& n) {
-      if (n != "B") return false;
-      Matrix B = Matrix::Ones(4, 1);
-      B(3, 0) = -std::numeric_limits<double>::infinity();
-      f.dense("B", B);
-      return true;
-    });
-    expect_load_error({inf, {}}, {inf.string(), "B has a non-finite value (Inf) at (4, 1)"});
+    expect_refused(version, "K",
+                   [&](MatTestFile& f) {
+                     SparseMatrix K = tridiagonal(4, 2.0, -1.0);
+                     K.coeffRef(1, 2) = kNaN;
+                     f.sparse("K", K);
+                   },
+                   {"K has a non-finite value (NaN) at (2, 3)"});
+    expect_refused(version, "B",
+                   [&](MatTestFile& f) {
+                     Matrix B = Matrix::Ones(4, 1);
+                     B(3, 0) = -kInf;
+                     f.dense("B", B);
+                   },
+                   {"B has a non-finite value (Inf) at (4, 1)"});
     // A dense variable read into a sparse matrix keeps its NaN (it is not a zero to drop).
-    TempDir dir3{"ecmor_test_mat"};
-    const fs::path dense_nan =
-        second_order_file(dir3, version, [](MatTestFile& f, const std::string& n) {
-          if (n != "M") return false;
-          Matrix M = Matrix::Identity(4, 4);
-          M(2, 1) = std::numeric_limits<double>::quiet_NaN();
-          f.dense("M", M);
-          return true;
-        });
-    expect_load_error({dense_nan, {}},
-                      {dense_nan.string(), "M has a non-finite value (NaN) at (3, 2)"});
+    expect_refused(version, "M",
+                   [&](MatTestFile& f) {
+                     Matrix M = Matrix::Identity(4, 4);
+                     M(2, 1) = kNaN;
+                     f.dense("M", M);
+                   },
+                   {"M has a non-finite value (NaN) at (3, 2)"});
   }
 }
 
 TEST(MatModelErrors, BothKindsPresentIsAmbiguous) {
-  TempDir dir{"ecmor_test_mat"};
-  const fs::path file =
-      second_order_file(dir, MAT_FT_MAT5, [](MatTestFile& f, const std::string& n) {
-        if (n == "C") f.sparse("A", -tridiagonal(4, 2.0, -1.0));
-        return false;
-      });
-  expect_load_error({file, {}}, {file.string(),
-                                 "both a second-order (M, K) and a descriptor (E, A) variable set "
-                                 "are present, the kind is ambiguous; found: A, B, C, K, M"});
+  expect_refused(
+      MAT_FT_MAT5, "C",
+      [](MatTestFile& f) {
+        f.sparse("A", -tridiagonal(4, 2.0, -1.0));
+        f.dense("C", Matrix::Ones(2, 4));
+      },
+      {"both a second-order (M, K) and a descriptor (E, A) variable set are present, the kind is "
+       "ambiguous; found: A, B, C, K, M"});
 }
 
 TEST(MatModelErrors, NonZeroFeedthroughAndVelocityOutputInADescriptorFile) {
@@ -382,8 +355,7 @@ TEST(MatModelErrors, NonZeroFeedthroughAndVelocityOutputInADescriptorFile) {
 
 TEST(MatModelErrors, VariablesMapItself) {
   TempDir dir{"ecmor_test_mat"};
-  const fs::path file =
-      second_order_file(dir, MAT_FT_MAT5, [](MatTestFile&, const std::string&) { return false; });
+  const fs::path file = second_order_file(dir, MAT_FT_MAT5);
   expect_load_error({file, {{"Stiffness", "K"}}},
                     {file.string(),
                      "variables: unknown role 'Stiffness' (roles: M, D, K, B, C, "
