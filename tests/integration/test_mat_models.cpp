@@ -7,6 +7,8 @@
 #include <sys/wait.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -169,6 +171,21 @@ TEST(MatCli, InfoReduceAndSimulateAcceptAMatModel) {
   ASSERT_EQ(reduce.exit_code, 0) << reduce.out;
   EXPECT_TRUE(fs::exists(run_dir / kReducedModelMatFile));
   EXPECT_FALSE(fs::exists(run_dir / "Mr.mtx"));
+
+  // plot reads the reduced model from the .mat file: its sigma_max must agree with the full
+  // model's to the band error the run met (|sigma(Hr) - sigma(H)| <= ||H - Hr||_2).
+  run_ecmor("plot '" + run_dir.string() + "' --format svg", tmp.path());
+  std::ifstream csv(run_dir / "sigma.csv");
+  std::string line;
+  std::getline(csv, line);
+  ASSERT_EQ(line, "f_hz,full_sigma_max,reduced_sigma_max,error_sigma_max");
+  int rows = 0;
+  for (; std::getline(csv, line); ++rows) {
+    double f = 0, full = 0, reduced = 0;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf", &f, &full, &reduced), 3) << line;
+    EXPECT_LE(std::abs(reduced - full), 1e-6 * full) << line;
+  }
+  EXPECT_GT(rows, 10);
 
   // simulate finds the .mat model (with its renames) in summary.json and the reduced model in
   // the run directory's .mat file.
