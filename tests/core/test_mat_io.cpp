@@ -405,24 +405,27 @@ TEST(MatConfig, ModelFileVariablesAndOutputFormat) {
 
 TEST(MatConfig, Errors) {
   const std::string out = "output: {dir: o}\n";
-  EXPECT_EQ(config_error("model: {dir: m, file: m.mat}" + kRest + out),
-            "run.yaml:1: give model.dir (a model directory) or model.file (a .mat file), not both");
-  EXPECT_EQ(config_error("model: {file: m.h5}" + kRest + out),
-            "run.yaml:1: model.file = 'm.h5': must name a MATLAB file ending in .mat (a model "
-            "directory is model.dir)");
-  EXPECT_EQ(config_error("model: {dir: m, variables: {K: Stiff}}" + kRest + out),
-            "run.yaml:1: model.variables renames the variables of a .mat file (model.file); the "
-            "files of a model directory have fixed names");
-  EXPECT_EQ(config_error("model: {file: m.mat, variables: {Kk: Stiff}}" + kRest + out),
-            "run.yaml:1: unknown key 'Kk' in 'model.variables' (did you mean 'K'?)");
-  EXPECT_EQ(config_error("model: {file: m.mat, variables: [M, K]}" + kRest + out),
-            "run.yaml:1: model.variables must be a mapping from matrix to variable name, e.g. "
-            "{M: Mass, K: Stiff}, found a list");
-  EXPECT_EQ(config_error("model: {file: m.mat, variables: {K: [a, b]}}" + kRest + out),
-            "run.yaml:1: model.variables.K must be a single value, found a list");
-  EXPECT_EQ(config_error("model: {}" + kRest + out),
-            "run.yaml:1: missing required key 'model.dir' (a model directory) or 'model.file' (a "
-            ".mat file)");
+  // {model section, expected message}; the model line is line 1.
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"{dir: m, file: m.mat}",
+       "give model.dir (a model directory) or model.file (a .mat file), not both"},
+      {"{file: m.h5}",
+       "model.file = 'm.h5': must name a MATLAB file ending in .mat (a model directory is "
+       "model.dir)"},
+      {"{dir: m, variables: {K: Stiff}}",
+       "model.variables renames the variables of a .mat file (model.file); the files of a model "
+       "directory have fixed names"},
+      {"{file: m.mat, variables: {Kk: Stiff}}",
+       "unknown key 'Kk' in 'model.variables' (did you mean 'K'?)"},
+      {"{file: m.mat, variables: [M, K]}",
+       "model.variables must be a mapping from matrix to variable name, e.g. {M: Mass, K: Stiff}, "
+       "found a list"},
+      {"{file: m.mat, variables: {K: [a, b]}}",
+       "model.variables.K must be a single value, found a list"},
+      {"{}", "missing required key 'model.dir' (a model directory) or 'model.file' (a .mat file)"},
+  };
+  for (const auto& [model, message] : cases)
+    EXPECT_EQ(config_error("model: " + model + kRest + out), "run.yaml:1: " + message);
   EXPECT_EQ(config_error("model: {dir: m}" + kRest + "output: {dir: o, format: matt}\n"),
             "run.yaml:5: output.format = 'matt': must be one of mtx, mat, both (did you mean "
             "'mat'?)");
