@@ -249,7 +249,7 @@ int main(int argc, char** argv) {
       ecmor::bench::load_plugins_for(registry, config, plugin_dirs);
       fs::remove_all(out);
       const ecmor::bench::DriverRun run = ecmor::bench::reduce_with_driver(config, registry, out);
-      const ecmor::Model model = ecmor::load_model(config.model_dir);
+      const ecmor::Model model = ecmor::load_model(config.model);
       ecmor::BandErrorOptions options = config.error;
       options.norm = config.norm;
       EffectivityReport r = ecmor::bench::measure_effectivity(

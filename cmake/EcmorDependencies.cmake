@@ -10,6 +10,7 @@ find_package(Boost 1.74 REQUIRED COMPONENTS filesystem)              # Boost.DLL
 find_package(nlohmann_json 3.11 REQUIRED)
 find_package(CLI11 2.1 REQUIRED)
 find_package(fmt 9 REQUIRED)
+find_package(Matio 1.5 REQUIRED)                                     # cmake/FindMatio.cmake (.mat model files)
 find_package(OpenMP REQUIRED COMPONENTS CXX)
 find_package(Threads REQUIRED)
 if(ECMOR_BUILD_TESTS)

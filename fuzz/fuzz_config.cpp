@@ -78,7 +78,8 @@ void check_ranges(const RunConfig& c) {
     contract("accepted error.hinf_dense_states outside [0, 6000]");
   if (!(c.time_limit_s >= 0.0) || !std::isfinite(c.time_limit_s))
     contract("accepted a negative or non-finite strategy.time_limit_s");
-  if (c.model_dir.empty() || c.output_dir.empty()) contract("accepted an empty model or output dir");
+  if (c.model.path.empty() || c.output_dir.empty())
+    contract("accepted an empty model or output dir");
   if (c.reducer_name.empty()) contract("accepted an empty reducer name");
   if (c.strategy_name == "portfolio" && c.portfolio.empty())
     contract("accepted a portfolio without members");

@@ -7,7 +7,7 @@
 #            runs ccx; examples/calculix-beam meshes with gmsh, which brings OpenCASCADE and X11
 #            libraries: about 130 packages, kept out of the first run);
 #   all:     fe and GoogleTest, Google Benchmark, clang (fuzzing, sanitizers), PETSc/SLEPc over
-#            Open MPI (the optional backend), matio.
+#            Open MPI (the optional backend).
 # Idempotent: packages already present are skipped; safe to run repeatedly.
 # Needs root (or sudo) and the Debian package registry; downloads nothing else.
 # OpenBLAS (its OpenMP build) comes with them: Debian's alternatives put it behind libblas.so.3
@@ -35,6 +35,7 @@ packages=(
   libfmt-dev
   libcli11-dev
   nlohmann-json3-dev
+  libmatio-dev       # MATLAB .mat models and outputs (core/src/mat_file.cpp)
   gnuplot-nox
 )
 if [ "$profile" != runtime ]; then
@@ -45,7 +46,6 @@ if [ "$profile" = all ]; then
     libgtest-dev libgmock-dev googletest
     libbenchmark-dev
     libspdlog-dev
-    libmatio-dev
     clang-14 libclang-rt-14-dev libomp-14-dev   # scripts/fuzz.sh, scripts/sanitize.sh: libFuzzer, the sanitizers, OpenMP
     libpetsc-complex-dev openmpi-bin   # the PETSc backend (complex scalars, MUMPS) over MPI
     libslepc-complex-dev               # its distributed eigensolver (modal reducer)

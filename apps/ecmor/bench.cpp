@@ -19,6 +19,7 @@
 #include "ecmor/atomic_file.hpp"
 #include "ecmor/config.hpp"
 #include "ecmor/error.hpp"
+#include "ecmor/model_io.hpp"
 #include "ecmor/registry.hpp"
 #include "ecmor/strategies/driver.hpp"
 #include "signals.hpp"
@@ -378,8 +379,8 @@ std::vector<Job> expand_jobs(const std::vector<RunConfig>& configs, const BenchO
     if (options.all_reducers) {
       Registry registry;
       load_plugins(registry, common, base.plugins);
-      // The kind from the files present, as load_model decides it (M.mtx: second order).
-      const bool second_order = std::filesystem::exists(base.model_dir / "M.mtx");
+      // The kind as load_model decides it (a directory's files or a .mat file's variables).
+      const bool second_order = kind_of(load_model(base.model)) == ModelKind::SecondOrder;
       for (const Registry::Entry& e : registry.entries()) {
         if (second_order ? !e.info.second_order : !e.info.descriptor) continue;
         PortfolioMember m;
@@ -450,7 +451,7 @@ int bench(const BenchOptions& options, const CommonOptions& common) {
         config.output_dir = out / "runs" / run_name;
         BenchRow row;
         row.config = base.source.string();
-        row.model = base.model_dir.filename().string();
+        row.model = base.model.path.filename().string();
         row.reducer = base.reducer_name;
         row.strategy = base.strategy_name;
         row.tolerance = tol;

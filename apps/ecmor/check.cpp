@@ -67,7 +67,7 @@ CheckRow check_one(const RunConfig& base, const std::filesystem::path& out_dir,
                    const CommonOptions& common) {
   CheckRow row;
   row.config = base.source.string();
-  row.model = base.model_dir.filename().string();
+  row.model = base.model.path.filename().string();
   row.reducer = base.reducer_name + "/" + base.strategy_name;
   row.tolerance = base.tolerance;
   row.max_order = base.check_max_order;

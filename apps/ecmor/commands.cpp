@@ -38,7 +38,7 @@ class TablePrinter final : public RunObserver {
   void on_model_loaded(const RunConfig& config, const Model& model, double seconds) override {
     if (m_quiet) return;
     fmt::print("model    {} ({} model, N = {}, {} input(s), {} output(s); loaded in {:.2f} s)\n",
-               config.model_dir.string(), to_string(kind_of(model)), size_of(model),
+               config.model.path.string(), to_string(kind_of(model)), size_of(model),
                inputs_of(model), outputs_of(model), seconds);
     fmt::print("band     [{:g}, {:g}] Hz    target: relative {} error <= {:g}\n",
                config.band.f_min_hz, config.band.f_max_hz, to_string(config.norm),
@@ -253,11 +253,11 @@ int plugins(const CommonOptions& common) {
   });
 }
 
-int info(const std::filesystem::path& model_dir, int eigenfrequencies, const CommonOptions&) {
+int info(const std::filesystem::path& model_path, int eigenfrequencies, const CommonOptions&) {
   return guarded([&] {
-    const Model model = load_model(model_dir);
+    const Model model = load_model(model_path);
     const ModelSummary s = summarize(model);
-    fmt::print("{}: {} model, N = {}, {} input(s), {} output(s){}\n", model_dir.string(),
+    fmt::print("{}: {} model, N = {}, {} input(s), {} output(s){}\n", model_path.string(),
                to_string(s.kind), s.size, s.inputs, s.outputs,
                s.velocity_output ? ", velocity output (Cv)" : "");
     fmt::print("  {:<4} {:>12} {:>12}  {:>12}  {}\n", "", "size", "nnz", "asymmetry",

@@ -64,8 +64,10 @@ struct CheckOptions {
 /// re-check within tolerance, stable) and its `check:` budgets; prints a pass/fail table and writes
 /// check.json and check.md. 0 when all pass, 1 when any fails or on an error, 130 interrupted.
 int check(const CheckOptions& options, const CommonOptions& common);
-/// `ecmor info MODEL_DIR`: sizes, nnz, symmetry, definiteness, lowest eigenfrequencies.
-int info(const std::filesystem::path& model_dir, int eigenfrequencies, const CommonOptions& common);
+/// `ecmor info MODEL`: sizes, nnz, symmetry, definiteness, lowest eigenfrequencies of a model
+/// directory or .mat file.
+int info(const std::filesystem::path& model_path, int eigenfrequencies,
+         const CommonOptions& common);
 
 /// Options of `ecmor simulate` (0 / empty: the default derived from the run's band).
 struct SimulateOptions {

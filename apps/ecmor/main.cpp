@@ -82,12 +82,15 @@ int main(int argc, char** argv) {
                     "out/check)");
   add_common(check);
 
-  std::filesystem::path model_dir;
+  std::filesystem::path model_path;
   int eigenfrequencies = 10;
   auto* info = cli.add_subcommand(
-      "info", "describe a model directory: sizes, nnz, symmetry, definiteness, lowest "
-              "eigenfrequencies");
-  info->add_option("model_dir", model_dir, "directory with M,D,K,B,C[,Cv].mtx or E,A,B,C.mtx")
+      "info",
+      "describe a model (directory or .mat file): sizes, nnz, symmetry, definiteness, "
+      "lowest eigenfrequencies");
+  info->add_option("model", model_path,
+                   "directory with M,D,K,B,C[,Cv].mtx or E,A,B,C.mtx, or a .mat file with "
+                   "variables of those names")
       ->required();
   info->add_option("--eigenfrequencies", eigenfrequencies,
                    "how many of the lowest eigenfrequencies to compute (0: none)")
@@ -107,8 +110,10 @@ int main(int argc, char** argv) {
   conform->add_option("--tolerance", conform_options.tolerance,
                       "relative agreement of transfer functions (default 1e-8)")
       ->check(CLI::PositiveNumber);
-  conform->add_option("--model", conform_options.model_dir,
-                      "run on this model directory instead of the built-in models (needs --band)");
+  conform->add_option(
+      "--model", conform_options.model_dir,
+      "run on this model (directory or .mat file) instead of the built-in models (needs "
+      "--band)");
   conform->add_option("--band", conform_options.band_hz, "F_MIN,F_MAX in Hz for --model")
       ->delimiter(',');
   conform->add_flag("--with-builtin", conform_options.with_builtin,
@@ -169,7 +174,7 @@ int main(int argc, char** argv) {
   if (*check) return ecmor::app::check(check_options, common);
   if (*plot) return ecmor::app::plot(run_dir, plot_format);
   if (*plugins) return ecmor::app::plugins(common);
-  if (*info) return ecmor::app::info(model_dir, eigenfrequencies, common);
+  if (*info) return ecmor::app::info(model_path, eigenfrequencies, common);
   if (*simulate) return ecmor::app::simulate(sim, common);
   if (*conform) return ecmor::app::conform(conform_options, common);
   if (*import_ccx) return ecmor::app::import_calculix(import_config, common);

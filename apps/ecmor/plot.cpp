@@ -280,8 +280,9 @@ std::vector<fs::path> plot_run(const fs::path& run_dir, PlotFormat format) {
   const double f_min = summary_field<double>(band, "f_min_hz", summary_path);
   const double f_max = summary_field<double>(band, "f_max_hz", summary_path);
   std::string model_name = "model";
-  if (summary.contains("model") && summary["model"].contains("dir")) {
-    model_name = fs::path(summary["model"]["dir"].get<std::string>()).filename().string();
+  for (const char* key : {"dir", "file"}) {
+    if (summary.contains("model") && summary["model"].contains(key))
+      model_name = fs::path(summary["model"][key].get<std::string>()).filename().string();
   }
 
   // sigma.csv: the full model's sigma_max as the run computed it (band_error.csv), the reduced

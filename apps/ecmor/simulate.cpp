@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -24,7 +25,7 @@ namespace {
 namespace fs = std::filesystem;
 
 struct RunInfo {
-  fs::path model_dir;
+  ModelSource model;
   double f_min_hz = 0.0, f_max_hz = 0.0;
 };
 
@@ -51,20 +52,29 @@ RunInfo read_run(const fs::path& run_dir) {
   }
   RunInfo info;
   try {
-    info.model_dir = j.at("model").at("dir").get<std::string>();
+    // The run's model as the YAML named it: model.dir, or model.file with its variables.
+    const nlohmann::json& model = j.at("model");
+    if (model.contains("file")) {
+      info.model.path = model.at("file").get<std::string>();
+      if (model.contains("variables"))
+        info.model.variables = model.at("variables").get<std::map<std::string, std::string>>();
+    } else {
+      info.model.path = model.at("dir").get<std::string>();
+    }
     info.f_min_hz = j.at("band").at("f_min_hz").get<double>();
     info.f_max_hz = j.at("band").at("f_max_hz").get<double>();
   } catch (const nlohmann::json::exception& e) {
-    throw InputError(fmt::format("{}: needs model.dir, band.f_min_hz and band.f_max_hz ({})",
-                                 path.string(), e.what()));
+    throw InputError(
+        fmt::format("{}: needs model.dir (or model.file), band.f_min_hz and band.f_max_hz ({})",
+                    path.string(), e.what()));
   }
   if (!(info.f_min_hz > 0.0 && info.f_max_hz > info.f_min_hz && std::isfinite(info.f_max_hz))) {
     throw InputError(fmt::format("{}: band [{:g}, {:g}] Hz: must satisfy 0 < f_min_hz < f_max_hz",
                                  path.string(), info.f_min_hz, info.f_max_hz));
   }
-  // A relative model dir (hand-written summaries) is taken relative to the run directory.
-  if (info.model_dir.is_relative() && !fs::exists(info.model_dir))
-    info.model_dir = run_dir / info.model_dir;
+  // A relative model path (hand-written summaries) is taken relative to the run directory.
+  if (info.model.path.is_relative() && !fs::exists(info.model.path))
+    info.model.path = run_dir / info.model.path;
   return info;
 }
 
@@ -118,7 +128,7 @@ int simulate(const SimulateOptions& o, const CommonOptions& common) {
     input.validate();
     ti.validate();
 
-    const Model model = load_model(run.model_dir);
+    const Model model = load_model(run.model);
     const ReducedModel reduced = read_reduced_model(o.run_dir);
     auto solver = make_shifted_solver(model);
     const TimeResponse y = simulate(model, *solver, input, ti);

@@ -49,9 +49,9 @@ void sync_file(const fs::path& p) {
   if (rc != 0 && err == EIO) throw std::system_error(err, std::generic_category(), "fsync");
 }
 
-}  // namespace
-
-void write_file_atomically(const fs::path& path, const std::function<void(std::ostream&)>& writer) {
+/// Checks the target, then fill(tmp) writes the temporary file (and reports its own failures);
+/// then fsync and rename. The temporary is removed on any failure.
+void commit_atomically(const fs::path& path, const std::function<void(const fs::path&)>& fill) {
   const std::string where = path.string();
   if (path.empty()) throw IoError("cannot write a file with an empty path");
   if (!path.has_filename()) throw IoError("cannot write " + where + ": the path names a directory");
@@ -71,35 +71,17 @@ void write_file_atomically(const fs::path& path, const std::function<void(std::o
   }
 
   const fs::path tmp = temporary_name(path);
-  std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-  if (!out) {
-    const int err = errno;
-    throw IoError("cannot write " + where + ": cannot create temporary file " + tmp.string() +
-                  ": " + std::strerror(err));
-  }
   try {
-    writer(out);
+    fill(tmp);
   } catch (const Error&) {
-    out.close();
     remove_quietly(tmp);
     throw;  // already a complete ecmor message: keep its type
   } catch (const std::exception& e) {
-    out.close();
     remove_quietly(tmp);
     throw IoError("cannot write " + where + ": " + e.what());
   } catch (...) {
-    out.close();
     remove_quietly(tmp);
     throw IoError("cannot write " + where + ": unknown error while writing");
-  }
-  out.flush();
-  const bool ok_before_close = static_cast<bool>(out);
-  out.close();
-  if (!ok_before_close || out.fail()) {
-    const int err = errno;
-    remove_quietly(tmp);
-    throw IoError("cannot write " + where + ": write to " + tmp.string() + " failed" +
-                  (err != 0 ? std::string(": ") + std::strerror(err) : std::string()));
   }
   try {
     sync_file(tmp);
@@ -114,6 +96,40 @@ void write_file_atomically(const fs::path& path, const std::function<void(std::o
     throw IoError("cannot write " + where + ": cannot rename " + tmp.string() +
                   " to it: " + ec.message());
   }
+}
+
+}  // namespace
+
+void write_file_atomically(const fs::path& path, const std::function<void(std::ostream&)>& writer) {
+  commit_atomically(path, [&](const fs::path& tmp) {
+    const std::string where = path.string();
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) {
+      const int err = errno;
+      throw IoError("cannot write " + where + ": cannot create temporary file " + tmp.string() +
+                    ": " + std::strerror(err));
+    }
+    writer(out);  // on a throw, `out` closes while unwinding, before the temporary is removed
+    out.flush();
+    const bool ok_before_close = static_cast<bool>(out);
+    out.close();
+    if (!ok_before_close || out.fail()) {
+      const int err = errno;
+      throw IoError("cannot write " + where + ": write to " + tmp.string() + " failed" +
+                    (err != 0 ? std::string(": ") + std::strerror(err) : std::string()));
+    }
+  });
+}
+
+void write_named_file_atomically(const fs::path& path,
+                                 const std::function<void(const fs::path& tmp)>& writer) {
+  commit_atomically(path, [&](const fs::path& tmp) {
+    writer(tmp);
+    std::error_code ec;
+    if (!fs::is_regular_file(tmp, ec))
+      throw IoError("cannot write " + path.string() + ": the writer did not create " +
+                    tmp.string());
+  });
 }
 
 void write_text_atomically(const fs::path& path, std::string_view contents) {

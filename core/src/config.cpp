@@ -119,6 +119,23 @@ class Parser {
                                   const std::string& key, bool required);
   std::filesystem::path path_value(const YAML::Node& map, const std::string& sec,
                                    const std::string& key);
+  /// A text value that must be one of the names in `options` (each with the value it stands
+  /// for); the error lists the names and suggests the nearest.
+  template <class T>
+  std::optional<T> choice(const YAML::Node& map, const std::string& sec, const std::string& key,
+                          const std::vector<std::pair<std::string, T>>& options) {
+    const auto v = text(map, sec, key, false);
+    if (!v) return std::nullopt;
+    std::vector<std::string> names;
+    for (const auto& [name, value] : options) {
+      if (*v == name) return value;
+      names.push_back(name);
+    }
+    const std::string near = nearest(*v, names);
+    fail(at(map[key]),
+         fmt::format("{}.{} = '{}': must be one of {}{}", sec, key, *v, fmt::join(names, ", "),
+                     near.empty() ? std::string() : " (did you mean '" + near + "'?)"));
+  }
 
   /// Every key but `name` becomes a parameter of the reducer/strategy.
   void collect_parameters(const YAML::Node& map, const std::string& sec, ParameterMap& params);
@@ -385,8 +402,41 @@ RunConfig Parser::parse(const std::string& yaml) {
 
   RunConfig config;
 
-  const YAML::Node model = section(m_root, "model", {"dir"});
-  config.model_dir = path_value(model, "model", "dir");
+  // model: {dir: D} (Matrix Market files) or {file: F.mat, variables: {M: Mass, ...}}.
+  const YAML::Node model = section(m_root, "model", {"dir", "file", "variables"});
+  const bool by_dir = model["dir"].IsDefined();
+  const bool by_file = model["file"].IsDefined();
+  if (by_dir && by_file)
+    fail(at(model["file"]),
+         "give model.dir (a model directory) or model.file (a .mat file), not both");
+  if (!by_dir && !by_file)
+    fail(model.IsNull() ? key_location(m_root, "model") : at(model),
+         "missing required key 'model.dir' (a model directory) or 'model.file' (a .mat file)");
+  if (by_dir) {
+    config.model.path = path_value(model, "model", "dir");
+    if (model["variables"].IsDefined())
+      fail(at(model["variables"]),
+           "model.variables renames the variables of a .mat file (model.file); the files of a "
+           "model directory have fixed names");
+  } else {
+    config.model.path = path_value(model, "model", "file");
+    if (!is_mat_file_name(config.model.path))
+      fail(at(model["file"]), fmt::format("model.file = '{}': must name a MATLAB file ending in "
+                                          ".mat (a model directory is model.dir)",
+                                          model["file"].Scalar()));
+    if (const YAML::Node vars = model["variables"]; vars.IsDefined()) {
+      if (!vars.IsMap())
+        fail(vars.IsNull() ? key_location(model, "variables") : at(vars),
+             fmt::format("model.variables must be a mapping from matrix to variable name, e.g. "
+                         "{{M: Mass, K: Stiff}}, found {}",
+                         node_kind(vars)));
+      check_keys(vars, "'model.variables'", model_variable_roles());
+      for (auto it = vars.begin(); it != vars.end(); ++it) {
+        const std::string role = it->first.Scalar();
+        config.model.variables[role] = *text(vars, "model.variables", role, true);
+      }
+    }
+  }
 
   const YAML::Node band = section(m_root, "band", {"f_min_hz", "f_max_hz"});
   config.band.f_min_hz = *number(band, "band", "f_min_hz", true);
@@ -404,20 +454,11 @@ RunConfig Parser::parse(const std::string& yaml) {
   if (!(config.tolerance > 0.0 && config.tolerance <= 1e3))
     fail(at(target["tolerance"]),
          fmt::format("target.tolerance = {}: must be in (0, 1e3]", target["tolerance"].Scalar()));
-  if (auto norm = text(target, "target", "norm", false)) {
-    // Parsed here rather than with parse_error_norm so the message carries the line.
-    const std::vector<std::string> norms = {"spectral", "frobenius"};
-    if (*norm == "spectral") {
-      config.norm = ErrorNorm::Spectral;
-    } else if (*norm == "frobenius") {
-      config.norm = ErrorNorm::Frobenius;
-    } else {
-      const std::string near = nearest(*norm, norms);
-      fail(at(target["norm"]),
-           fmt::format("target.norm = '{}': must be one of spectral, frobenius{}", *norm,
-                       near.empty() ? std::string() : " (did you mean '" + near + "'?)"));
-    }
-  }
+  // Parsed here rather than with parse_error_norm so the message carries the line.
+  if (auto norm = choice<ErrorNorm>(
+          target, "target", "norm",
+          {{"spectral", ErrorNorm::Spectral}, {"frobenius", ErrorNorm::Frobenius}}))
+    config.norm = *norm;
 
   const YAML::Node strategy = section(m_root, "strategy", {"name"}, true);
   if (portfolio) {
@@ -460,20 +501,13 @@ RunConfig Parser::parse(const std::string& yaml) {
                                                     error["zero_threshold"].Scalar()));
     eo.zero_threshold = *v;
   }
-  if (auto verify = text(error, "error", "verify", false)) {
-    const std::vector<std::string> modes = {"dense", "estimate", "auto"};
-    if (std::find(modes.begin(), modes.end(), *verify) == modes.end()) {
-      const std::string near = nearest(*verify, modes);
-      fail(at(error["verify"]),
-           fmt::format("error.verify = '{}': must be one of dense, estimate, auto{}", *verify,
-                       near.empty() ? std::string() : " (did you mean '" + near + "'?)"));
-    }
-    // Mapped here rather than by parse_error_verify (band_error.cpp): the config reader stays
-    // free of the error engine (the fuzz build links the readers alone).
-    eo.verify = *verify == "dense"      ? ErrorVerify::Dense
-                : *verify == "estimate" ? ErrorVerify::Estimate
-                                        : ErrorVerify::Auto;
-  }
+  // Mapped here rather than by parse_error_verify (band_error.cpp): the config reader stays free
+  // of the error engine (the fuzz build links the readers alone).
+  if (auto verify = choice<ErrorVerify>(error, "error", "verify",
+                                        {{"dense", ErrorVerify::Dense},
+                                         {"estimate", ErrorVerify::Estimate},
+                                         {"auto", ErrorVerify::Auto}}))
+    eo.verify = *verify;
   if (auto v = integer(error, "error", "dense_max_states", 0)) eo.dense_max_states = *v;
   if (auto v = integer(error, "error", "estimate_points", 2)) eo.estimate_points = *v;
   if (auto v = integer(error, "error", "reference_points", 2)) eo.reference_points = *v;
@@ -560,8 +594,12 @@ RunConfig Parser::parse(const std::string& yaml) {
     config.check_max_seconds = *v;
   }
 
-  const YAML::Node output = section(m_root, "output", {"dir"});
+  const YAML::Node output = section(m_root, "output", {"dir", "format"});
   config.output_dir = path_value(output, "output", "dir");
+  if (auto format = choice<OutputFormat>(
+          output, "output", "format",
+          {{"mtx", OutputFormat::Mtx}, {"mat", OutputFormat::Mat}, {"both", OutputFormat::Both}}))
+    config.output_format = *format;
 
   if (const YAML::Node plugins = m_root["plugins"]; plugins.IsDefined() && !plugins.IsNull()) {
     auto add = [&](const YAML::Node& item) {

@@ -1,30 +1,85 @@
-// model_io.cpp: loading full models from a directory of Matrix Market files; writing and reading
-// reduced models; summaries for `ecmor info`.
+// model_io.cpp: loading full models from a directory of Matrix Market files or a .mat file;
+// writing and reading reduced models; summaries for `ecmor info`.
+//
+// Both containers go through one loader (load_from, read_reduced_from): the kind detection, the
+// required and forbidden matrices, the size checks and ecmor::validate are written once; a
+// Container only says how a matrix is named, found, sized and read.
 #include "ecmor/model_io.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
+#include <functional>
 #include <limits>
 #include <set>
 #include <string>
 #include <system_error>
+#include <utility>
 #include <vector>
 
+#include "ecmor/atomic_file.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/matrix_market.hpp"
+#include "mat_file.hpp"
 
 namespace ecmor {
 namespace {
 
 namespace fs = std::filesystem;
 
-/// Model-directory inspection: which .mtx files are there.
-class ModelDir {
+/// A model container as the loader sees it. Matrices are asked for by role ("K", or "Kr" for a
+/// reduced model); messages name them as the container stores them.
+class Container {
  public:
-  ModelDir(const fs::path& dir, std::string origin) : dir_(dir), origin_(std::move(origin)) {
+  explicit Container(std::string origin) : origin_(std::move(origin)) {}
+  virtual ~Container() = default;
+  Container(const Container&) = delete;
+  Container& operator=(const Container&) = delete;
+
+  [[noreturn]] void fail(const std::string& rule) const { throw InputError(origin_ + ": " + rule); }
+  const std::string& origin() const { return origin_; }
+
+  virtual bool has(const std::string& role) const = 0;
+  /// How the role is stored, for lists: "K.mtx" or "K".
+  virtual std::string name(const std::string& role) const = 0;
+  /// The same in a sentence: "K.mtx" or "variable K".
+  virtual std::string label(const std::string& role) const = 0;
+  /// Everything the container holds (also what is not a model matrix), for messages.
+  virtual std::string found_list() const = 0;
+  /// "file" or "variable".
+  virtual std::string item() const = 0;
+  /// rows, cols: cheap (a header), before anything large is read.
+  virtual std::pair<Index, Index> shape(const std::string& role) const = 0;
+  virtual SparseMatrix sparse(const std::string& role) const = 0;
+  virtual Matrix dense(const std::string& role) const = 0;
+  /// A descriptor model with a D: the rule differs between the containers (see the overrides).
+  virtual void check_feedthrough() const = 0;
+
+  void require(const std::vector<std::string>& roles, const std::string& kind) const {
+    for (const std::string& r : roles)
+      if (!has(r))
+        fail("the " + kind + " model is missing " + label(r) + " (found: " + found_list() + ")");
+  }
+  void forbid(const std::vector<std::string>& roles, const std::string& kind,
+              const std::string& markers) const {
+    for (const std::string& r : roles)
+      if (has(r))
+        fail(label(r) + " does not belong to a " + kind + " model (" + markers +
+             " found); found: " + found_list());
+  }
+
+ private:
+  std::string origin_;
+};
+
+/// Model-directory inspection: which .mtx files are there.
+class ModelDir final : public Container {
+ public:
+  ModelDir(const fs::path& dir, std::string origin) : Container(std::move(origin)), dir_(dir) {
     std::error_code ec;
     const fs::file_status st = fs::status(dir, ec);
     if (ec || !fs::exists(st)) fail("directory does not exist");
-    if (!fs::is_directory(st)) fail("not a directory");
+    if (!fs::is_directory(st)) fail("not a directory (nor a .mat file)");
     fs::directory_iterator it(dir, ec);
     if (ec) fail("cannot list directory: " + ec.message());
     for (const fs::directory_entry& e : it) {
@@ -34,65 +89,128 @@ class ModelDir {
     }
   }
 
-  [[noreturn]] void fail(const std::string& rule) const { throw InputError(origin_ + ": " + rule); }
+  bool has(const std::string& role) const override { return found_.count(role + ".mtx") > 0; }
+  std::string name(const std::string& role) const override { return role + ".mtx"; }
+  std::string label(const std::string& role) const override { return name(role); }
+  std::string item() const override { return "file"; }
+  fs::path file(const std::string& role) const { return dir_ / (role + ".mtx"); }
 
-  bool has(const std::string& name) const { return found_.count(name + ".mtx") > 0; }
-  fs::path file(const std::string& name) const { return dir_ / (name + ".mtx"); }
-  const std::string& origin() const { return origin_; }
-
-  std::string found_list() const {
-    if (found_.empty()) return "no .mtx files";
-    std::string s;
-    for (const std::string& f : found_) {
-      if (!s.empty()) s += ", ";
-      s += f;
-    }
-    return s;
+  std::string found_list() const override {
+    return found_.empty() ? "no .mtx files" : fmt::format("{}", fmt::join(found_, ", "));
   }
 
-  void require(const std::vector<std::string>& names, const std::string& kind) const {
-    for (const std::string& n : names)
-      if (!has(n))
-        fail("the " + kind + " model is missing " + n + ".mtx (found: " + found_list() + ")");
+  std::pair<Index, Index> shape(const std::string& role) const override {
+    const MatrixMarketHeader h = read_matrix_market_header(file(role));
+    return {h.rows, h.cols};
   }
-  void forbid(const std::vector<std::string>& names, const std::string& kind,
-              const std::string& markers) const {
-    for (const std::string& n : names)
-      if (has(n))
-        fail(n + ".mtx does not belong to a " + kind + " model (" + markers +
-             " found); found: " + found_list());
+  SparseMatrix sparse(const std::string& role) const override {
+    return read_matrix_market_sparse(file(role));
   }
+  Matrix dense(const std::string& role) const override {
+    return read_matrix_market_dense(file(role));
+  }
+  /// The shared models' convention has no feedthrough: a D.mtx beside A.mtx is a misplaced file.
+  void check_feedthrough() const override { forbid({"D"}, "descriptor", "E.mtx/A.mtx"); }
 
  private:
   fs::path dir_;
-  std::string origin_;
   std::set<std::string> found_;
 };
 
+/// "model <file>", with the renamed roles: "model m.mat (variables: K = Stiff, M = Mass)".
+std::string mat_origin(const std::string& what, const fs::path& file,
+                       const std::map<std::string, std::string>& variables) {
+  std::string s = what + " " + file.string();
+  std::string renamed;
+  for (const auto& [role, var] : variables) {
+    if (role == var) continue;
+    renamed += (renamed.empty() ? "" : ", ") + role + " = " + var;
+  }
+  return renamed.empty() ? s : s + " (variables: " + renamed + ")";
+}
+
+/// A .mat file: roles are read from the variables of their own names unless renamed.
+class MatModel final : public Container {
+ public:
+  MatModel(const fs::path& file, const std::string& what,
+           const std::map<std::string, std::string>& variables,
+           const std::vector<std::string>& roles)
+      : Container(mat_origin(what, file, variables)), reader_(file, origin()) {
+    std::map<std::string, std::string> role_of;  // variable -> role
+    for (const auto& [role, var] : variables) {
+      if (std::find(roles.begin(), roles.end(), role) == roles.end())
+        fail(fmt::format("variables: unknown role '{}' (roles: {})", role, fmt::join(roles, ", ")));
+      if (var.empty()) fail("variables: " + role + " is renamed to an empty name");
+    }
+    for (const std::string& role : roles) {
+      const auto it = variables.find(role);
+      const std::string var = it == variables.end() ? role : it->second;
+      if (const auto [other, fresh] = role_of.emplace(var, role); !fresh)
+        fail("variables: " + other->second + " and " + role + " are both read from variable " +
+             var + ": each matrix needs its own variable");
+      var_[role] = var;
+    }
+  }
+
+  bool has(const std::string& role) const override { return reader_.has(name(role)); }
+  std::string name(const std::string& role) const override {
+    const auto it = var_.find(role);
+    return it == var_.end() ? role : it->second;
+  }
+  std::string label(const std::string& role) const override { return "variable " + name(role); }
+  std::string item() const override { return "variable"; }
+  std::string found_list() const override { return reader_.found_list(); }
+  std::pair<Index, Index> shape(const std::string& role) const override {
+    return reader_.shape(name(role));
+  }
+  SparseMatrix sparse(const std::string& role) const override { return reader_.sparse(name(role)); }
+  Matrix dense(const std::string& role) const override { return reader_.dense(name(role)); }
+
+  /// MATLAB state-space files (ss/dss objects saved as A, B, C, D, E) carry the feedthrough D. An
+  /// all-zero D is the usual case and means the same as none; any other value would change H(s)
+  /// by a constant that ecmor's models cannot hold, so it is refused rather than dropped.
+  void check_feedthrough() const override {
+    const SparseMatrix D = sparse("D");
+    for (Index j = 0; j < D.outerSize(); ++j)
+      for (SparseMatrix::InnerIterator it(D, j); it; ++it)
+        if (it.value() != 0.0)
+          fail(label("D") + " beside " + label("A") +
+               " is the feedthrough (y = C x + D u) and is non-zero (D(" +
+               std::to_string(it.row() + 1) + ", " + std::to_string(it.col() + 1) +
+               ") = " + fmt::format("{}", it.value()) +
+               "): ecmor's descriptor models have no feedthrough term; remove D or set it to "
+               "zero");
+  }
+
+ private:
+  detail::MatReader reader_;
+  std::map<std::string, std::string> var_;  // role -> variable
+};
+
 struct Shape {
-  std::string file;
+  std::string label;
   Index rows = 0, cols = 0;
   std::string str() const {
-    return file + " is " + std::to_string(rows) + " x " + std::to_string(cols);
+    return label + " is " + std::to_string(rows) + " x " + std::to_string(cols);
   }
 };
 
-Shape shape_of(const ModelDir& d, const std::string& name) {
-  const MatrixMarketHeader h = read_matrix_market_header(d.file(name));
-  return Shape{name + ".mtx", h.rows, h.cols};
+Shape shape_of(const Container& d, const std::string& role) {
+  const auto [rows, cols] = d.shape(role);
+  return Shape{d.label(role), rows, cols};
 }
 
-/// Checks the sizes declared by the headers against each other before anything large is loaded.
+/// Checks the sizes the container declares against each other before anything large is loaded.
 /// `defining` is K or A; `square` the other coefficient matrices; C and optional Cv outputs.
-void check_shapes(const ModelDir& d, const std::string& defining,
+void check_shapes(const Container& d, const std::string& defining,
                   const std::vector<std::string>& square, bool has_cv) {
   const Shape ref = shape_of(d, defining);
   if (ref.rows != ref.cols) d.fail(ref.str() + ": must be square");
   const Index n = ref.rows;
   const std::string n_str = std::to_string(n);
-  for (const std::string& name : square) {
-    if (!d.has(name)) continue;
-    const Shape s = shape_of(d, name);
+  for (const std::string& role : square) {
+    if (!d.has(role)) continue;
+    const Shape s = shape_of(d, role);
     if (s.rows != n || s.cols != n) d.fail(s.str() + " but " + ref.str() + ": both must be N x N");
   }
   const Shape b = shape_of(d, "B");
@@ -154,6 +272,7 @@ MatrixSummary summarize_dense(const std::string& name, const Matrix& A) {
 
 const std::vector<std::string> kSecondOrderReduced = {"Mr", "Dr", "Kr", "Cvr"};
 const std::vector<std::string> kDescriptorReduced = {"Er", "Ar"};
+const std::vector<std::string> kReducedRoles = {"Mr", "Dr", "Kr", "Br", "Cr", "Cvr", "Er", "Ar"};
 
 void remove_if_present(const fs::path& p) {
   std::error_code ec;
@@ -161,121 +280,194 @@ void remove_if_present(const fs::path& p) {
   if (ec) throw IoError("cannot remove stale file " + p.string() + ": " + ec.message());
 }
 
-}  // namespace
-
-Model load_model(const fs::path& dir) {
-  const ModelDir d(dir, "model " + dir.string());
+/// The loader of both containers.
+Model load_from(const Container& d) {
   const bool second = d.has("M") || d.has("K");
   const bool descriptor = d.has("E") || d.has("A");
   if (second && descriptor)
-    d.fail(
-        "both a second-order (M.mtx, K.mtx) and a descriptor (E.mtx, A.mtx) file set are "
-        "present, the kind is ambiguous; found: " +
-        d.found_list());
+    d.fail("both a second-order (" + d.name("M") + ", " + d.name("K") + ") and a descriptor (" +
+           d.name("E") + ", " + d.name("A") + ") " + d.item() +
+           " set are present, the kind is ambiguous; found: " + d.found_list());
   if (!second && !descriptor)
-    d.fail(
-        "no model files: expected M.mtx, K.mtx, B.mtx, C.mtx [, D.mtx, Cv.mtx] (second order) "
-        "or [E.mtx,] A.mtx, B.mtx, C.mtx (descriptor); found: " +
-        d.found_list());
+    d.fail("no model " + d.item() + "s: expected " + d.name("M") + ", " + d.name("K") + ", " +
+           d.name("B") + ", " + d.name("C") + " [, " + d.name("D") + ", " + d.name("Cv") +
+           "] (second order) or [" + d.name("E") + ",] " + d.name("A") + ", " + d.name("B") + ", " +
+           d.name("C") + " (descriptor); found: " + d.found_list());
 
   if (second) {
     d.require({"M", "K", "B", "C"}, "second-order");
     const bool has_cv = d.has("Cv");
     check_shapes(d, "K", {"M", "D"}, has_cv);
     SecondOrderModel m;
-    m.K = read_matrix_market_sparse(d.file("K"));
-    m.M = read_matrix_market_sparse(d.file("M"));
+    m.K = d.sparse("K");
+    m.M = d.sparse("M");
     if (d.has("D")) {
-      m.D = read_matrix_market_sparse(d.file("D"));
+      m.D = d.sparse("D");
     } else {
       m.D.resize(m.K.rows(), m.K.cols());
       m.D.makeCompressed();
     }
-    m.B = read_matrix_market_dense(d.file("B"));
-    m.C = read_matrix_market_dense(d.file("C"));
-    if (has_cv) m.Cv = read_matrix_market_dense(d.file("Cv"));
+    m.B = d.dense("B");
+    m.C = d.dense("C");
+    if (has_cv) m.Cv = d.dense("Cv");
     Model model(std::move(m));
     validate(model, d.origin());
     return model;
   }
   d.require({"A", "B", "C"}, "descriptor");
-  d.forbid({"D", "Cv"}, "descriptor", "E.mtx/A.mtx");
+  if (d.has("D")) d.check_feedthrough();
+  d.forbid({"Cv"}, "descriptor", d.name("E") + "/" + d.name("A"));
   check_shapes(d, "A", {"E"}, false);
   DescriptorModel m;
-  m.A = read_matrix_market_sparse(d.file("A"));
-  m.E = d.has("E") ? read_matrix_market_sparse(d.file("E")) : sparse_identity(m.A.rows());
-  m.B = read_matrix_market_dense(d.file("B"));
-  m.C = read_matrix_market_dense(d.file("C"));
+  m.A = d.sparse("A");
+  m.E = d.has("E") ? d.sparse("E") : sparse_identity(m.A.rows());
+  m.B = d.dense("B");
+  m.C = d.dense("C");
   Model model(std::move(m));
   validate(model, d.origin());
   return model;
 }
+
+/// The reader of reduced models from both containers (dense; Dr absent: 0, Er absent: I).
+ReducedModel read_reduced_from(const Container& d) {
+  const bool second = d.has("Mr") || d.has("Kr");
+  const bool descriptor = d.has("Er") || d.has("Ar");
+  if (second && descriptor)
+    d.fail("both a second-order (" + d.name("Mr") + ", " + d.name("Kr") + ") and a descriptor (" +
+           d.name("Er") + ", " + d.name("Ar") + ") " + d.item() +
+           " set are present, the kind is ambiguous; found: " + d.found_list());
+  if (!second && !descriptor)
+    d.fail("no reduced model " + d.item() + "s: expected " + d.name("Mr") + ", " + d.name("Dr") +
+           ", " + d.name("Kr") + ", " + d.name("Br") + ", " + d.name("Cr") + " [, " +
+           d.name("Cvr") + "] or " + d.name("Er") + ", " + d.name("Ar") + ", " + d.name("Br") +
+           ", " + d.name("Cr") + "; found: " + d.found_list());
+  ReducedModel model;
+  if (second) {
+    d.require({"Mr", "Kr", "Br", "Cr"}, "reduced second-order");
+    ReducedSecondOrderModel m;
+    m.M = d.dense("Mr");
+    m.K = d.dense("Kr");
+    m.D = d.has("Dr") ? d.dense("Dr") : Matrix::Zero(m.K.rows(), m.K.cols());
+    m.B = d.dense("Br");
+    m.C = d.dense("Cr");
+    if (d.has("Cvr")) m.Cv = d.dense("Cvr");
+    model = std::move(m);
+  } else {
+    d.require({"Ar", "Br", "Cr"}, "reduced descriptor");
+    ReducedDescriptorModel m;
+    m.A = d.dense("Ar");
+    m.E = d.has("Er") ? d.dense("Er") : Matrix::Identity(m.A.rows(), m.A.cols());
+    m.B = d.dense("Br");
+    m.C = d.dense("Cr");
+    model = std::move(m);
+  }
+  validate(model, d.origin());
+  return model;
+}
+
+/// Calls f(name, matrix, kind) for each matrix of a reduced model, in the order written:
+/// Mr Dr Kr Br Cr [Cvr] (second order) or Er Ar Br Cr (descriptor).
+void for_each_reduced_matrix(
+    const ReducedModel& model,
+    const std::function<void(const std::string&, const Matrix&, const char*)>& f) {
+  if (const auto* so = std::get_if<ReducedSecondOrderModel>(&model)) {
+    const char* kind = "second order";
+    f("Mr", so->M, kind);
+    f("Dr", so->D, kind);
+    f("Kr", so->K, kind);
+    f("Br", so->B, kind);
+    f("Cr", so->C, kind);
+    if (so->has_velocity_output()) f("Cvr", so->Cv, kind);
+  } else {
+    const auto& de = std::get<ReducedDescriptorModel>(model);
+    const char* kind = "descriptor";
+    f("Er", de.E, kind);
+    f("Ar", de.A, kind);
+    f("Br", de.B, kind);
+    f("Cr", de.C, kind);
+  }
+}
+
+}  // namespace
+
+Model load_model(const ModelSource& source) {
+  const fs::path& path = source.path;
+  if (is_mat_path(path)) {
+    const MatModel file(path, "model", source.variables, model_variable_roles());
+    return load_from(file);
+  }
+  const ModelDir dir(path, "model " + path.string());
+  if (!source.variables.empty())
+    dir.fail(
+        "'variables' renames the variables of a .mat file; a model directory has fixed file "
+        "names (M.mtx, K.mtx, ...)");
+  return load_from(dir);
+}
+
+Model load_model(const fs::path& path) { return load_model(ModelSource{path, {}}); }
 
 void write_reduced_model(const fs::path& dir, const ReducedModel& model) {
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) throw IoError("cannot create directory " + dir.string() + ": " + ec.message());
   const auto file = [&](const std::string& name) { return dir / (name + ".mtx"); };
+  for_each_reduced_matrix(model, [&](const std::string& name, const Matrix& A, const char* kind) {
+    write_matrix_market(file(name), A, "reduced model: " + name + " (" + kind + ")");
+  });
   if (const auto* so = std::get_if<ReducedSecondOrderModel>(&model)) {
-    write_matrix_market(file("Mr"), so->M, "reduced model: Mr (second order)");
-    write_matrix_market(file("Dr"), so->D, "reduced model: Dr (second order)");
-    write_matrix_market(file("Kr"), so->K, "reduced model: Kr (second order)");
-    write_matrix_market(file("Br"), so->B, "reduced model: Br (second order)");
-    write_matrix_market(file("Cr"), so->C, "reduced model: Cr (second order)");
-    if (so->has_velocity_output())
-      write_matrix_market(file("Cvr"), so->Cv, "reduced model: Cvr (second order)");
-    else
-      remove_if_present(file("Cvr"));
+    if (!so->has_velocity_output()) remove_if_present(file("Cvr"));
     // Files of a previously written model of the other kind would make the directory ambiguous.
     for (const std::string& n : kDescriptorReduced) remove_if_present(file(n));
   } else {
-    const auto& de = std::get<ReducedDescriptorModel>(model);
-    write_matrix_market(file("Er"), de.E, "reduced model: Er (descriptor)");
-    write_matrix_market(file("Ar"), de.A, "reduced model: Ar (descriptor)");
-    write_matrix_market(file("Br"), de.B, "reduced model: Br (descriptor)");
-    write_matrix_market(file("Cr"), de.C, "reduced model: Cr (descriptor)");
     for (const std::string& n : kSecondOrderReduced) remove_if_present(file(n));
   }
 }
 
-ReducedModel read_reduced_model(const fs::path& dir) {
-  const ModelDir d(dir, "reduced model " + dir.string());
-  const bool second = d.has("Mr") || d.has("Kr");
-  const bool descriptor = d.has("Er") || d.has("Ar");
-  if (second && descriptor)
-    d.fail(
-        "both a second-order (Mr.mtx, Kr.mtx) and a descriptor (Er.mtx, Ar.mtx) file set are "
-        "present, the kind is ambiguous; found: " +
-        d.found_list());
-  if (!second && !descriptor)
-    d.fail(
-        "no reduced model files: expected Mr.mtx, Dr.mtx, Kr.mtx, Br.mtx, Cr.mtx [, Cvr.mtx] "
-        "or Er.mtx, Ar.mtx, Br.mtx, Cr.mtx; found: " +
-        d.found_list());
-  ReducedModel model;
-  if (second) {
-    d.require({"Mr", "Kr", "Br", "Cr"}, "reduced second-order");
-    ReducedSecondOrderModel m;
-    m.M = read_matrix_market_dense(d.file("Mr"));
-    m.K = read_matrix_market_dense(d.file("Kr"));
-    m.D =
-        d.has("Dr") ? read_matrix_market_dense(d.file("Dr")) : Matrix::Zero(m.K.rows(), m.K.cols());
-    m.B = read_matrix_market_dense(d.file("Br"));
-    m.C = read_matrix_market_dense(d.file("Cr"));
-    if (d.has("Cvr")) m.Cv = read_matrix_market_dense(d.file("Cvr"));
-    model = std::move(m);
+void write_reduction(const fs::path& dir, const ReducedModel& model, const Matrix& V,
+                     const Matrix& W, OutputFormat format) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw IoError("cannot create directory " + dir.string() + ": " + ec.message());
+  if (format == OutputFormat::Mat) {
+    for (const std::string& n : kReducedRoles) remove_if_present(dir / (n + ".mtx"));
+    remove_if_present(dir / "V.mtx");
+    remove_if_present(dir / "W.mtx");
   } else {
-    d.require({"Ar", "Br", "Cr"}, "reduced descriptor");
-    ReducedDescriptorModel m;
-    m.A = read_matrix_market_dense(d.file("Ar"));
-    m.E = d.has("Er") ? read_matrix_market_dense(d.file("Er"))
-                      : Matrix::Identity(m.A.rows(), m.A.cols());
-    m.B = read_matrix_market_dense(d.file("Br"));
-    m.C = read_matrix_market_dense(d.file("Cr"));
-    model = std::move(m);
+    write_reduced_model(dir, model);
+    write_matrix_market(dir / "V.mtx", V, "right projection basis V");
+    write_matrix_market(dir / "W.mtx", W, "left projection basis W");
   }
-  validate(model, d.origin());
-  return model;
+  const fs::path mat = dir / kReducedModelMatFile;
+  if (format == OutputFormat::Mtx) {
+    remove_if_present(mat);
+    return;
+  }
+  write_named_file_atomically(mat, [&](const fs::path& tmp) {
+    detail::MatWriter out(tmp, mat);
+    for_each_reduced_matrix(
+        model, [&](const std::string& name, const Matrix& A, const char*) { out.write(name, A); });
+    out.write("V", V);
+    // Galerkin (W = V, bit for bit): the file says so by leaving W out rather than doubling.
+    const bool galerkin = W.rows() == V.rows() && W.cols() == V.cols() && W == V;
+    if (!galerkin) out.write("W", W);
+    out.close();
+  });
+}
+
+ReducedModel read_reduced_model(const fs::path& path) {
+  if (is_mat_path(path)) {
+    const MatModel file(path, "reduced model", {}, kReducedRoles);
+    return read_reduced_from(file);
+  }
+  const ModelDir dir(path, "reduced model " + path.string());
+  const bool has_mtx = std::any_of(kReducedRoles.begin(), kReducedRoles.end(),
+                                   [&](const std::string& r) { return dir.has(r); });
+  std::error_code ec;
+  if (!has_mtx && fs::is_regular_file(path / kReducedModelMatFile, ec)) {
+    const MatModel file(path / kReducedModelMatFile, "reduced model", {}, kReducedRoles);
+    return read_reduced_from(file);
+  }
+  return read_reduced_from(dir);
 }
 
 ModelSummary summarize(const Model& model) {

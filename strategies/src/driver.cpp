@@ -236,7 +236,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   };
 
-  const Model model = load_model(config.model_dir);
+  const Model model = load_model(config.model);
   const double load_seconds = elapsed();
   if (observer) observer->on_model_loaded(config, model, load_seconds);
 
@@ -514,9 +514,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   if (result.best) {
     const ReducerResult& best = *result.best;
     if (writer) {
-      write_reduced_model(config.output_dir, best.model);
-      write_matrix_market(config.output_dir / "V.mtx", best.V, "right projection basis V");
-      write_matrix_market(config.output_dir / "W.mtx", best.W, "left projection basis W");
+      write_reduction(config.output_dir, best.model, best.V, best.W, config.output_format);
     }
     // The reported model is always re-checked independently, converged or not (a stop request
     // no longer applies here: the check of the model being written is part of writing it).
@@ -630,11 +628,16 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   j["tolerance"] = config.tolerance;
   j["norm"] = to_string(config.norm);
   j["band"] = {{"f_min_hz", config.band.f_min_hz}, {"f_max_hz", config.band.f_max_hz}};
-  j["model"] = {{"dir", config.model_dir.string()},
-                {"kind", to_string(kind_of(model))},
-                {"N", size_of(model)},
-                {"inputs", inputs_of(model)},
-                {"outputs", outputs_of(model)}};
+  // The model as the YAML named it: `dir`, or `file` with the renamed `variables`.
+  if (is_mat_path(config.model.path)) {
+    j["model"] = {{"file", config.model.path.string()}, {"variables", config.model.variables}};
+  } else {
+    j["model"] = {{"dir", config.model.path.string()}};
+  }
+  j["model"].update({{"kind", to_string(kind_of(model))},
+                     {"N", size_of(model)},
+                     {"inputs", inputs_of(model)},
+                     {"outputs", outputs_of(model)}});
   j["backend"] = {{"name", config.solver.backend}, {"solver", solver->backend()},
                   {"ranks", process_count()}};
   j["reducer"] = config.reducer_name;

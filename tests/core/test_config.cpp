@@ -79,8 +79,8 @@ TEST(RunConfig, FullConfigRoundTrip) {
       "plugins: [plugins/libx.so, /opt/ecmor/plugins]\n";
   const RunConfig c = parse_run_config(yaml, "full.yaml");
   const fs::path cwd = fs::current_path();
-  EXPECT_EQ(c.model_dir, (cwd / "../shared/models/triplechain_saak09_n451").lexically_normal());
-  EXPECT_TRUE(c.model_dir.is_absolute());
+  EXPECT_EQ(c.model.path, (cwd / "../shared/models/triplechain_saak09_n451").lexically_normal());
+  EXPECT_TRUE(c.model.path.is_absolute());
   EXPECT_EQ(c.band.f_min_hz, 1.0e-5);
   EXPECT_EQ(c.band.f_max_hz, 10.0);
   EXPECT_EQ(c.tolerance, 2.5e-4);
@@ -247,7 +247,7 @@ TEST(RunConfig, ExampleInTheHeaderParses) {
   }
   ASSERT_NE(yaml.find("plugins:"), std::string::npos) << yaml;
   const RunConfig c = parse_run_config(yaml, "config.hpp example");
-  EXPECT_EQ(c.model_dir.filename(), "triplechain_saak09_n451");
+  EXPECT_EQ(c.model.path.filename(), "triplechain_saak09_n451");
   EXPECT_EQ(c.band.f_min_hz, 1.0e-5);
   EXPECT_EQ(c.band.f_max_hz, 10.0);
   EXPECT_EQ(c.tolerance, 1.0e-3);
@@ -314,7 +314,8 @@ TEST(RunConfig, DuplicateKeysAreErrors) {
 
 TEST(RunConfig, MissingRequiredKeys) {
   EXPECT_EQ(parse_error(replace(kMinimal, "  dir: ../shared/models/lf10\n", "  {}\n")),
-            "run.yaml:2: missing required key 'model.dir'");
+            "run.yaml:2: missing required key 'model.dir' (a model directory) or "
+            "'model.file' (a .mat file)");
   EXPECT_EQ(parse_error(replace(kMinimal, "  f_max_hz: 100\n", "")),
             "run.yaml:4: missing required key 'band.f_max_hz'");
   EXPECT_EQ(parse_error(replace(kMinimal, "  tolerance: 1.0e-3\n", "  norm: spectral\n")),
@@ -327,7 +328,8 @@ TEST(RunConfig, MissingRequiredKeys) {
             "run.yaml:1: missing required section 'output'");
   // A section present but empty.
   EXPECT_EQ(parse_error(replace(kMinimal, "model:\n  dir: ../shared/models/lf10\n", "model:\n")),
-            "run.yaml:1: missing required key 'model.dir'");
+            "run.yaml:1: missing required key 'model.dir' (a model directory) or "
+            "'model.file' (a .mat file)");
 }
 
 TEST(RunConfig, WrongTypes) {

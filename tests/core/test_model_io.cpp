@@ -1,6 +1,7 @@
 // Tests of model loading, validation, definiteness checks, summaries and reduced-model files.
 #include <gtest/gtest.h>
 
+#include "common/bitwise_equal.hpp"
 #include "common/test_support.hpp"
 #include <unistd.h>
 
@@ -28,6 +29,7 @@ namespace {
 
 const fs::path kModels = fs::path(ECMOR_TEST_SOURCE_DIR) / ".." / "shared" / "models";
 
+using test::bitwise_equal;
 using test::TempDir;
 using test::write_raw;
 
@@ -97,12 +99,6 @@ void expect_input_error(F&& f, const std::vector<std::string>& parts) {
     for (const std::string& part : parts)
       EXPECT_NE(msg.find(part), std::string::npos) << "'" << part << "' not in: " << msg;
   }
-}
-
-bool bitwise_equal(const Matrix& A, const Matrix& B) {
-  return A.rows() == B.rows() && A.cols() == B.cols() &&
-         (A.size() == 0 || std::memcmp(A.data(), B.data(),
-                                       sizeof(double) * static_cast<std::size_t>(A.size())) == 0);
 }
 
 const MatrixSummary* find_summary(const ModelSummary& s, const std::string& name) {

@@ -102,7 +102,7 @@ TEST_P(ConfigTarget, MeetsItsToleranceAndTheIndependentRecheckAgrees) {
   EXPECT_LE(summary["verified_band_error"].get<double>(), config.tolerance);
   const Index order = summary["final_order"].get<Index>();
 
-  const Model full = load_model(config.model_dir);
+  const Model full = load_model(config.model);
   const ReducedModel reduced = read_reduced_model(out);
   ASSERT_EQ(size_of(reduced), order);
   const ErrorNorm norm = config.norm;
@@ -111,7 +111,7 @@ TEST_P(ConfigTarget, MeetsItsToleranceAndTheIndependentRecheckAgrees) {
   };
 
   // 1. Against the independent reference response, where the band covers it.
-  const fs::path ref_path = config.model_dir / "ref_freq_response.csv";
+  const fs::path ref_path = config.model.path / "ref_freq_response.csv";
   Index checked = 0;
   if (fs::exists(ref_path)) {
     const Reference ref = read_reference(ref_path, outputs_of(full), inputs_of(full));

@@ -35,7 +35,7 @@ TEST_P(EstimateEffectivity, EstimateAndCertifiedValueAreWithinTheFactorOfTheTrut
   test::TempDir out("ecmor_effectivity");
   const bench::DriverRun run = bench::reduce_with_driver(config, registry, out.path());
 
-  const Model model = load_model(config.model_dir);
+  const Model model = load_model(config.model);
   BandErrorOptions options = config.error;
   options.norm = config.norm;
   const bench::EffectivityReport r =

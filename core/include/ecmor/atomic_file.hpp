@@ -21,6 +21,13 @@ namespace ecmor {
 ECMOR_API void write_file_atomically(const std::filesystem::path& path,
                                      const std::function<void(std::ostream&)>& writer);
 
+/// The same for a library that writes a file by name (matio): calls writer(tmp) with the path of
+/// a temporary file next to `path`, which the writer creates, then syncs and renames it to `path`.
+/// Same errors and clean-up as above.
+ECMOR_API void write_named_file_atomically(
+    const std::filesystem::path& path,
+    const std::function<void(const std::filesystem::path& tmp)>& writer);
+
 /// Convenience: atomically replace `path` with `contents`.
 ECMOR_API void write_text_atomically(const std::filesystem::path& path, std::string_view contents);
 

@@ -3,14 +3,14 @@
 /// The YAML run configuration, validated: unknown keys are errors that suggest the nearest valid
 /// key; wrong types and ranges name the key and its line. Example:
 ///
-///   model:    {dir: ../shared/models/triplechain_saak09_n451}
+///   model:    {dir: ../shared/models/triplechain_saak09_n451}   # or {file: m.mat}
 ///   band:     {f_min_hz: 1.0e-5, f_max_hz: 10.0}
 ///   target:   {tolerance: 1.0e-3, norm: spectral}        # spectral (Eq. 22) | frobenius (Eq. 23)
 ///   reducer:  {name: modal, static_correction: true}     # plus reducer-specific parameters
 ///   strategy: {name: grow_order, max_order: 200}         # plus strategy-specific parameters
 ///   error:    {grid_points: 200, refine_peaks: 5}        # optional: the error estimator
 ///   solver:   {threads: 0}                               # optional
-///   output:   {dir: out/tc451}
+///   output:   {dir: out/tc451, format: mtx}            # format: mtx (default) | mat | both
 ///   plugins:  [path/to/libmy_plugin.so, path/to/dir]     # optional: extra plugins
 ///   check:    {max_order: 48, max_seconds: 600}          # optional: budgets for `ecmor check`
 ///
@@ -25,8 +25,8 @@
 ///       - reducer:  {name: krylov, points: [0.0]}
 ///         strategy: {name: greedy_points, max_order: 80}  # default: grow_order
 ///
-/// Relative paths (model.dir, output.dir, plugins) are resolved against the current working
-/// directory, like paths given on a command line.
+/// Relative paths (model.dir, model.file, output.dir, plugins) are resolved against the current
+/// working directory, like paths given on a command line.
 
 #include <filesystem>
 #include <string>
@@ -34,6 +34,7 @@
 
 #include "ecmor/band_error.hpp"
 #include "ecmor/export.hpp"
+#include "ecmor/model_io.hpp"
 #include "ecmor/parameters.hpp"
 #include "ecmor/shifted_solver.hpp"
 
@@ -51,7 +52,8 @@ struct PortfolioMember {
 
 struct RunConfig {
   std::filesystem::path source;      ///< the YAML file
-  std::filesystem::path model_dir;
+  /// model.dir (a model directory) or model.file with model.variables (a .mat file).
+  ModelSource model;
   Band band;
   double tolerance = 1e-3;           ///< on sup_f of the relative error, (0, 1e3]
   ErrorNorm norm = ErrorNorm::Spectral;
@@ -77,6 +79,7 @@ struct RunConfig {
   SolverOptions solver;
   int threads = 0;                   ///< 0: OpenMP default
   std::filesystem::path output_dir;
+  OutputFormat output_format = OutputFormat::Mtx;  ///< output.format: mtx (default), mat, both
   std::vector<std::filesystem::path> plugins;
   /// Non-empty for `strategy: {name: portfolio, members: [...]}`; reducer_name and strategy_name
   /// are then both "portfolio" and the members carry the real ones.
