@@ -153,6 +153,7 @@ class Cursor {
   }
   double real_value(const std::string& key) { return real(value(key), key); }
   double real(std::string v, const std::string& what) const {
+    v = std::string(detail::trim(v));
     std::replace(v.begin(), v.end(), 'D', 'E');
     std::replace(v.begin(), v.end(), 'd', 'e');
     const auto x = detail::parse_real(v);
