@@ -6,10 +6,9 @@
 // the mass model the clamped face's mass is missing and the command says so; a changed model
 // and a model without nodes are refused by name.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <cstdlib>
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -17,6 +16,7 @@
 #include <vector>
 
 #include "../../bench/solid.hpp"
+#include "common/run_ecmor.hpp"
 #include "ecmor/fe_geometry.hpp"
 #include "ecmor/matrix_market.hpp"
 #include "ecmor/model_io.hpp"
@@ -26,22 +26,6 @@ namespace fs = std::filesystem;
 
 namespace ecmor {
 namespace {
-
-struct Result {
-  int exit_code = -1;
-  std::string out, err;
-};
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), {});
-}
-
-std::string quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
 
 void write_solid(const fs::path& dir, const bench::SolidOptions& o) {
   const SecondOrderModel m = bench::solid(o);
@@ -77,30 +61,17 @@ class ExportBody : public ::testing::Test {
     if (!HasFailure()) fs::remove_all(m_dir);
   }
 
-  Result run(const std::vector<std::string>& args) {
-    const fs::path out = m_dir / "stdout.txt", err = m_dir / "stderr.txt";
-    std::string cmd = "env -u ECMOR_PLUGIN_PATH ";
-    cmd.append(quote(std::string(ECMOR_TEST_BINARY_DIR) + "/bin/ecmor"));
-    for (const std::string& a : args) cmd.append(" ").append(quote(a));
-    cmd.append(" </dev/null >").append(quote(out.string()));
-    cmd.append(" 2>").append(quote(err.string()));
-    const int status = std::system(cmd.c_str());
-    Result r;
-    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = read_text(out);
-    r.err = read_text(err);
-    return r;
-  }
+  test::CliResult run(const std::vector<std::string>& args) { return test::run_ecmor(args, m_dir); }
 
   fs::path m_dir;
   bench::SolidOptions m_options;
 };
 
 TEST_F(ExportBody, ReducedBarHasTheBarsMassInvariants) {
-  const Result reduced = run({"reduce", (m_dir / "run.yaml").string(), "--no-plot", "-q"});
+  const test::CliResult reduced = run({"reduce", (m_dir / "run.yaml").string(), "--no-plot", "-q"});
   ASSERT_EQ(reduced.exit_code, 0) << reduced.out << reduced.err;
   const fs::path run_dir = m_dir / "run";
-  const Result r =
+  const test::CliResult r =
       run({"export-body", run_dir.string(), "--mass-model", (m_dir / "free").string()});
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_EQ(r.err, "");  // no warning: the mass model is complete and W = V (modal)
@@ -150,7 +121,7 @@ TEST_F(ExportBody, ReducedBarHasTheBarsMassInvariants) {
   EXPECT_EQ(j.at("Ct_w"), j.at("Ct_v"));
 
   // Without the mass model the clamped face's mass is missing, and the command says so.
-  const Result partial =
+  const test::CliResult partial =
       run({"export-body", run_dir.string(), "-o", (m_dir / "p.SID_FEM").string()});
   ASSERT_EQ(partial.exit_code, 0) << partial.err;
   const Index face = 3 * (o.ny + 1) * (o.nz + 1);
@@ -161,14 +132,14 @@ TEST_F(ExportBody, ReducedBarHasTheBarsMassInvariants) {
 
   // A run whose Mr no longer matches its model directory is refused.
   write_matrix_market(run_dir / "Mr.mtx", Matrix(2.0 * rs.M));
-  const Result changed = run({"export-body", run_dir.string()});
+  const test::CliResult changed = run({"export-body", run_dir.string()});
   EXPECT_EQ(changed.exit_code, 1);
   EXPECT_NE(changed.err.find("differ from the run's Mr, Dr, Kr"), std::string::npos) << changed.err;
 
   // A model directory without nodes.csv/dofs.csv cannot give mass invariants.
   fs::remove(m_dir / "clamped" / "nodes.csv");
   fs::remove(m_dir / "clamped" / "dofs.csv");
-  const Result bare = run({"export-body", run_dir.string()});
+  const test::CliResult bare = run({"export-body", run_dir.string()});
   EXPECT_EQ(bare.exit_code, 1);
   EXPECT_NE(bare.err.find("no nodes.csv and dofs.csv"), std::string::npos) << bare.err;
 }
