@@ -72,20 +72,25 @@ std::vector<long long> interface_nodes(const SecondOrderModel& m, const FeGeomet
   return out;
 }
 
-/// "mode k: f Hz" when Me and Ke are diagonal (modal bases), else "coordinate k".
+/// "mode k : f Hz" for a coordinate that Me and Ke decouple from all others (an eigenmode: its
+/// row and column are zero to 1e-10 of the geometric mean of the diagonals), else "coordinate k"
+/// (a Krylov vector, a static correction).
 std::vector<std::string> coordinate_names(const BodyInvariants& inv) {
   const Index n = inv.Me.rows();
-  auto diagonal = [](const Matrix& A) {
-    const Matrix off = A - Matrix(A.diagonal().asDiagonal());
-    return off.cwiseAbs().maxCoeff() <= 1e-10 * A.diagonal().cwiseAbs().maxCoeff();
+  auto decoupled = [&](const Matrix& A, Index k) {
+    for (Index j = 0; j < n; ++j) {
+      const double bound = 1e-10 * std::sqrt(std::abs(A(k, k) * A(j, j)));
+      if (j != k && (std::abs(A(k, j)) > bound || std::abs(A(j, k)) > bound)) return false;
+    }
+    return true;
   };
-  const bool modal = diagonal(inv.Me) && diagonal(inv.Ke);
   std::vector<std::string> names;
   for (Index k = 0; k < n; ++k) {
     const double ratio = inv.Ke(k, k) / inv.Me(k, k);
-    names.push_back(modal && ratio >= 0.0 ? fmt::format("ecmor mode {} : {:.6g} Hz", k + 1,
-                                                        std::sqrt(ratio) / (2.0 * kPi))
-                                          : fmt::format("ecmor coordinate {}", k + 1));
+    const bool mode = decoupled(inv.Me, k) && decoupled(inv.Ke, k) && ratio >= 0.0;
+    names.push_back(
+        mode ? fmt::format("ecmor mode {} : {:.6g} Hz", k + 1, std::sqrt(ratio) / (2.0 * kPi))
+             : fmt::format("ecmor coordinate {}", k + 1));
   }
   return names;
 }
