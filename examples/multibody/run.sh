@@ -46,25 +46,37 @@ fi
 # x, then for modes 1..4 the translation in the mode's dominant direction (y or z).
 axis='[.frame_nodes[] | select((.position[1][0] - 0.015 | fabs) < 1e-9 and
                                 (.position[2][0] - 0.025 | fabs) < 1e-9)] | sort_by(.position[0][0])'
-dirs="$axis"' as $n | [range(0; 4) | . as $k |
+dirs="($axis)"' as $n | [range(0; 4) | . as $k |
   if ([$n[].phi[1][$k] | fabs] | max) > ([$n[].phi[2][$k] | fabs] | max) then 1 else 2 end]'
-jq -r "$dirs"' as $d | '"$axis"' | .[] | [.position[0][0]] + [range(0; 4) as $k | .phi[$d[$k]][$k]]
+jq -r "($dirs)"' as $d | '"($axis)"' | .[] | [.position[0][0]] + [range(0; 4) as $k | .phi[$d[$k]][$k]]
   | @tsv' body.json > axis.tsv
 title() {
-  jq -r --argjson k "$1" "$dirs"' as $d | "\(.ielastq[$k] | sub("ecmor mode "; "mode ")), in \(if $d[$k] == 1 then "y" else "z" end)"' body.json
+  jq -r --argjson k "$1" "($dirs)"' as $d | "\(.ielastq[$k] | sub("ecmor mode "; "mode ")), in \(if $d[$k] == 1 then "y" else "z" end)"' body.json
+}
+# One panel per direction: the first bending modes in y and in z have the same mass-normalised
+# shape (at different frequencies) and would hide each other in one panel.
+plots() {  # the plot commands of the modes whose dominant direction is $1 (1: y, 2: z)
+  local cmd="" k
+  for k in 0 1 2 3; do
+    if [ "$(jq -r "($dirs)"' | .['"$k"']' body.json)" = "$1" ]; then
+      cmd="$cmd${cmd:+, }\"axis.tsv\" using 1:$((k + 2)) with linespoints title \"$(title "$k")\""
+    fi
+  done
+  echo "${cmd:-0 notitle}"
 }
 gnuplot <<GP
-set terminal pngcairo size 900,500 font ",11"
+set terminal pngcairo size 1000,450 font ",11"
 set output "$png"
-set title "Clamped steel beam (CalculiX C3D20): the SID body's first four modes along its axis"
+set multiplot layout 1,2 title "Clamped steel beam (CalculiX C3D20): the SID body's first four coordinates along its axis"
 set xlabel "x [m]"
-set ylabel "translation (mass-normalised mode)"
-set key outside right
+set ylabel "translation (mass-normalised)"
+set key bottom left
 set grid
 set datafile separator "\t"
-plot "axis.tsv" using 1:2 with linespoints title "$(title 0)", \
-     "" using 1:3 with linespoints title "$(title 1)", \
-     "" using 1:4 with linespoints title "$(title 2)", \
-     "" using 1:5 with linespoints title "$(title 3)"
+set title "in y"
+plot $(plots 1)
+set title "in z"
+plot $(plots 2)
+unset multiplot
 GP
 echo "wrote $png"
