@@ -97,6 +97,8 @@ int main(int argc, char** argv) {
       options.clamped = argc == 6;
       const ecmor::SecondOrderModel m = ecmor::bench::solid(options);
       write_model(argv[5], m);
+      // nodes.csv, dofs.csv: the mesh for `ecmor export-body` (docs/multibody.md).
+      ecmor::write_fe_geometry(argv[5], ecmor::bench::solid_geometry(options));
       fmt::print("solid ({}): N = {}, nnz(K) = {}, nnz(M) = {}, {} inputs, {} outputs -> {}\n",
                  options.clamped ? "clamped at x = 0" : "free", m.K.rows(), m.K.nonZeros(),
                  m.M.nonZeros(), m.inputs(), m.outputs(), argv[5]);

@@ -90,6 +90,17 @@ int simulate(const SimulateOptions& options, const CommonOptions& common);
 /// 0 when written, 1 on an error.
 int import_calculix(const std::filesystem::path& config, const CommonOptions& common);
 
+/// Options of `ecmor export-body` (docs/multibody.md).
+struct ExportBodyOptions {
+  std::filesystem::path run_dir;         ///< output directory of `ecmor reduce`
+  std::filesystem::path output;          ///< SID file; empty: RUN_DIR/body.SID_FEM
+  std::filesystem::path mass_model_dir;  ///< the mesh without boundary conditions (optional)
+  bool all_nodes = false;                ///< frame: every node (default: input/output nodes)
+};
+/// `ecmor export-body RUN_DIR`: the reduced elastic body (mass invariants, seed Eq. 5) as a SID
+/// file and JSON. 0 when written, 1 on an error.
+int export_body(const ExportBodyOptions& options, const CommonOptions& common);
+
 /// Options of `ecmor conform`.
 struct ConformOptions {
   std::string reducer;                ///< the reducer's YAML name

@@ -164,6 +164,22 @@ int main(int argc, char** argv) {
                          "model directory to write (overrides output.dir)");
   import_ccx->add_flag("-q,--quiet", common.quiet, "print only the summary line");
 
+  // export-body (docs/multibody.md)
+  ecmor::app::ExportBodyOptions body_options;
+  auto* export_body = cli.add_subcommand(
+      "export-body", "write the reduced elastic body of a reduce run (RUN_DIR) for multibody "
+                     "tools: mass invariants as a SID file and JSON (needs nodes.csv, dofs.csv)");
+  export_body->add_option("run_dir", body_options.run_dir, "output directory of `ecmor reduce`")
+      ->required();
+  export_body->add_option("-o,--output", body_options.output,
+                          "SID file (default RUN_DIR/body.SID_FEM; the JSON goes next to it)");
+  export_body->add_option("--mass-model", body_options.mass_model_dir,
+                          "model directory of the same mesh without boundary conditions: the "
+                          "mass of constrained DOFs for m, c, J");
+  export_body->add_flag("--all-nodes", body_options.all_nodes,
+                        "write every node to the frame (default: nodes of the inputs/outputs)");
+  export_body->add_flag("-q,--quiet", common.quiet, "print only the summary line");
+
   try {
     cli.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -178,5 +194,6 @@ int main(int argc, char** argv) {
   if (*simulate) return ecmor::app::simulate(sim, common);
   if (*conform) return ecmor::app::conform(conform_options, common);
   if (*import_ccx) return ecmor::app::import_calculix(import_config, common);
+  if (*export_body) return ecmor::app::export_body(body_options, common);
   return 1;
 }
