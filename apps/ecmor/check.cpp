@@ -97,7 +97,7 @@ CheckRow check_one(const RunConfig& base, const std::filesystem::path& out_dir,
         row.failures.push_back(fmt::format("independent re-check {:.3e} > tolerance {:g}",
                                            s.verified_band_error, config.tolerance));
       }
-      if (!s.stable) row.failures.push_back("reduced model not asymptotically stable");
+      if (!s.stable) row.failures.push_back("reduced model not stable: " + s.stability.reason);
       if (row.max_order > 0 && s.order > row.max_order) {
         row.failures.push_back(
             fmt::format("order {} > check.max_order {}", s.order, row.max_order));

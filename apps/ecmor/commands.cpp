@@ -15,6 +15,7 @@
 #include "ecmor/model_io.hpp"
 #include "ecmor/parallel.hpp"
 #include "ecmor/registry.hpp"
+#include "ecmor/rigid_body.hpp"
 #include "ecmor/strategies/driver.hpp"
 #include "signals.hpp"
 #include "plot.hpp"
@@ -115,8 +116,8 @@ class TablePrinter final : public RunObserver {
           "order {}  band error {:.3e} ({})  {}  "
           "{:.2f} s  {} factorisations  {} solves  peak {:.0f} MiB\n",
           s.order, s.band_error, check,
-          s.stable ? "stable" : "NOT asymptotically stable", s.seconds, s.counters.factorizations,
-          s.counters.solves, s.peak_memory_mb);
+          s.stable ? s.stability.label : "NOT stable: " + s.stability.reason, s.seconds,
+          s.counters.factorizations, s.counters.solves, s.peak_memory_mb);
       if (!s.error_mode_switch.empty()) fmt::print("error control: {}\n", s.error_mode_switch);
       fmt::print("outputs in {}\n", s.output_dir.string());
     }
@@ -296,11 +297,15 @@ int info(const std::filesystem::path& model_path, int eigenfrequencies, const Co
         const std::vector<Complex> w{1.0, 0.0, -sigma};
         const auto f = solver->factorize_combination(w);
         const SymmetricEigenResult r = symmetric_shift_invert(*f, so->M, sigma, opt);
+        // Rigid-body modes are the null space of K (rigid_body.hpp), not small eigenvalues.
+        const RigidBodyModes rigid = rigid_body_modes(model, *solver);
+        fmt::print("{}\n", rigid.describe());
         fmt::print("lowest {} undamped eigenfrequencies [Hz]:\n", r.eigenvalues.size());
         for (Index i = 0; i < r.eigenvalues.size(); ++i) {
           const double lambda = r.eigenvalues(i);
+          const bool is_rigid = rigid.count > 0 && std::abs(lambda) <= rigid.zero_bound;
           fmt::print("  {:>4}  {:.6e}{}\n", i + 1, std::sqrt(std::max(lambda, 0.0)) / kTwoPi,
-                     std::abs(lambda) < 1e-8 * scale ? "  (rigid-body mode)" : "");
+                     is_rigid ? "  (rigid-body mode)" : "");
         }
       } else {
         const auto& ds = std::get<DescriptorModel>(model);

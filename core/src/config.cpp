@@ -444,7 +444,10 @@ RunConfig Parser::parse(const std::string& yaml) {
   // Band::validate is the lead's; these are the same rules with the line attached.
   if (!(config.band.f_min_hz > 0.0))
     fail(at(band["f_min_hz"]),
-         fmt::format("band.f_min_hz = {}: must be > 0", band["f_min_hz"].Scalar()));
+         fmt::format("band.f_min_hz = {}: must be > 0 (the band is sampled in log scale, and "
+                     "f = 0 is a pole of H for a model with rigid-body modes, e.g. a "
+                     "free-floating body)",
+                     band["f_min_hz"].Scalar()));
   if (!(config.band.f_max_hz > config.band.f_min_hz))
     fail(at(band["f_max_hz"]), fmt::format("band.f_max_hz = {}: must be > band.f_min_hz = {}",
                                            band["f_max_hz"].Scalar(), band["f_min_hz"].Scalar()));

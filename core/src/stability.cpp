@@ -2,6 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 #include <Eigen/QR>
 
 #include <algorithm>
@@ -131,7 +134,7 @@ StabilityReport dense_check(const Model& model, Index states) {
   return r;
 }
 
-StabilityReport second_order_check(const SecondOrderModel& m) {
+StabilityReport second_order_check(const SecondOrderModel& m, const RigidBodyModes* rigid) {
   StabilityReport r;
   r.max_real_pole = std::numeric_limits<double>::quiet_NaN();
   r.method = "sparse Cholesky of K and D (M, D, K symmetric, M positive definite)";
@@ -140,7 +143,26 @@ StabilityReport second_order_check(const SecondOrderModel& m) {
     r.reason = "K or D is not symmetric: no structural test applies";
     return r;
   }
-  if (!is_positive_definite(m.K)) {
+  if (rigid != nullptr && rigid->decided) {
+    // The rigid-body analysis has factorised K already: Cholesky, then the eigenvalues near 0.
+    if (rigid->indefinite) {
+      r.verdict = Stability::Unstable;
+      r.reason =
+          "K is indefinite: a real pole s > 0 (negative stiffness, buckling); " + rigid->method;
+      return r;
+    }
+    if (rigid->count > 0) {
+      r.verdict = Stability::Marginal;
+      r.reason = fmt::format("K is singular: {} pole(s) at s = 0 from {}", rigid->zero_poles,
+                             rigid->describe());
+      return r;
+    }
+    if (!rigid->positive_definite) {
+      r.verdict = Stability::Unknown;
+      r.reason = "K is numerically singular without a separated null space: " + rigid->method;
+      return r;
+    }
+  } else if (!is_positive_definite(m.K)) {
     // Singular but semidefinite (a pole at s = 0) or indefinite (a real pole s > 0): K + sigma M
     // is positive definite for a small sigma > 0 only in the first case.
     const double sigma = 1e-8 * m.K.norm() / std::max(m.M.norm(), 1e-300);
@@ -167,21 +189,15 @@ StabilityReport second_order_check(const SecondOrderModel& m) {
   return r;
 }
 
-}  // namespace
-
-StabilityReport dense_model_stability(const Model& model) {
-  const bool second = std::holds_alternative<SecondOrderModel>(model);
-  return dense_check(model, second ? 2 * size_of(model) : size_of(model));
-}
-
-StabilityReport full_model_stability(const Model& model, Index dense_states) {
+StabilityReport model_stability(const Model& model, Index dense_states,
+                                const RigidBodyModes* rigid) {
   const bool second = std::holds_alternative<SecondOrderModel>(model);
   const Index states = second ? 2 * size_of(model) : size_of(model);
   const bool dense_allowed = states <= std::min(dense_states, kMaxDenseStates);
   // The structural test costs two sparse Cholesky factorisations and is a theorem where it
   // decides; the dense eigenvalues (cubic in the states: 3 s at 902) only where it cannot.
   if (second) {
-    StabilityReport r = second_order_check(std::get<SecondOrderModel>(model));
+    StabilityReport r = second_order_check(std::get<SecondOrderModel>(model), rigid);
     if (r.verdict != Stability::Unknown || !dense_allowed) return r;
   }
   if (dense_allowed) return dense_check(model, states);
@@ -191,6 +207,148 @@ StabilityReport full_model_stability(const Model& model, Index dense_states) {
   r.reason = fmt::format("a descriptor model with {} states, above the dense limit {}", states,
                          dense_states);
   return r;
+}
+
+}  // namespace
+
+StabilityReport dense_model_stability(const Model& model) {
+  const bool second = std::holds_alternative<SecondOrderModel>(model);
+  return dense_check(model, second ? 2 * size_of(model) : size_of(model));
+}
+
+StabilityReport full_model_stability(const Model& model, Index dense_states) {
+  return model_stability(model, dense_states, nullptr);
+}
+
+StabilityReport full_model_stability(const Model& model, Index dense_states,
+                                     const RigidBodyModes& rigid) {
+  return model_stability(model, dense_states, &rigid);
+}
+
+namespace {
+
+/// Eigenvalues mu of Kr phi = mu Mr phi with |mu| <= bound: the rigid-body modes of a reduced
+/// second-order model. Symmetric Kr, Mr (Galerkin) with Mr positive definite: the
+/// symmetric-definite solver, whose eigenvalues obey Cauchy interlacing with the full model's;
+/// otherwise those of Mr^-1 Kr.
+Index reduced_rigid_modes(const ReducedSecondOrderModel& m, double bound) {
+  const Index n = m.K.rows();
+  if (n == 0) return 0;
+  ComplexVector mu;
+  const bool symmetric = relative_asymmetry(m.K) <= 1e-12 && relative_asymmetry(m.M) <= 1e-12;
+  const Matrix Ms = 0.5 * (m.M + m.M.transpose());
+  if (symmetric && Eigen::LLT<Matrix>(Ms).info() == Eigen::Success) {
+    const Matrix Ks = 0.5 * (m.K + m.K.transpose());
+    const Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> eig(Ks, Ms, Eigen::EigenvaluesOnly);
+    if (eig.info() != Eigen::Success) throw NumericalError("eigenvalues of (Kr, Mr) failed");
+    mu = eig.eigenvalues().cast<Complex>();
+  } else {
+    const Eigen::EigenSolver<Matrix> eig(Matrix(m.M.partialPivLu().solve(m.K)), false);
+    if (eig.info() != Eigen::Success) throw NumericalError("eigenvalues of Mr^-1 Kr failed");
+    mu = eig.eigenvalues();
+  }
+  Index count = 0;
+  for (Index i = 0; i < mu.size(); ++i) count += std::abs(mu(i)) <= bound ? 1 : 0;
+  return count;
+}
+
+std::string pole_text(Complex p) { return fmt::format("{:.4g}{:+.4g}i", p.real(), p.imag()); }
+
+}  // namespace
+
+ReducedStability reduced_model_stability(const ReducedModel& reduced, const RigidBodyModes& full,
+                                         Index known_unstable) {
+  ReducedStability out;
+  const bool rigid = full.decided && full.count > 0;
+  out.full_rigid_modes = rigid ? full.count : 0;
+  const auto* so = std::get_if<ReducedSecondOrderModel>(&reduced);
+  // Rigid-body poles: an undamped rigid mode with eigenvalue mu gives s = +-sqrt(-mu), a damped one
+  // (D phi = c M phi) s = -mu / c and -c; |s| <= sqrt(zero_bound) covers both for mu <= zero_bound.
+  out.zero_radius = !rigid ? 0.0 : full.second_order ? std::sqrt(full.zero_bound) : full.zero_bound;
+  // A zero eigenvalue of (Kr, Mr): below the full model's gap, or, without rigid-body modes, below
+  // the rounding floor (a Galerkin model of a positive definite K has none: interlacing).
+  const double bound = rigid ? full.zero_bound : full.decided ? kRigidFloor * full.scale : 0.0;
+  if (!rigid && known_unstable == 0) {
+    // No pole with Re >= 0 (the caller counted them): asymptotically stable unless Kr has a zero
+    // eigenvalue, which one Cholesky factorisation of Kr - bound Mr excludes.
+    bool settled = so == nullptr || bound == 0.0;
+    if (!settled && relative_asymmetry(so->K) <= 1e-12 && relative_asymmetry(so->M) <= 1e-12) {
+      const Matrix shifted =
+          0.5 * (so->K + so->K.transpose()) - bound * 0.5 * (so->M + so->M.transpose());
+      settled = Eigen::LLT<Matrix>(shifted).info() == Eigen::Success;
+    }
+    if (settled) {
+      out.verdict = ReducedVerdict::Asymptotic;
+      out.label = "asymptotically stable";
+      out.reason = "every pole has Re < 0";
+      return out;
+    }
+  }
+  ComplexVector p;
+  try {
+    p = poles(reduced);
+    if (so != nullptr && bound > 0.0) out.rigid_modes = reduced_rigid_modes(*so, bound);
+  } catch (const std::exception& e) {
+    out.verdict = ReducedVerdict::Unstable;
+    out.label = "unstable";
+    out.reason = std::string("not shown stable: the poles could not be computed: ") + e.what();
+    return out;
+  }
+  Index zero_undamped = 0;  // poles in the disc with Re >= 0
+  Complex worst(0.0, 0.0);
+  for (Index i = 0; i < p.size(); ++i) {
+    const bool damped = p(i).real() < 0.0;
+    if (std::abs(p(i)) <= out.zero_radius) {
+      ++out.zero_poles;
+      zero_undamped += damped ? 0 : 1;
+    } else if (!damped) {
+      if (out.right_poles++ == 0 || !(p(i).real() <= worst.real())) worst = p(i);
+    }
+  }
+  // A descriptor reduced model has no Kr: its rigid-body poles are those at 0 not damped away.
+  if (rigid && so == nullptr) out.rigid_modes = zero_undamped;
+  const Index allowed = !rigid                                 ? 0
+                        : (so == nullptr && full.second_order) ? full.zero_poles
+                                                               : full.count;
+  const Index per_mode = so != nullptr ? 2 : 1;
+  out.verdict = ReducedVerdict::Unstable;
+  out.label = "unstable";
+  if (out.right_poles > 0) {
+    out.reason = fmt::format("{} pole{} with Re >= 0 {}(largest real part {:.4g}, pole {})",
+                             out.right_poles, out.right_poles == 1 ? "" : "s",
+                             rigid ? "away from s = 0 " : "", worst.real(), pole_text(worst));
+  } else if (out.rigid_modes > allowed) {
+    out.reason = rigid ? fmt::format(
+                             "{} rigid-body modes (zero eigenvalues, |mu| <= {:.3g}), but the full "
+                             "model has {}: an extra pole at s = 0",
+                             out.rigid_modes, full.zero_bound, allowed)
+                       : "a pole at s = 0, but the full model has no rigid-body mode";
+  } else if (zero_undamped > per_mode * out.rigid_modes) {
+    out.reason = fmt::format(
+        "{} undamped pole{} at s = 0 (|s| <= {:.3g}) not explained by its {} rigid-body mode{}",
+        zero_undamped, zero_undamped == 1 ? "" : "s", out.zero_radius, out.rigid_modes,
+        out.rigid_modes == 1 ? "" : "s");
+  } else if (out.rigid_modes == 0) {
+    out.verdict = ReducedVerdict::Asymptotic;
+    out.label = "asymptotically stable";
+    out.reason = "every pole has Re < 0";
+  } else if (out.rigid_modes == allowed) {
+    out.verdict = ReducedVerdict::RigidLikeFull;
+    out.label = fmt::format("stable with {} rigid-body mode{} like the full model", full.count,
+                            full.count == 1 ? "" : "s");
+    out.reason = fmt::format(
+        "{} rigid-body mode{} (zero eigenvalues of (Kr, Mr) below {:.3g}), "
+        "{} pole{} in |s| <= {:.3g}, every other pole has Re < 0",
+        out.rigid_modes, out.rigid_modes == 1 ? "" : "s", bound, out.zero_poles,
+        out.zero_poles == 1 ? "" : "s", out.zero_radius);
+  } else {
+    out.verdict = ReducedVerdict::RigidSubset;
+    out.label = fmt::format("stable with {} of the full model's {} rigid-body modes",
+                            out.rigid_modes, allowed);
+    out.reason = fmt::format("{} pole{} in |s| <= {:.3g}, every other pole has Re < 0",
+                             out.zero_poles, out.zero_poles == 1 ? "" : "s", out.zero_radius);
+  }
+  return out;
 }
 
 }  // namespace ecmor

@@ -127,7 +127,7 @@ class BalancedReducer final : public Reducer {
     if (m_options.band_limited) m_band.validate();
     // Undamped first: its message names D = 0, the cause (K is regular there).
     refuse_undamped(*m_view, "Gramians");
-    refuse_pole_at_zero(*m_view);
+    refuse_pole_at_zero(*m_view, *context.model);
     // The one place the Gramian factors are computed: everything below uses only m_factors.
     m_adi.reset();
     m_factors.reset();

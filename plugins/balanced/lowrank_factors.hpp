@@ -16,6 +16,7 @@
 #include "ecmor/first_order_view.hpp"
 #include "ecmor/lowrank_adi.hpp"
 #include "ecmor/quadrature.hpp"
+#include "ecmor/rigid_body.hpp"
 #include "gramian_factors.hpp"
 
 namespace ecmor::balanced {
@@ -57,12 +58,23 @@ inline void refuse_undamped(const FirstOrderView& view, const char* what) {
 /// A singular K of a second-order model means a pole at s = 0: a rigid-body mode of a
 /// free-floating structure. The Gramians do not exist, and computed ones (whose rounding puts that
 /// pole at +-1e-16) are dominated by it: the truncation would keep one state and report nothing
-/// wrong. One factorisation tells. (First-order models are left to the Gramian solvers, whose
-/// messages name a singular E and the unstable poles; an integrator with E regular is not caught
-/// here.)
-/// \throws InputError naming the matrix and the remedy.
-inline void refuse_pole_at_zero(FirstOrderView& view) {
+/// wrong. The rigid-body analysis (rigid_body_modes: the null space of K) names the number of
+/// modes for symmetric K; otherwise one factorisation at s = 0 tells. (First-order models are left
+/// to the Gramian solvers, whose messages name a singular E and the unstable poles; an integrator
+/// with E regular is not caught here.)
+/// \throws InputError naming the matrix, the number of rigid-body modes and the remedy.
+inline void refuse_pole_at_zero(FirstOrderView& view, const Model& model) {
   if (!view.second_order()) return;
+  const RigidBodyModes rigid = rigid_body_modes(model, view.solver());
+  if (rigid.decided && rigid.count > 0) {
+    throw InputError(fmt::format(
+        "balanced: balanced truncation needs an asymptotically stable model; this one has {} "
+        "rigid-body mode{} (K is singular, a pole at s = 0): its Gramians do not exist. Use modal "
+        "(keeps the rigid-body modes) or krylov, or constrain the model (e.g. ground the free "
+        "body). {}",
+        rigid.count, rigid.count == 1 ? "" : "s", rigid.method));
+  }
+  if (rigid.decided) return;  // symmetric K: positive definite or no separated null space
   try {
     view.solver().factorize(Complex(0.0, 0.0));
   } catch (const NumericalError& e) {

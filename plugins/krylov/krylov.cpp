@@ -371,10 +371,16 @@ class KrylovReducer final : public Reducer {
     try {
       st.factorization = m_solver->factorize_combination(w);
     } catch (const NumericalError& e) {
-      throw NumericalError(
-          fmt::format("krylov: P(s0) is singular at the expansion point {}: s0 is (numerically) an "
-                      "eigenvalue of the model; move the point ({})",
-                      describe(s), e.what()));
+      // s0 = 0 is the one point a user picks on purpose (the static response): there P(0) = K
+      // (or -A), singular for a free-floating body, whose rigid-body modes are poles at 0.
+      throw NumericalError(fmt::format(
+          "krylov: P(s0) is singular at the expansion point {}: s0 is (numerically) an "
+          "eigenvalue of the model{}; move the point ({})",
+          describe(s),
+          s == Complex(0.0, 0.0) ? " (at s0 = 0: K is singular, e.g. the rigid-body modes of a "
+                                   "free-floating body; Krylov works at any point s0 != 0)"
+                                 : "",
+          e.what()));
     }
     ++m_factorizations;
     m_touched.push_back(s);

@@ -17,6 +17,7 @@
 #include "ecmor/error.hpp"
 #include "ecmor/plugin.hpp"
 #include "ecmor/projection.hpp"
+#include "ecmor/rigid_body.hpp"
 
 namespace ecmor::modal {
 namespace {
@@ -38,7 +39,6 @@ struct Options {
   double band_margin = 10.0;
   Index max_iterations = 1000;
   double symmetry_tolerance = 1e-6;
-  double rigid_tolerance = 1e-8;
   long long seed = 1;
 };
 
@@ -125,12 +125,14 @@ class SymmetricSlicer {
 
   /// \param solver  factorises Ks - sigma Ms (factorize); its failed-Cholesky counter tells whether
   ///                 Ks - sigma_0 Ms is indefinite, i.e. Ks is not positive semidefinite.
+  /// \param rigid   the rigid-body modes of (Ks, Ms) (rigid_body_modes): they enter first, with
+  ///                 eigenvalue 0, and a computed eigenvalue is rigid when |lambda| <= zero_bound.
   SymmetricSlicer(const SparseMatrix& Ks, const SparseMatrix& Ms, ShiftedSolver& solver,
                   FactorizeFn factorize, bool second_order, const Options& options,
-                  const Band& band)
+                  const Band& band, RigidBodyModes rigid)
       : m_K(Ks), m_M(Ms), m_solver(solver), m_factorize(std::move(factorize)),
         m_second_order(second_order),
-        m_options(options), m_n(Ks.rows()) {
+        m_options(options), m_n(Ks.rows()), m_rigid(std::move(rigid)) {
     m_scale = spectrum_scale(Ks, Ms);
     m_k_norm = Ks.norm();
     m_phi.resize(m_n, 0);
@@ -139,6 +141,9 @@ class SymmetricSlicer {
     // to 0 that it is numerically singular for a free-floating body.
     const double band_value = m_second_order ? omega_min * omega_min : omega_min;
     m_sigma0 = -std::max(band_value, 1e-6 * m_scale);
+    // The rigid-body modes are part of the basis exactly as the null-space analysis found them
+    // (M-orthonormal); the slices then find them again and drop them as copies.
+    for (Index j = 0; j < m_rigid.count; ++j) add(0.0, m_rigid.basis.col(j));
   }
 
   Index size() const { return m_n; }
@@ -149,8 +154,16 @@ class SymmetricSlicer {
   bool complete() const { return known() >= m_n || m_empty_batches >= kMaxEmptyBatches; }
   bool exhausted() const { return known() < m_n && m_empty_batches >= kMaxEmptyBatches; }
   Index spurious() const { return m_spurious; }
-  double rigid_threshold() const { return m_options.rigid_tolerance * m_scale; }
-  bool is_rigid(double lambda) const { return std::abs(lambda) <= rigid_threshold(); }
+  /// |lambda| below which a computed eigenvalue is 0: the rigid-body analysis's bound (the
+  /// geometric mean across the gap between rigid and elastic eigenvalues) when K is singular, else
+  /// the rounding floor (nothing is rigid then).
+  double rigid_threshold() const {
+    return m_rigid.count > 0 ? m_rigid.zero_bound : kRigidFloor * m_scale;
+  }
+  bool is_rigid(double lambda) const {
+    return m_rigid.count > 0 && std::abs(lambda) <= m_rigid.zero_bound;
+  }
+  const RigidBodyModes& rigid() const { return m_rigid; }
   double frequency(double lambda) const {
     const double l = std::max(lambda, 0.0);
     return (m_second_order ? std::sqrt(l) : l) / kTwoPi;
@@ -265,9 +278,13 @@ class SymmetricSlicer {
       return;
     }
     const double tol = 1e-8 * std::max(std::abs(lambda), rigid_threshold());
+    // All rigid-body modes share the eigenvalue 0: a computed one is a copy when it lies in their
+    // span, whatever its rounding-level eigenvalue.
+    const bool rigid = is_rigid(lambda);
     std::vector<Index> same;
     for (Index j = 0; j < known(); ++j) {
-      if (std::abs(m_lambda[static_cast<std::size_t>(j)] - lambda) <= tol) same.push_back(j);
+      const double lj = m_lambda[static_cast<std::size_t>(j)];
+      if (rigid ? is_rigid(lj) : std::abs(lj - lambda) <= tol) same.push_back(j);
     }
     if (!same.empty()) {
       for (int pass = 0; pass < 2; ++pass) {
@@ -300,6 +317,7 @@ class SymmetricSlicer {
   bool m_second_order;
   Options m_options;
   Index m_n;
+  RigidBodyModes m_rigid;
   double m_scale = 1.0;
   double m_sigma0 = -1.0;
   double m_lambda_cov = -kInf;
@@ -435,12 +453,13 @@ class ModalReducer final : public Reducer {
       m_asymmetry = asym_k;
       if (asym_k <= kExactSymmetry) {
         ShiftedSolver* solver = m_solver;
-        m_slicer.emplace(so->K, so->M, *solver,
-                         [solver](double sigma) {
-                           const Complex w[3] = {1.0, 0.0, -sigma};
-                           return solver->factorize_combination(w);
-                         },
-                         true, m_options, m_band);
+        m_slicer.emplace(
+            so->K, so->M, *solver,
+            [solver](double sigma) {
+              const Complex w[3] = {1.0, 0.0, -sigma};
+              return solver->factorize_combination(w);
+            },
+            true, m_options, m_band, rigid_body_modes(*m_model, *solver));
         m_path = "symmetric";
       } else if (asym_k <= m_options.symmetry_tolerance) {
         // Tiny asymmetry (rounding in the source data): the modes of the symmetric part, through a
@@ -453,22 +472,21 @@ class ModalReducer final : public Reducer {
         m_own_solver = make_shifted_solver(*m_symmetrised);
         ShiftedSolver* solver = m_own_solver.get();
         const auto& sym_model = std::get<SecondOrderModel>(*m_symmetrised);
-        m_slicer.emplace(sym_model.K, sym_model.M, *solver,
-                         [solver](double sigma) {
-                           const Complex w[3] = {1.0, 0.0, -sigma};
-                           return solver->factorize_combination(w);
-                         },
-                         true, m_options, m_band);
+        m_slicer.emplace(
+            sym_model.K, sym_model.M, *solver,
+            [solver](double sigma) {
+              const Complex w[3] = {1.0, 0.0, -sigma};
+              return solver->factorize_combination(w);
+            },
+            true, m_options, m_band, rigid_body_modes(*m_symmetrised, *solver));
         m_path = "symmetric part";
       } else {
         // Clearly unsymmetric K: eigenvectors of the general pencil (K, M), a real basis from their
         // real and imaginary parts, Galerkin (W = V) as the model is second order.
         const double omega_min = kTwoPi * m_band.f_min_hz;
-        const double sigma =
-            -std::max(omega_min * omega_min, 1e-6 * spectrum_scale(so->K, so->M));
+        const double sigma = -std::max(omega_min * omega_min, 1e-6 * spectrum_scale(so->K, so->M));
         const Complex w[3] = {1.0, 0.0, -sigma};
-        m_general.emplace(so->M, m_solver->factorize_combination(w), sigma, true, false,
-                          m_options);
+        m_general.emplace(so->M, m_solver->factorize_combination(w), sigma, true, false, m_options);
         m_path = "general";
       }
     } else {
@@ -486,12 +504,13 @@ class ModalReducer final : public Reducer {
       if (symmetric && spd_e) {
         // E SPD, A symmetric (e.g. the rail models): -A phi = mu E phi, poles -mu, W = V.
         ShiftedSolver* solver = m_solver;
-        m_slicer.emplace(m_negA, ds.E, *solver,
-                         [solver](double sigma) {
-                           const Complex w[2] = {1.0, -sigma};  // -A - sigma E
-                           return solver->factorize_combination(w);
-                         },
-                         false, m_options, m_band);
+        m_slicer.emplace(
+            m_negA, ds.E, *solver,
+            [solver](double sigma) {
+              const Complex w[2] = {1.0, -sigma};  // -A - sigma E
+              return solver->factorize_combination(w);
+            },
+            false, m_options, m_band, rigid_body_modes(*m_model, *solver));
         m_path = "symmetric descriptor";
       } else {
         // Poles nearest 0 by |lambda| (= the natural frequency of a pole pair): sigma = 0 unless A
@@ -563,8 +582,7 @@ class ModalReducer final : public Reducer {
     if (m_static) return *m_static;
     SymmetricSlicer& s = *m_slicer;
     if (s.batches() == 0) s.next_batch();
-    bool rigid = false;
-    for (Index j = 0; j < s.known(); ++j) rigid = rigid || s.is_rigid(s.lambda(j));
+    bool rigid = s.rigid().count > 0;
     Matrix X;
     if (!rigid) {
       try {
@@ -846,8 +864,6 @@ ReducerInfo modal_info() {
       {"symmetry_tolerance", "double", "1e-6",
        "relative asymmetry of K up to which the symmetric part is used; above, the general "
        "eigensolver; in [0, 1]"},
-      {"rigid_tolerance", "double", "1e-8",
-       "|lambda| <= rigid_tolerance * max_i K_ii / M_ii marks a rigid-body mode; in [0, 1e-2]"},
       {"seed", "int", "1", "seed of ARPACK's start vectors (reproducible runs), >= 1"},
   };
   return info;
@@ -861,7 +877,13 @@ std::unique_ptr<Reducer> create_modal(const ParameterMap& params) {
   o.band_margin = params.get_double("band_margin", o.band_margin, 1.0);
   o.max_iterations = params.get_int("max_iterations", o.max_iterations, 1);
   o.symmetry_tolerance = params.get_double("symmetry_tolerance", o.symmetry_tolerance, 0.0, 1.0);
-  o.rigid_tolerance = params.get_double("rigid_tolerance", o.rigid_tolerance, 0.0, 1e-2);
+  if (params.has("rigid_tolerance")) {
+    // Removed: a relative eigenvalue threshold mislabels the soft modes of long structures.
+    throw ConfigError(
+        "modal: rigid_tolerance is no longer a parameter: rigid-body modes are the null space of "
+        "K (a successful Cholesky factorisation of K means there is none, else a gap in the "
+        "eigenvalues near 0 decides; see rigid_body.hpp); remove the key");
+  }
   o.seed = params.get_int("seed", o.seed, 1);
   return std::make_unique<ModalReducer>(o);
 }

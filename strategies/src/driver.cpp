@@ -59,14 +59,6 @@ void write_error_curve(const std::filesystem::path& path, const BandError& e) {
   });
 }
 
-bool all_poles_stable(const ReducedModel& m) {
-  const ComplexVector p = poles(m);
-  for (Index i = 0; i < p.size(); ++i) {
-    if (!(p(i).real() < 0.0)) return false;
-  }
-  return true;
-}
-
 struct HinfReport {
   double value = 0.0;
   double f_peak_hz = -1.0;  ///< < 0: not known
@@ -304,6 +296,11 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
     return summary;
   }
   BandErrorEstimator& estimator = *estimator_holder;
+  // The full model's rigid-body modes (the null space of K), before any reduction: every reduced
+  // model is judged against them (a free body's reduced model keeps its poles at s = 0).
+  const double rigid_start = elapsed();
+  const RigidBodyModes rigid = rigid_body_modes(model, *solver);
+  const double rigid_seconds = elapsed() - rigid_start;
   // Created at the first record: a reducer that refuses the model in setup() leaves no output
   // directory behind (bad input is reported before anything is written).
   std::optional<HistoryWriter> history;
@@ -357,6 +354,7 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
     ctx.reducer_info = m.info;
     ctx.estimator = &estimator;
     ctx.tolerance = config.tolerance;
+    ctx.full_rigid = &rigid;
     ctx.verify_factor = config.verify_factor;
     ctx.start = start;
     ctx.counters = [&] { return solver->counters(); };
@@ -534,7 +532,8 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
     summary.verified_f_peak_hz = verified.f_peak_hz;
     summary.hinf_absolute = verified.hinf_absolute;
     summary.h2_absolute = verified.h2_absolute;
-    summary.stable = all_poles_stable(best.model);
+    summary.stability = reduced_model_stability(best.model, rigid);
+    summary.stable = summary.stability.accepted();
     const double hinf_start = elapsed();
     const HinfReport hinf = hinf_of_error(model, best.model, verified, config.hinf_dense_states);
     const double hinf_seconds = elapsed() - hinf_start;
@@ -582,10 +581,16 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
   // The full model's own stability, after the reduction so that a refusal or bad configuration is
   // reported first; dense for small models, structural (K, D inertia) for large second-order ones.
   const double stability_start = elapsed();
-  summary.full_stability = full_model_stability(model, config.stability_dense_states);
+  summary.full_stability = full_model_stability(model, config.stability_dense_states, rigid);
   const double stability_seconds = elapsed() - stability_start;
   const StabilityReport& fs = summary.full_stability;
-  if (fs.verdict == Stability::Unstable || fs.verdict == Stability::Marginal) {
+  // A free body whose reduced model keeps its rigid-body modes is the expected case, not a
+  // warning: both have the same poles at s = 0 and damped elastic poles.
+  const bool rigid_like_full = summary.has_model &&
+                               summary.stability.verdict == ReducedVerdict::RigidLikeFull &&
+                               fs.verdict == Stability::Marginal && rigid.count > 0;
+  if ((fs.verdict == Stability::Unstable || fs.verdict == Stability::Marginal) &&
+      !rigid_like_full) {
     summary.warnings.push_back(fmt::format(
         "the full model is {} ({}){}", to_string(fs.verdict), fs.reason,
         summary.has_model && summary.stable
@@ -599,6 +604,18 @@ RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserve
       {"reason", fs.reason},
       {"max_real_pole", fs.dense ? nlohmann::json(fs.max_real_pole) : nlohmann::json(nullptr)},
       {"seconds", stability_seconds}};
+  if (summary.has_model) {
+    const ReducedStability& st = summary.stability;
+    j["stability"] = {{"verdict", st.label},
+                      {"accepted", st.accepted()},
+                      {"reason", st.reason},
+                      {"rigid_modes", st.rigid_modes},
+                      {"full_rigid_modes", st.full_rigid_modes},
+                      {"zero_radius_rad_s", st.zero_radius},
+                      {"poles_at_zero", st.zero_poles},
+                      {"full_rigid_method", rigid.describe()},
+                      {"full_rigid_seconds", rigid_seconds}};
+  }
   j["warnings"] = summary.warnings;
   summary.counters = solver->counters();
   summary.reducer_seconds = reducer_seconds;

@@ -149,14 +149,13 @@ PointObjective::Levels PointObjective::evaluate(const std::vector<double>& x) {
     out.failure = e.what();
   }
   if (out.failure.empty() && m_stable_only) {
-    // The reducer's own count when it reports one (krylov does, for every model), else the poles.
+    // The reducer's own count of poles with Re >= 0 when it reports one (krylov does, for every
+    // model), else the rule computes the poles.
     const auto it = reduced->diagnostics.find("unstable_poles");
     const bool reported = it != reduced->diagnostics.end() && std::isfinite(it->second);
-    if (reported ? it->second > 0.0 : !strategy_support::is_stable(reduced->model)) {
-      out.failure = reported ? "unstable reduced model (" +
-                                   std::to_string(std::lround(it->second)) + " poles with Re >= 0)"
-                             : std::string("unstable reduced model");
-    }
+    const ReducedStability stability = strategy_support::judge_stability(
+        m_run.context(), reduced->model, reported ? std::lround(it->second) : -1);
+    if (!stability.accepted()) out.failure = "unstable reduced model (" + stability.reason + ")";
   }
   if (out.failure.empty()) {
     if (error.reduced_singular) out.failure = "the reduced model has a pole at a sample frequency";

@@ -18,16 +18,11 @@ std::string sci(double v) {
   return os.str();
 }
 
-bool is_stable(const ReducedModel& model) {
-  try {
-    const ComplexVector p = poles(model);
-    for (Index i = 0; i < p.size(); ++i) {
-      if (!(p(i).real() < 0.0)) return false;
-    }
-    return true;
-  } catch (const std::exception&) {
-    return false;
-  }
+ReducedStability judge_stability(const StrategyContext& context, const ReducedModel& model,
+                                 Index unstable) {
+  static const RigidBodyModes kNoRigidModes{};
+  return reduced_model_stability(model, context.full_rigid ? *context.full_rigid : kNoRigidModes,
+                                 unstable);
 }
 
 StrategyRun::StrategyRun(StrategyContext& context)
@@ -84,8 +79,9 @@ Candidate StrategyRun::assess(ReducerResult result, const std::string& phase,
   if (W.size() > 0 && !(W.rows() == V.rows() && W.cols() == V.cols() && W == V))
     m_ctx.estimator->offer_basis(c.result.W);
   c.error = m_ctx.estimator->evaluate(c.result.model);
-  // The estimator computes the poles for its pole samples; reuse them when it did.
-  c.stable = c.error.unstable_poles >= 0 ? c.error.unstable_poles == 0 : is_stable(c.result.model);
+  // The estimator computes the poles for its pole samples; its count decides when it is 0.
+  c.stability = judge_stability(m_ctx, c.result.model, c.error.unstable_poles);
+  c.stable = c.stability.accepted();
   bool meets = c.error.within(m_ctx.tolerance);
   record(phase, c.result, c.error, meets, c.stable, extra);
   bool verified = false;
@@ -118,8 +114,8 @@ Candidate StrategyRun::assess(ReducerResult result, const std::string& phase,
 void StrategyRun::record_trial(const std::string& phase, const ReducerResult& result,
                                const BandError& error,
                                const std::map<std::string, double>& extra) {
-  record(phase, result, error, error.sup_relative <= m_ctx.tolerance, is_stable(result.model),
-         extra);
+  record(phase, result, error, error.sup_relative <= m_ctx.tolerance,
+         judge_stability(m_ctx, result.model, error.unstable_poles).accepted(), extra);
 }
 
 double StrategyRun::best_error() const {
@@ -130,9 +126,14 @@ double StrategyRun::best_error() const {
 std::string StrategyRun::shortfall() const {
   const double e = best_error();
   if (m_most_accurate && !m_most_accurate->stable && e <= m_ctx.tolerance) {
+    // Without rigid-body modes in the full model "as stable as the full model" means
+    // asymptotically stable.
+    const bool rigid = m_ctx.full_rigid != nullptr && m_ctx.full_rigid->count > 0;
     return "band error " + sci(e) + " <= tolerance " + sci(m_ctx.tolerance) +
-           ", but the model is not asymptotically stable (poles with Re >= 0; an undamped or "
-           "unstable full model has no stable approximation)";
+           ", but the model is " +
+           (rigid ? "not as stable as the full model (" : "not asymptotically stable (") +
+           m_most_accurate->stability.reason +
+           "; an undamped or unstable full model has no stable approximation)";
   }
   return "band error " + sci(e) + " > tolerance " + sci(m_ctx.tolerance);
 }

@@ -12,6 +12,7 @@
 
 #include "ecmor/error.hpp"
 #include "ecmor/interrupt.hpp"
+#include "ecmor/stability.hpp"
 #include "ecmor/strategies/strategy.hpp"
 
 namespace ecmor::strategy_support {
@@ -19,15 +20,18 @@ namespace ecmor::strategy_support {
 /// "1.234e-04".
 std::string sci(double v);
 
-/// True when every pole of the reduced model lies in the open left half plane. A failing
-/// eigen-decomposition counts as "not shown stable" rather than ending the run.
-bool is_stable(const ReducedModel& model);
+/// Is `model` as stable as the full model? reduced_model_stability against context.full_rigid;
+/// `unstable` is a known count of poles with Re >= 0 (the estimator's or the reducer's), -1 when
+/// unknown.
+ReducedStability judge_stability(const StrategyContext& context, const ReducedModel& model,
+                                 Index unstable = -1);
 
 /// One assessed reduced model.
 struct Candidate {
   ReducerResult result;
   BandError error;
-  bool stable = false;
+  ReducedStability stability;
+  bool stable = false;  ///< stability.accepted()
   /// Meets the tolerance on the estimator's sampling and on the independent re-check, and is
   /// stable (an unstable model is never reported as converged).
   bool passed = false;
@@ -64,8 +68,8 @@ class StrategyRun {
   /// Error of the most accurate candidate so far (+inf if none).
   double best_error() const;
   /// Why no candidate passed, for a termination message: "band error 3.1e-02 > tolerance 1.0e-02",
-  /// or, when the most accurate model meets the tolerance but is not asymptotically stable,
-  /// "band error 3.0e-05 <= tolerance 1.0e-02, but the model is not asymptotically stable".
+  /// or, when the most accurate model meets the tolerance but is not as stable as the full model,
+  /// "band error 3.0e-05 <= tolerance 1.0e-02, but the model is unstable (<reason>)".
   std::string shortfall() const;
 
   /// Fills and returns the result: the smallest passing candidate, else the most accurate one.

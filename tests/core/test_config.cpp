@@ -364,9 +364,13 @@ TEST(RunConfig, WrongTypes) {
 
 TEST(RunConfig, RangesAreChecked) {
   EXPECT_EQ(parse_error(replace(kMinimal, "f_min_hz: 0.1", "f_min_hz: -1")),
-            "run.yaml:4: band.f_min_hz = -1: must be > 0");
+            "run.yaml:4: band.f_min_hz = -1: must be > 0 (the band is sampled in log "
+            "scale, and f = 0 is a pole of H for a model with rigid-body modes, e.g. a "
+            "free-floating body)");
   EXPECT_EQ(parse_error(replace(kMinimal, "f_min_hz: 0.1", "f_min_hz: 0")),
-            "run.yaml:4: band.f_min_hz = 0: must be > 0");
+            "run.yaml:4: band.f_min_hz = 0: must be > 0 (the band is sampled in log "
+            "scale, and f = 0 is a pole of H for a model with rigid-body modes, e.g. a "
+            "free-floating body)");
   EXPECT_EQ(parse_error(replace(kMinimal, "f_max_hz: 100", "f_max_hz: 0.1")),
             "run.yaml:5: band.f_max_hz = 0.1: must be > band.f_min_hz = 0.1");
   EXPECT_EQ(parse_error(replace(kMinimal, "f_max_hz: 100", "f_max_hz: .inf")),

@@ -7,40 +7,14 @@
 #include <cmath>
 #include <vector>
 
+#include "common/small_models.hpp"
 #include "ecmor/model_io.hpp"
 #include "ecmor/stability.hpp"
 
 namespace ecmor {
 namespace {
 
-// n masses 1 + 0.2 sin(i), springs 50 between neighbours, `ground` from mass 0 to the ground;
-// `middle` replaces the spring before mass n/2 (negative: an unstable pole); D = alpha M + beta K.
-SecondOrderModel chain(Index n, double ground, double middle, double alpha, double beta) {
-  std::vector<Eigen::Triplet<double>> m, k;
-  for (Index i = 0; i < n; ++i) {
-    m.emplace_back(i, i, 1.0 + 0.2 * std::sin(static_cast<double>(i)));
-    if (i == 0) {
-      if (ground != 0.0) k.emplace_back(0, 0, ground);
-      continue;
-    }
-    const double s = i == n / 2 ? middle : 50.0;
-    k.emplace_back(i, i, s);
-    k.emplace_back(i - 1, i - 1, s);
-    k.emplace_back(i, i - 1, -s);
-    k.emplace_back(i - 1, i, -s);
-  }
-  SecondOrderModel sys;
-  sys.M.resize(n, n);
-  sys.M.setFromTriplets(m.begin(), m.end());
-  sys.K.resize(n, n);
-  sys.K.setFromTriplets(k.begin(), k.end());
-  sys.D = (alpha * sys.M + beta * sys.K).pruned();
-  sys.B = Matrix::Zero(n, 1);
-  sys.B(n - 1, 0) = 1.0;
-  sys.C = Matrix::Zero(1, n);
-  sys.C(0, n - 1) = 1.0;
-  return sys;
-}
+using test::spring_chain;
 
 struct Case {
   const char* name;
@@ -51,14 +25,16 @@ struct Case {
 
 std::vector<Case> cases() {
   return {
-      {"damped", chain(30, 20.0, 50.0, 0.05, 1e-3), Stability::Asymptotic, "every mode is damped"},
-      {"undamped", chain(30, 20.0, 50.0, 0.0, 0.0), Stability::Marginal, "D = 0"},
-      {"free_floating", chain(30, 0.0, 50.0, 0.05, 1e-3), Stability::Marginal, "K is singular"},
+      {"damped", spring_chain(30, 20.0, 50.0, 0.05, 1e-3), Stability::Asymptotic,
+       "every mode is damped"},
+      {"undamped", spring_chain(30, 20.0, 50.0, 0.0, 0.0), Stability::Marginal, "D = 0"},
+      {"free_floating", spring_chain(30, 0.0, 50.0, 0.05, 1e-3), Stability::Marginal,
+       "K is singular"},
       // D = beta K leaves the rigid-body mode undamped: a double pole at s = 0 (Jordan block),
       // whose second copy comes out near sqrt(eps), of either sign.
-      {"free_floating_stiffness_damping", chain(30, 0.0, 50.0, 0.0, 1e-3), Stability::Marginal,
-       "K is singular"},
-      {"negative_spring", chain(30, 20.0, -40.0, 0.05, 1e-3), Stability::Unstable,
+      {"free_floating_stiffness_damping", spring_chain(30, 0.0, 50.0, 0.0, 1e-3),
+       Stability::Marginal, "K is singular"},
+      {"negative_spring", spring_chain(30, 20.0, -40.0, 0.05, 1e-3), Stability::Unstable,
        "K is indefinite"},
   };
 }
@@ -96,7 +72,7 @@ TEST(FullModelStability, InertiaOfKAndDAgreesWithTheEigenvalues) {
 // D only semidefinite (one dashpot at the free end): the structural test cannot decide, so the
 // dense eigenvalues do when allowed.
 TEST(FullModelStability, SemidefiniteDampingFallsBackToTheEigenvalues) {
-  SecondOrderModel m = chain(30, 20.0, 50.0, 0.0, 0.0);
+  SecondOrderModel m = spring_chain(30, 20.0, 50.0, 0.0, 0.0);
   m.D.resize(30, 30);
   m.D.insert(29, 29) = 2.0;
   const StabilityReport structural = full_model_stability(Model(m), 0);
@@ -111,7 +87,7 @@ TEST(FullModelStability, SemidefiniteDampingFallsBackToTheEigenvalues) {
 }
 
 TEST(FullModelStability, UnsymmetricDampingOrLargeDescriptorIsUnknown) {
-  SecondOrderModel m = chain(30, 20.0, 50.0, 0.05, 1e-3);
+  SecondOrderModel m = spring_chain(30, 20.0, 50.0, 0.05, 1e-3);
   m.D.coeffRef(0, 1) += 0.5;  // a gyroscopic-like unsymmetric term
   const StabilityReport r = full_model_stability(Model(m), 0);
   EXPECT_EQ(r.verdict, Stability::Unknown);

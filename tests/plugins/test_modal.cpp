@@ -448,6 +448,18 @@ TEST(Modal, InvalidParametersAreNamed) {
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("band_margin"), std::string::npos) << e.what();
   }
+  // The former relative threshold is refused with the reason, not silently ignored.
+  ParameterMap r("reducer 'modal'");
+  r.set("rigid_tolerance", 1e-8);
+  try {
+    registry().create("modal", r);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("rigid_tolerance is no longer a parameter: rigid-body "
+                                         "modes are the null space of K"),
+              std::string::npos)
+        << e.what();
+  }
   auto f = make(load("lf10"), band_rad(1e2, 1e7), params(true));
   // Order 0 without points is refused at the plugin boundary (reducer_guard.cpp).
   EXPECT_THROW(f->reducer->reduce({0, {}}), ConfigError);
@@ -461,7 +473,7 @@ TEST(Modal, InfoDocumentsEveryParameter) {
   std::vector<std::string> names;
   for (const auto& p : it->info.parameters) names.push_back(p.name);
   for (const char* key : {"static_correction", "batch_size", "tolerance", "band_margin",
-                          "max_iterations", "symmetry_tolerance", "rigid_tolerance", "seed"}) {
+                          "max_iterations", "symmetry_tolerance", "seed"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), key), names.end()) << key;
   }
   EXPECT_TRUE(it->info.second_order);

@@ -61,7 +61,10 @@ struct RunSummary {
   double hinf_error = 0.0;
   std::string hinf_scope;  ///< "all frequencies" or "band"
   std::string hinf_method;
-  bool stable = false;
+  /// The reported model's stability judged against the full model's (reduced_model_stability):
+  /// its label says which case applies ("stable with 6 rigid-body modes like the full model").
+  ReducedStability stability;
+  bool stable = false;  ///< stability.accepted()
   /// The full model's own stability (stability.hpp), decided once per run: a stable reduced model
   /// of an unstable or undamped full model matches it in the band, not in the time domain.
   StabilityReport full_stability;

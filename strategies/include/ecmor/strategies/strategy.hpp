@@ -15,6 +15,7 @@
 #include "ecmor/history.hpp"
 #include "ecmor/parameters.hpp"
 #include "ecmor/reducer.hpp"
+#include "ecmor/rigid_body.hpp"
 
 namespace ecmor {
 
@@ -36,6 +37,9 @@ struct StrategyContext {
   ReducerInfo reducer_info;
   BandErrorEstimator* estimator = nullptr;
   double tolerance = 1e-3;
+  /// The full model's rigid-body modes (rigid_body_modes), against which every reduced model's
+  /// stability is judged (reduced_model_stability); nullptr: none (every pole must have Re < 0).
+  const RigidBodyModes* full_rigid = nullptr;
   /// A pass is re-checked on a grid this many times denser than the estimator's (independent).
   Index verify_factor = 4;
   /// Called after every iteration with its record; return false to stop (Interrupted).
