@@ -160,6 +160,15 @@ RigidBodyModes analyse(const Model& model, ShiftedSolver& solver) {
                            second ? "M" : "E");
     return r;
   }
+  if (!is_positive_definite(*Ms)) {
+    // A singular E (a DAE) or massless degrees of freedom: (K, M) has infinite eigenvalues, and
+    // Lanczos on it need not converge (mna1: minutes without an answer). Such models are judged
+    // by their poles alone.
+    r.method = fmt::format("{} is not positive definite (a DAE or massless degrees of freedom): "
+                           "no rigid-body analysis",
+                           second ? "M" : "E");
+    return r;
+  }
   r.scale = spectrum_scale(Ks, *Ms);
   // Step 1: a positive definite K has no null space, whatever its condition number.
   if (is_positive_definite(Ks)) {

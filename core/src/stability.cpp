@@ -268,6 +268,14 @@ ReducedStability reduced_model_stability(const ReducedModel& reduced, const Rigi
   // A zero eigenvalue of (Kr, Mr): below the full model's gap, or, without rigid-body modes, below
   // the rounding floor (a Galerkin model of a positive definite K has none: interlacing).
   const double bound = rigid ? full.zero_bound : full.decided ? kRigidFloor * full.scale : 0.0;
+  if (!rigid && known_unstable > 0) {
+    // Without rigid-body modes every pole with Re >= 0 is a defect; the caller's count is trusted
+    // (with them, poles at 0 are counted too, and the poles below decide).
+    out.verdict = ReducedVerdict::Unstable;
+    out.label = "unstable";
+    out.reason = fmt::format("{} pole{} with Re >= 0", known_unstable, known_unstable == 1 ? "" : "s");
+    return out;
+  }
   if (!rigid && known_unstable == 0) {
     // No pole with Re >= 0 (the caller counted them): asymptotically stable unless Kr has a zero
     // eigenvalue, which one Cholesky factorisation of Kr - bound Mr excludes.

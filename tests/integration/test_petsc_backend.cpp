@@ -168,12 +168,13 @@ TEST_F(PetscBackend, SameOrderAndBandErrorOnOneAndTwoRanks) {
       EXPECT_LE(std::abs(a - b), 1e-3 * a + 5e-8) << a << " vs " << b;
       EXPECT_TRUE(sp["target_met"].get<bool>());
       // MUMPS's analysis is reused across shifts: a few analyses (one per arithmetic and pool
-      // slot, measured 3-4), however many factorisations. Since the band error's estimate mode a
+      // slot, measured 3-4, and since the rigid-body analysis of the full model one more: its
+      // real factorisation of K - sigma M, measured 5), however many factorisations. Since the band error's estimate mode a
       // run makes only ~20 factorisations (it made ~1 200), so the bound is on the analyses.
       const auto analyses = sp["counters"]["symbolic_analyses"].get<int>();
       const auto factorizations = sp["counters"]["factorizations"].get<int>();
       EXPECT_GE(analyses, 1);
-      EXPECT_LE(analyses, 4) << factorizations << " factorisations";
+      EXPECT_LE(analyses, 5) << factorizations << " factorisations";
       EXPECT_GT(factorizations, 3 * analyses) << analyses << " analyses";
       // Rank 0 alone wrote the history: one header and one row per iteration.
       std::ifstream csv(m_dir / ("out_" + tag) / "history.csv");
