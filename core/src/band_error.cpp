@@ -481,8 +481,17 @@ void BandErrorEstimator::start_dense() {
   }
 }
 
-double BandErrorEstimator::seconds_per_full_solve() const {
-  return m_full.size() > 0 ? m_full.seconds() / static_cast<double>(m_full.size()) : 0.0;
+double BandErrorEstimator::cost_per_full_solve() const {
+  if (m_full.size() == 0 || !(m_full.flops() > 0.0)) return 0.0;
+  // A sparse factorisation costs more than its flops: per column, a pivot search and memory
+  // management that the flop counts leave out (perf on triplechain_saak09_n451, dense mode:
+  // UMFPACK's assembly, pivot search, kernel set-up and page faults). Measured on the shipped
+  // chains (N = 451..1 501), a full solve took 0.7-2.2 us per unknown beyond its flops, while the
+  // reference model's dense kernels ran at 2-14 GFlop/s: about 10 000 flops of reference work
+  // per unknown. On 3-D solids the flops dominate by orders of magnitude.
+  constexpr double kFlopsPerUnknown = 1.0e4;
+  return m_full.flops() / static_cast<double>(m_full.size()) +
+         kFlopsPerUnknown * static_cast<double>(size_of(m_full.model()));
 }
 
 void BandErrorEstimator::consider_switch(Index verify_factor) {
@@ -496,17 +505,25 @@ void BandErrorEstimator::consider_switch(Index verify_factor) {
   // of the two choices made in hindsight, whatever the length of the run. A full solve of a large
   // model costs seconds and its reference milliseconds: such runs never switch; small models of
   // high order, whose reference costs more than their full solves, do.
-  const double per_solve = seconds_per_full_solve();
+  //
+  // Both sides are counted in floating-point operations, not timed: the solver's own counts for
+  // the full solves (with a per-unknown overhead, cost_per_full_solve), the operation counts of
+  // the dense kernels for the reference. Times would
+  // make the choice, and with it the run's samples and counts, depend on what else the machine
+  // is doing (measured: the same portfolio run switched on a loaded CI machine and not on an idle
+  // one). A backend that reports no counts never switches.
+  const double per_solve = cost_per_full_solve();
+  if (!(per_solve > 0.0)) return;
   const double dense_samples =
       static_cast<double>(m_options.grid_points + verify_factor * (m_options.grid_points - 1) + 2);
   const double buy = dense_samples * per_solve;
   // Collective: under MPI every rank must take the same mode (the full solves are collective).
-  if (!any_process(m_rent_seconds > buy)) return;
+  if (!any_process(m_rent_flops > buy)) return;
   use_dense(fmt::format(
-      "estimate, then dense from evaluation {}: the reference model had cost {:.3g} s more than "
-      "the dense mode's full solves at the same samples, over the {:.3g} s predicted for its "
-      "grids ({:.0f} full solves at {:.3g} s)",
-      m_evaluations, m_rent_seconds, buy, dense_samples, per_solve));
+      "estimate, then dense from evaluation {}: the reference model had cost {:.3g} flops more "
+      "than the dense mode's full solves at the same samples, over the {:.3g} predicted for its "
+      "grids ({:.0f} full solves at {:.3g} flops)",
+      m_evaluations, m_rent_flops, buy, dense_samples, per_solve));
 }
 
 void BandErrorEstimator::use_dense(std::string reason) {
@@ -520,8 +537,7 @@ void BandErrorEstimator::use_dense(std::string reason) {
 
 BandError BandErrorEstimator::rented(BandError e, double overhead_before) {
   const double dense = static_cast<double>(e.pole_samples + e.refinement_samples);
-  m_rent_seconds +=
-      (m_engine->overhead_seconds() - overhead_before) - dense * seconds_per_full_solve();
+  m_rent_flops += (m_engine->overhead_flops() - overhead_before) - dense * cost_per_full_solve();
   return e;
 }
 
@@ -561,7 +577,7 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
 BandError BandErrorEstimator::evaluate(const ReducedModel& reduced) {
   consider_switch(4);
   if (m_engine) {
-    const double overhead = m_engine->overhead_seconds();
+    const double overhead = m_engine->overhead_flops();
     return rented(m_engine->evaluate(reduced), overhead);
   }
   std::vector<double> f = m_grid;
@@ -597,7 +613,7 @@ BandError BandErrorEstimator::evaluate_on(const ReducedModel& reduced,
                                           const std::vector<double>& f_hz) {
   consider_switch(4);
   if (m_engine) {
-    const double overhead = m_engine->overhead_seconds();
+    const double overhead = m_engine->overhead_flops();
     return rented(m_engine->evaluate_on(reduced, f_hz), overhead);
   }
   return assemble(reduced, f_hz, static_cast<Index>(f_hz.size()), 0, false, false);
@@ -607,7 +623,7 @@ BandError BandErrorEstimator::verify(const ReducedModel& reduced, Index factor) 
   if (factor < 1) throw ConfigError("verify factor = " + std::to_string(factor) + ": must be >= 1");
   consider_switch(factor);
   if (m_engine) {
-    const double overhead = m_engine->overhead_seconds();
+    const double overhead = m_engine->overhead_flops();
     return rented(m_engine->verify(reduced), overhead);
   }
   // Midpoints (in log f) of a grid `factor` times finer than the estimator's: with

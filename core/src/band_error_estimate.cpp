@@ -12,7 +12,6 @@
 #include "band_error_estimate.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <exception>
 #include <numeric>
@@ -70,20 +69,40 @@ std::vector<double> seed_frequencies(const Band& band, Index count) {
   return f;
 }
 
-// Adds the wall time of its scope to a total.
-class OverheadTimer {
- public:
-  explicit OverheadTimer(double& total)
-      : m_total(total), m_start(std::chrono::steady_clock::now()) {}
-  ~OverheadTimer() {
-    m_total += std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
-  }
-  OverheadTimer(const OverheadTimer&) = delete;
-  OverheadTimer& operator=(const OverheadTimer&) = delete;
+// Modelled floating-point operations of the reference model's own work, the work the dense mode
+// does not do (the operation counts of Golub & Van Loan, "Matrix Computations", 4th ed.). Counted,
+// not timed, so that the choice between estimate and dense mode (verify: auto) is the same on
+// every run and every machine, whatever else the machine is doing.
+struct ReferenceCost {
+  double n = 0.0;  // first-order size of the Hessenberg form (2 r for a second-order reference)
+  double r = 0.0;  // order of the reference
+  double m = 0.0, p = 0.0;
 
- private:
-  double& m_total;
-  std::chrono::steady_clock::time_point m_start;
+  explicit ReferenceCost(const ReducedModel& reference) {
+    std::visit(
+        [&](const auto& sys) {
+          r = static_cast<double>(sys.size());
+          m = static_cast<double>(sys.inputs());
+          p = static_cast<double>(sys.outputs());
+        },
+        reference);
+    n = std::holds_alternative<ReducedSecondOrderModel>(reference) ? 2.0 * r : r;
+  }
+  // ReducedResponse's set-up: the LU of M_r (E_r) and its solves, the Hessenberg reduction
+  // (10/3 n^3) and the reflectors applied to G and L.
+  double setup() const {
+    return (2.0 / 3.0) * r * r * r + 2.0 * r * r * (n + m) + (10.0 / 3.0) * n * n * n +
+           4.0 * n * n * (m + p);
+  }
+  // One frequency: the Hessenberg path's elimination (n^2 (1 + min(m, p)) / 2 complex
+  // multiply-adds, 8 flops each), or the dense LU of P_r(s) (8/3 r^3 for a complex LU) and its
+  // solves.
+  double per_frequency(bool hessenberg) const {
+    if (hessenberg) return 4.0 * n * n * (1.0 + std::min(m, p));
+    return (8.0 / 3.0) * r * r * r + 8.0 * r * r * m + 8.0 * p * r * m;
+  }
+  // The reference's poles: the eigenvalues of its n x n pencil by the QZ algorithm.
+  double poles() const { return 30.0 * n * n * n; }
 };
 
 }  // namespace
@@ -135,8 +154,9 @@ void EstimateEngine::refresh() {
   // Every full solve made through the cache, by anyone, enriches the reference.
   m_reference.add(m_full.take_solutions());
   if (m_reference.version() == m_version) return;
-  const OverheadTimer timer(m_overhead_seconds);
+  const ReferenceCost cost(m_reference.reduced());
   m_response = std::make_unique<ReducedResponse>(m_reference.reduced());
+  m_overhead_flops += cost.setup();
   m_values.clear();
   m_version = m_reference.version();
   choose_evaluation();
@@ -148,6 +168,7 @@ void EstimateEngine::refresh() {
   if (m_pole_order > 0 && 4 * order < 5 * m_pole_order) return;
   m_pole_order = order;
   m_pole_f.clear();
+  m_overhead_flops += cost.poles();
   try {
     for (const auto& [zeta, f] :
          pole_frequencies(poles(m_reference.reduced()), m_band, m_options.max_pole_samples))
@@ -188,9 +209,13 @@ void EstimateEngine::choose_evaluation() {
   // error of the candidates, and kept a 1e-6 target from being met. There the dense LU of
   // P_r(s) per frequency (O(r^3)) is used instead, when it is the more accurate of the two.
   m_dense_lu = false;
+  const ReferenceCost cost(m_reference.reduced());
+  const double solved = static_cast<double>(std::min<Index>(8, m_full.size()));
   m_floor = floor_of(false);
+  m_overhead_flops += solved * cost.per_frequency(m_response->hessenberg());
   if (m_floor > 1e-10) {
     const double lu = floor_of(true);
+    m_overhead_flops += solved * cost.per_frequency(false);
     if (lu < m_floor) {
       m_dense_lu = true;
       m_floor = lu;
@@ -228,7 +253,9 @@ ReferenceValues EstimateEngine::values(const std::vector<double>& f_hz) {
       out.exact[exact_at[j]] = 1;
     }
   }
-  const OverheadTimer timer(m_overhead_seconds);
+  m_overhead_flops += static_cast<double>(missing_at.size()) *
+                      ReferenceCost(m_reference.reduced())
+                          .per_frequency(!m_dense_lu && m_response->hessenberg());
   const ReducedResponse& response = *m_response;
   const ReducedModel& reference = m_reference.reduced();
   // Serial for a few frequencies (the refinement's rounds): see sample() in band_error.cpp.

@@ -29,9 +29,10 @@ class EstimateEngine {
   BandError verify(const ReducedModel& reduced);
   void offer_basis(const Matrix& basis);
   const ReferenceModel& reference() const { return m_reference; }
-  /// Wall time spent on the reference model itself (its reduced forms, poles and values): the
-  /// work the dense mode does not do. Full solves are not included.
-  double overhead_seconds() const { return m_overhead_seconds; }
+  /// Floating-point operations spent on the reference model itself (its reduced forms, poles and
+  /// values), modelled from its order: the work the dense mode does not do. Full solves are not
+  /// included.
+  double overhead_flops() const { return m_overhead_flops; }
 
  private:
   ReferenceValues values(const std::vector<double>& f_hz);
@@ -64,7 +65,7 @@ class EstimateEngine {
   double m_floor = 0.0;          // its evaluation error at the solved frequencies
   std::mt19937_64 m_rng{20261126};
   double m_scale2 = 0.0, m_scaleF = 0.0;
-  double m_overhead_seconds = 0.0;
+  double m_overhead_flops = 0.0;
 };
 
 }  // namespace ecmor::detail

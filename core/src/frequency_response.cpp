@@ -319,6 +319,20 @@ ComplexVector poles(const ReducedModel& model) {
 
 // ---------------------------------------------------------------------------------------------
 
+namespace {
+
+double work_flops(const SolverCounters& work) {
+  // A solve reads each factor entry once per right-hand-side column: a complex multiply-add, 8
+  // flops (an upper bound for real factors, which solve a complex column as two real ones).
+  const double entries_per_factorization =
+      work.factorizations > 0 ? work.factor_entries / static_cast<double>(work.factorizations)
+                              : 0.0;
+  return work.factorization_flops +
+         8.0 * entries_per_factorization * static_cast<double>(work.solves);
+}
+
+}  // namespace
+
 ResponseCache::ResponseCache(const Model& model, ShiftedSolver& solver, int threads)
     : m_model(model), m_solver(solver), m_threads(threads) {}
 
@@ -348,6 +362,7 @@ std::vector<ComplexMatrix> ResponseCache::evaluate(const std::vector<double>& f_
       check_interrupt("the full-model response sweep (" + std::to_string(first) + " of " +
                       std::to_string(missing.size()) + " frequencies done)");
       const double round_start = since();
+      const SolverCounters counters_before = m_solver.counters();
       const std::size_t count = std::min(round, missing.size() - first);
       std::vector<ComplexMatrix> H(count), Z(m_keep_solutions ? count : 0);
       detail::parallel_for(
@@ -368,6 +383,7 @@ std::vector<ComplexMatrix> ResponseCache::evaluate(const std::vector<double>& f_
               {missing[first + k], outputs_of(m_model) < inputs_of(m_model), std::move(Z[k])});
       }
       m_seconds += since() - round_start;
+      m_flops += work_flops(m_solver.counters() - counters_before);
       if (m_progress && total > static_cast<Index>(round))
         m_progress(SweepProgress{static_cast<Index>(first + count), total, since()});
     }
@@ -430,6 +446,11 @@ std::optional<double> ResponseCache::nearest_cached(double f_hz, double rel_tol)
 double ResponseCache::seconds() const {
   std::lock_guard<std::mutex> lock(m_mutex);
   return m_seconds;
+}
+
+double ResponseCache::flops() const {
+  std::lock_guard<std::mutex> lock(m_mutex);
+  return m_flops;
 }
 
 Index ResponseCache::size() const {

@@ -178,6 +178,9 @@ MumpsLdlt::MumpsLdlt(const MumpsPattern& pattern, const std::vector<Complex>& va
     // INFOG(29): entries in the factors; INFOG(22): peak MiB.
     m_factor_entries = count(infog(p, 29));
     m_peak_bytes = static_cast<double>(infog(p, 22)) * 1048576.0;
+    // RINFOG(3) counts operations in the factorisation's arithmetic, a complex multiply-add as
+    // 2 like a real one (measured: 7.4e4 for a dense 60 x 60, n^3 / 3); in real flops, 4x that.
+    m_flops = 4.0 * static_cast<double>(p.rinfog[2]);
   } catch (...) {
     m_instance->call(kJobEnd);
     delete m_instance;

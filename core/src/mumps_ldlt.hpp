@@ -59,6 +59,8 @@ class MumpsLdlt {
   /// (INFOG(21), MiB in MUMPS).
   std::int64_t factor_entries() const { return m_factor_entries; }
   double peak_bytes() const { return m_peak_bytes; }
+  /// Operations of the elimination, MUMPS's RINFOG(3).
+  double flops() const { return m_flops; }
 
  private:
   struct Instance;
@@ -66,6 +68,7 @@ class MumpsLdlt {
   std::vector<int> m_order;
   std::int64_t m_factor_entries = 0;
   double m_peak_bytes = 0.0;
+  double m_flops = 0.0;
   bool m_singular = false;
 };
 

@@ -471,8 +471,19 @@ class PetscFactorization final : public Factorization {
           "matrix is (numerically) singular ({} null pivot{}, MatFactorError {})",
           w, null_pivots, null_pivots == 1 ? "" : "s", static_cast<int>(err)));
     }
+    // RINFOG(3), the elimination's operations, and INFOG(29), the factors' entries: the same
+    // on every rank.
+    PetscReal flops = 0.0;
+    ECMOR_PETSC(MatMumpsGetRinfog(F, 3, &flops));
+    PetscInt entries = 0;
+    ECMOR_PETSC(MatMumpsGetInfog(F, 29, &entries));
+    // MUMPS counts a complex multiply-add as 2 operations, like a real one (mumps_ldlt.cpp).
+    m_flops = (PetscDefined(USE_COMPLEX) ? 4.0 : 1.0) * static_cast<double>(flops);
+    m_factor_entries = static_cast<double>(entries);
     m_reusable = true;  // a failed factorisation's objects are not handed on
   }
+  double flops() const { return m_flops; }
+  double factor_entries() const { return m_factor_entries; }
 
   /// True when this factorisation needed MUMPS's analysis (no analysed slot was idle).
   bool analysed() const { return m_analysed; }
@@ -544,6 +555,8 @@ class PetscFactorization final : public Factorization {
   std::shared_ptr<const SolverState> m_state;  // co-owned: see SolverState
   std::vector<Complex> m_weights;
   bool m_complex = false;
+  double m_flops = 0.0;
+  double m_factor_entries = 0.0;
   Slot m_slot;
   bool m_reusable = false;
   bool m_analysed = false;
@@ -564,6 +577,8 @@ std::shared_ptr<const Factorization> PetscSolver::factorize_combination(
     ++c.lu_factorizations;
     if (cplx) ++c.complex_factorizations;
     c.factorization_seconds += dt;
+    c.factorization_flops += f->flops();
+    c.factor_entries += f->factor_entries();
   });
   return f;
 }

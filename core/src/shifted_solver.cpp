@@ -71,6 +71,8 @@ SolverCounters& SolverCounters::operator+=(const SolverCounters& other) {
   analysis_seconds += other.analysis_seconds;
   factorization_seconds += other.factorization_seconds;
   solve_seconds += other.solve_seconds;
+  factorization_flops += other.factorization_flops;
+  factor_entries += other.factor_entries;
   return *this;
 }
 
@@ -86,6 +88,8 @@ SolverCounters operator-(SolverCounters a, const SolverCounters& b) {
   a.analysis_seconds -= b.analysis_seconds;
   a.factorization_seconds -= b.factorization_seconds;
   a.solve_seconds -= b.solve_seconds;
+  a.factorization_flops -= b.factorization_flops;
+  a.factor_entries -= b.factor_entries;
   return a;
 }
 
@@ -218,6 +222,7 @@ struct SharedState {
   std::atomic<void*> umf_complex{nullptr};
   std::atomic<cholmod_factor*> chol_symbolic{nullptr};
   double chol_lnz = 0.0;  // nnz(L) predicted by the CHOLMOD analysis
+  double chol_fl = 0.0;   // flops of a numeric factorisation, predicted by the same analysis
   // MUMPS LDL^T: the upper pattern in 1-based coordinates and the pivot order of the first
   // factorisation (both under analysis_mutex until set; read-only afterwards).
   detail::MumpsPattern mumps_pattern;
@@ -385,6 +390,7 @@ struct SharedState {
       throw NumericalError("CHOLMOD symbolic analysis failed with status " +
                            std::to_string(chol_common.status));
     chol_lnz = chol_common.lnz;
+    chol_fl = chol_common.fl;
     const double dt = seconds_since(t0);
     counters->update([&](SolverCounters& c) {
       ++c.symbolic_analyses;
@@ -833,6 +839,8 @@ class SuiteSparseSolver final : public ShiftedSolver {
       ++c.factorizations;
       ++c.cholesky_factorizations;
       c.factorization_seconds += dt;
+      c.factorization_flops += S.chol_fl;
+      c.factor_entries += S.chol_lnz;
     });
     // The factor was allocated through cc; CHOLMOD's memory accounting is per common only, so
     // freeing it later through another common is fine.
@@ -887,6 +895,9 @@ class SuiteSparseSolver final : public ShiftedSolver {
       ++c.lu_factorizations;
       if (is_cplx) ++c.complex_factorizations;
       c.factorization_seconds += dt;
+      // UMFPACK counts real flops (a complex multiply-subtract as 8).
+      c.factorization_flops += std::max(0.0, info[UMFPACK_FLOPS]);
+      c.factor_entries += std::max(0.0, info[UMFPACK_LNZ]) + std::max(0.0, info[UMFPACK_UNZ]);
     });
     // The values are needed in the solves only for iterative refinement.
     if (S.options.refinement_steps == 0) std::vector<double>().swap(x);
@@ -935,6 +946,8 @@ class SuiteSparseSolver final : public ShiftedSolver {
       ++c.ldlt_factorizations;
       ++c.complex_factorizations;
       c.factorization_seconds += dt;
+      c.factorization_flops += f->flops();
+      c.factor_entries += static_cast<double>(f->factor_entries());
     });
     return std::make_shared<MumpsFactorization>(m_shared, std::move(w), std::move(f));
   }

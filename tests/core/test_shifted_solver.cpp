@@ -597,6 +597,44 @@ SolverOptions ldlt_options() {
   return o;
 }
 
+// The flop counts the backends report (SolverCounters::factorization_flops), against the textbook
+// counts for a dense n x n matrix, where no ordering changes the work: Cholesky n^3 / 3, real LU
+// 2 n^3 / 3, complex LU 8 n^3 / 3 (a complex multiply-add is 8 real flops), complex LDL^T half of
+// that. The band error's choice between modes (verify: auto) is made on these counts.
+TEST(ShiftedSolver, FlopCountsOfADenseMatrixAreTheTextbookCounts) {
+  constexpr int n = 60;
+  Matrix R = Matrix::Random(n, n);
+  Matrix K = R * R.transpose() + n * Matrix::Identity(n, n);
+  SecondOrderModel sys;
+  sys.M = sparse(Matrix::Identity(n, n));
+  sys.D = sparse(0.01 * K);
+  sys.K = sparse(K);
+  sys.B = Matrix::Ones(n, 1);
+  sys.C = Matrix::Ones(1, n);
+  const Model model = sys;
+  const double cube = static_cast<double>(n) * n * n;
+  auto expect_flops = [&](ShiftedSolver& solver, Complex s, double textbook, const char* what) {
+    const SolverCounters before = solver.counters();
+    (void)solver.factorize(s);
+    const SolverCounters c = solver.counters() - before;
+    EXPECT_GT(c.factorization_flops, 0.7 * textbook) << what;
+    EXPECT_LT(c.factorization_flops, 1.5 * textbook) << what;
+    // A dense factor has n (n + 1) / 2 entries per triangle.
+    EXPECT_GE(c.factor_entries, 0.5 * n * (n + 1)) << what;
+    EXPECT_LE(c.factor_entries, 1.0 * n * (n + 1)) << what;
+  };
+  auto lu = make_shifted_solver(model);
+  expect_flops(*lu, Complex(0.0, 0.0), cube / 3.0, "Cholesky of K");
+  expect_flops(*lu, Complex(0.0, 2.0), 8.0 * cube / 3.0, "complex LU");
+  SolverOptions no_cholesky;
+  no_cholesky.use_cholesky = false;
+  auto real_lu = make_shifted_solver(model, no_cholesky);
+  expect_flops(*real_lu, Complex(0.0, 0.0), 2.0 * cube / 3.0, "real LU");
+  auto ldlt = make_shifted_solver(model, ldlt_options());
+  expect_flops(*ldlt, Complex(0.0, 2.0), 4.0 * cube / 3.0, "complex LDL^T");
+}
+
+
 TEST(ShiftedSolverLdlt, AgreesWithDenseLuAndReusesTheFirstOrdering) {
   const auto sys = chain(300);
   Model model = sys;

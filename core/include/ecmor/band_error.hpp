@@ -202,7 +202,7 @@ class ECMOR_API BandErrorEstimator {
   void consider_switch(Index verify_factor);
   // Adds an estimate-mode evaluation's excess cost over the dense mode's to the rent; returns e.
   BandError rented(BandError e, double overhead_before);
-  double seconds_per_full_solve() const;
+  double cost_per_full_solve() const;  // in flops of reference work; 0: not counted
   ResponseCache& m_full;
   Band m_band;
   BandErrorOptions m_options;
@@ -213,7 +213,7 @@ class ECMOR_API BandErrorEstimator {
   double m_scaleF = 0.0;
   std::unique_ptr<detail::EstimateEngine> m_engine;  // estimate mode only
   Index m_evaluations = 0;     // evaluate/evaluate_on/verify calls so far
-  double m_rent_seconds = 0.0;  // auto mode: the estimate's cost over the dense mode's so far
+  double m_rent_flops = 0.0;  // auto mode: the estimate's cost over the dense mode's so far
   std::string m_switch_note;
 };
 

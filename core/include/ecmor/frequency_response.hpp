@@ -103,6 +103,10 @@ class ECMOR_API ResponseCache {
   /// Wall time spent computing full-model responses (the cost a reducer's run adds to the full
   /// model's band sampling).
   double seconds() const;
+  /// Floating-point operations of those responses: the factorisations' as the solver reports them
+  /// (SolverCounters::factorization_flops) and the solves' from the factors' entries. The same on
+  /// every run, unlike seconds(); 0 when the backend reports no counts.
+  double flops() const;
   const Model& model() const { return m_model; }
   ShiftedSolver& solver() { return m_solver; }
   /// Threads of the parallel evaluations as given to the constructor (<= 0: OpenMP's default), for
@@ -116,6 +120,7 @@ class ECMOR_API ResponseCache {
   mutable std::mutex m_mutex;
   std::map<double, ComplexMatrix> m_cache;
   double m_seconds = 0.0;
+  double m_flops = 0.0;
   bool m_keep_solutions = false;
   std::vector<FullSolution> m_solutions;
   std::function<void(const SweepProgress&)> m_progress;

@@ -49,6 +49,13 @@ struct ECMOR_API SolverCounters {
   double analysis_seconds = 0.0;
   double factorization_seconds = 0.0;
   double solve_seconds = 0.0;
+  /// Floating-point operations of the numeric factorisations as the backend reports them
+  /// (UMFPACK's and CHOLMOD's counts, MUMPS's RINFOG(3)), and the entries of their factors (a
+  /// solve reads each entry once per right-hand-side column). Unlike the times, both are the same
+  /// on every run and every machine: decisions between full solves and other work are made on
+  /// them (band_error.hpp, verify: auto). 0 where a backend does not report them.
+  double factorization_flops = 0.0;
+  double factor_entries = 0.0;
 
   SolverCounters& operator+=(const SolverCounters& other);
   friend ECMOR_API SolverCounters operator-(SolverCounters a, const SolverCounters& b);
