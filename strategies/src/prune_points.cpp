@@ -22,6 +22,17 @@ Index total_moments(const std::vector<ExpansionPoint>& points) {
   return k;
 }
 
+// True when the error exceeds the tolerance only at estimated samples: every sample measured
+// against the full model's own H is within it (an undefined one is not).
+bool misses_on_estimates_only(const BandError& e, double tolerance) {
+  if (!e.estimated) return false;
+  for (std::size_t k = 0; k < e.f_hz.size(); ++k) {
+    const bool exact = k < e.exact.size() && e.exact[k] != 0;
+    if (exact && !(e.relative[k] <= tolerance)) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 std::string prune_points(StrategyRun& run, const std::vector<ExpansionPoint>& points,
@@ -163,6 +174,12 @@ std::string prune_points(StrategyRun& run, const std::vector<ExpansionPoint>& po
     }
     return s;
   };
+  // Trials are accepted on the estimate (assess without its re-check): each accepted set is a
+  // subset of the one before, so only the last needs the re-check, made at the end (step 4).
+  // Re-checking every accepted set made 130 of the 195 full solves of the error control on
+  // triplechain_mess_n1501_greedy (24 sets).
+  std::vector<std::vector<ExpansionPoint>> accepted_sets;
+  std::optional<Candidate> last_accepted;
   // One trial: screen, and assess (phase "prune") only if the screen passed.
   auto trial = [&](const std::vector<ExpansionPoint>& pts, double f_focus,
                    std::map<std::string, double> extra) -> bool {
@@ -174,10 +191,23 @@ std::string prune_points(StrategyRun& run, const std::vector<ExpansionPoint>& po
     extra["screened_trials"] = static_cast<double>(trials);
     ++assessed;
     try {
-      const Candidate t = run.assess(std::move(*s.result), "prune", extra);
+      Candidate t = run.assess(std::move(*s.result), "prune", extra, /*verify=*/false);
       add_screen(local_maxima(t.error));
-      if (t.passed) note_worst(t.error);
-      return t.passed;
+      if (!t.pending && t.stable && misses_on_estimates_only(t.error, ctx.tolerance)) {
+        // Above the tolerance only where the error is estimated: the estimate may be high where
+        // the reference lacks a full solve. The re-check (full solves where the estimate peaks)
+        // decides. Measured on triplechain_mess_n1501_greedy: an estimate of 1.03e-2 at
+        // 0.0599 Hz where the true error is 5.3e-3 would have cost the last two states.
+        t.pending = true;
+        run.confirm(t, extra);
+        if (!t.passed) return false;
+      } else if (!t.pending) {
+        return false;
+      }
+      note_worst(t.error);
+      accepted_sets.push_back(pts);
+      last_accepted = std::move(t);
+      return true;
     } catch (const Interrupted&) {
       throw;
     } catch (const std::exception& e) {
@@ -250,6 +280,29 @@ std::string prune_points(StrategyRun& run, const std::vector<ExpansionPoint>& po
       const double f = hz_of(points[i]);
       if (!trial(erase(candidate, removed), f, {{"reduced_moment_hz", f}})) break;
       kept_all = std::move(candidate);
+    }
+  }
+  // 4. The re-check of the last accepted set. Should it fail (the estimate missed a peak that
+  // the re-check's full solves find), the sets accepted before it are re-reduced and assessed
+  // with their re-check, newest first, up to kStepsBack of them; the passing model the pruning
+  // started from stays the fallback.
+  constexpr std::size_t kStepsBack = 2;
+  if (last_accepted && !run.stopped()) {
+    try {
+      run.confirm(*last_accepted);
+      bool passed = last_accepted->passed;
+      accepted_sets.pop_back();
+      for (std::size_t step = 0; !passed && step < kStepsBack && !accepted_sets.empty() &&
+                                 !run.stopped();
+           ++step) {
+        ++assessed;
+        passed = run.assess(reduce(accepted_sets.back()), "prune", {{"step_back", 1.0}}).passed;
+        accepted_sets.pop_back();
+      }
+    } catch (const Interrupted&) {
+      throw;
+    } catch (const std::exception& e) {
+      if (trial_failure.empty()) trial_failure = e.what();
     }
   }
   // Describe the reported (smallest passing) model, which need not be the last set tried.

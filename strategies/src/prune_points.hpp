@@ -10,8 +10,12 @@
 /// and verify: pole samples, refinement, the denser independent grid; plus the local maxima of the
 /// error of each assessed trial). All lie in the band, so a screened error above the tolerance
 /// proves the trial misses it: it is not assessed and leaves no history row. Only a trial screening
-/// at or below the tolerance is assessed (estimator evaluate, and verify if it meets the
-/// tolerance; phase "prune", with diagnostics screened_error, screen_samples, screened_trials). A
+/// at or below the tolerance is assessed (estimator evaluate; phase "prune", with diagnostics
+/// screened_error, screen_samples, screened_trials) and accepted when it meets the tolerance
+/// there. The independent re-check is made once, for the last accepted set (a "verify" row); if it
+/// fails, the sets accepted before it are re-reduced and assessed with their re-check, newest
+/// first, up to two (diagnostic step_back). A trial missing the tolerance only at estimated
+/// samples gets its re-check at once (the estimate may be high where no full solve is near). A
 /// screen first evaluates the 48 samples nearest (in log f) to the changed point and the 16
 /// frequencies where the last passing model's error is largest; it evaluates the whole set only if
 /// those stay within the tolerance.

@@ -68,7 +68,7 @@ void StrategyRun::record(const std::string& phase, const ReducerResult& r, const
 }
 
 Candidate StrategyRun::assess(ReducerResult result, const std::string& phase,
-                              const std::map<std::string, double>& extra) {
+                              const std::map<std::string, double>& extra, bool verify) {
   Candidate c;
   c.result = std::move(result);
   // Estimate mode: the reference model takes the candidate's bases, so that it is at least as
@@ -82,25 +82,37 @@ Candidate StrategyRun::assess(ReducerResult result, const std::string& phase,
   // The estimator computes the poles for its pole samples; its count decides when it is 0.
   c.stability = judge_stability(m_ctx, c.result.model, c.error.unstable_poles);
   c.stable = c.stability.accepted();
-  bool meets = c.error.within(m_ctx.tolerance);
+  const bool meets = c.error.within(m_ctx.tolerance);
   record(phase, c.result, c.error, meets, c.stable, extra);
-  bool verified = false;
-  if (meets && c.stable && !stopped()) {
-    // "Converged" must hold on an independent check: a denser grid that shares no frequency with
-    // the estimator's (dense mode), or full solves where the estimate peaks, at random and at the
-    // band edges (estimate mode).
-    BandError check = m_ctx.estimator->verify(c.result.model, m_ctx.verify_factor);
-    verified = check.within(m_ctx.tolerance);
-    record("verify", c.result, check, verified, c.stable, extra);
-    // Report the larger of the two values of the supremum; in estimate mode the check's, which
-    // is measured against the full model at every frequency it solved (never an estimate).
-    if (check.sup_relative > c.error.sup_relative ||
-        m_ctx.estimator->mode() == ErrorVerify::Estimate)
-      c.error = check;
+  c.pending = meets && c.stable;
+  if (verify && c.pending && !stopped()) {
+    confirm(c, extra);
+    return c;
   }
   // A model passes only after the independent re-check; one left unverified because the run was
   // stopped right after its estimate does not count.
-  c.passed = meets && c.stable && verified;
+  track(c);
+  return c;
+}
+
+void StrategyRun::confirm(Candidate& c, const std::map<std::string, double>& extra) {
+  if (!c.pending || stopped()) return;
+  c.pending = false;
+  // "Converged" must hold on an independent check: a denser grid that shares no frequency with
+  // the estimator's (dense mode), or full solves where the estimate peaks, at random and at the
+  // band edges (estimate mode).
+  BandError check = m_ctx.estimator->verify(c.result.model, m_ctx.verify_factor);
+  c.passed = check.within(m_ctx.tolerance);
+  record("verify", c.result, check, c.passed, c.stable, extra);
+  // Report the larger of the two values of the supremum; in estimate mode the check's, which
+  // is measured against the full model at every frequency it solved (never an estimate).
+  if (check.sup_relative > c.error.sup_relative ||
+      m_ctx.estimator->mode() == ErrorVerify::Estimate)
+    c.error = std::move(check);
+  track(c);
+}
+
+void StrategyRun::track(const Candidate& c) {
   // An unstable model is kept as "most accurate" only when no stable one has been seen.
   const bool better =
       !m_most_accurate || (c.stable && !m_most_accurate->stable) ||
@@ -108,7 +120,6 @@ Candidate StrategyRun::assess(ReducerResult result, const std::string& phase,
        c.error.sup_relative < m_most_accurate->error.sup_relative);
   if (better) m_most_accurate = c;
   if (c.passed && (!m_smallest_pass || c.order() < m_smallest_pass->order())) m_smallest_pass = c;
-  return c;
 }
 
 void StrategyRun::record_trial(const std::string& phase, const ReducerResult& result,

@@ -35,6 +35,9 @@ struct Candidate {
   /// Meets the tolerance on the estimator's sampling and on the independent re-check, and is
   /// stable (an unstable model is never reported as converged).
   bool passed = false;
+  /// Meets the tolerance on the estimator's sampling and is stable, but was assessed without its
+  /// re-check (StrategyRun::assess with verify = false); StrategyRun::confirm decides it.
+  bool pending = false;
   Index order() const { return result.V.cols(); }
 };
 
@@ -55,8 +58,13 @@ class StrategyRun {
   /// Evaluates the band error of `result` (estimator.evaluate), records it under `phase`, and, if
   /// it meets the tolerance, re-checks it on the independent grid (recorded as "verify"). Tracks
   /// the smallest passing and the most accurate candidate.
+  /// With verify = false a candidate that meets the tolerance is left `pending`, not re-checked
+  /// and not tracked as passing, until confirm(): a strategy that only steps on from it (pruning)
+  /// re-checks the last one instead of each.
   Candidate assess(ReducerResult result, const std::string& phase,
-                   const std::map<std::string, double>& extra = {});
+                   const std::map<std::string, double>& extra = {}, bool verify = true);
+  /// The re-check of a pending candidate (recorded as "verify"); tracks it if it passes.
+  void confirm(Candidate& c, const std::map<std::string, double>& extra = {});
 
   /// Records a candidate whose error was evaluated elsewhere (e.g. on an optimiser's sample set)
   /// without the pass/verify logic; it is not tracked as a best candidate.
@@ -94,6 +102,8 @@ class StrategyRun {
   std::chrono::steady_clock::time_point m_last;
   std::optional<Candidate> m_smallest_pass;
   std::optional<Candidate> m_most_accurate;
+
+  void track(const Candidate& c);
 };
 
 /// Runs `body` and turns exceptions into a Failed termination that keeps the best model so far.

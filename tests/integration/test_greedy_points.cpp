@@ -166,7 +166,14 @@ TEST(GreedyPoints, PruningDropsASuperfluousPoint) {
   // Add a point far (in log f) from all of them, at the band's lower edge.
   const double extra = kBand.f_min_hz * 1.01;
   for (double f : start) ASSERT_GT(std::abs(std::log(f / extra)), 0.1);
+  // And one more in the middle of the lowest gap between points (in log f): two superfluous
+  // points, so that pruning accepts more than one smaller set.
+  ASSERT_GE(start.size(), 2u);
+  std::vector<double> sorted = start;
+  std::sort(sorted.begin(), sorted.end());
+  const double middle = std::sqrt(sorted[0] * sorted[1]);
   start.push_back(extra);
+  start.push_back(middle);
 
   Fixture fx;
   InterpolationReducer reducer;
@@ -184,6 +191,20 @@ TEST(GreedyPoints, PruningDropsASuperfluousPoint) {
     pruned = pruned || r.history[i].phase == "prune";
   }
   EXPECT_TRUE(pruned);
+  // The re-check is made once, for the last set accepted on the estimate, not for each one: a
+  // "verify" row follows a trial that met the tolerance on its estimate only as that last check
+  // (or after a step back to an earlier set, marked step_back). Before, each accepted set had its
+  // own re-check, the most full solves of a pruning.
+  int accepted = 0, rechecks_of_accepted = 0;
+  for (std::size_t i = 1; i < r.history.size(); ++i) {
+    const IterationRecord& before = r.history[i - 1];
+    if (r.history[i].phase == "prune" && r.history[i].meets_tolerance) ++accepted;
+    if (r.history[i].phase == "verify" && before.phase == "prune" && before.meets_tolerance &&
+        !before.diagnostics.count("step_back"))
+      ++rechecks_of_accepted;
+  }
+  EXPECT_GE(accepted, 2) << r.message;
+  EXPECT_EQ(rechecks_of_accepted, 1) << accepted << " sets accepted; " << r.message;
   ASSERT_TRUE(r.best.has_value());
   EXPECT_LT(r.best->points.size(), start.size()) << r.message;
   EXPECT_LT(r.best->V.cols(), start_order) << r.message;
