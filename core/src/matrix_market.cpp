@@ -139,7 +139,7 @@ class StreamLines final : public LineSource {
 };
 
 enum class Format { Coordinate, Array };
-enum class Field { Real, Integer, Pattern };
+enum class Field { Real, Integer, Unsigned, Pattern };
 enum class Symmetry { General, Symmetric, Skew };
 
 struct Header {
@@ -201,7 +201,8 @@ class Parser {
 
 Header Parser::parse_header() {
   static constexpr std::string_view kExpected =
-      "expected the banner '%%MatrixMarket matrix <coordinate|array> <real|integer|pattern> "
+      "expected the banner '%%MatrixMarket matrix <coordinate|array> "
+      "<real|integer|unsigned-integer|pattern> "
       "<general|symmetric|skew-symmetric>'";
   std::string_view line;
   if (!lines_.next(line)) fail(1, "the file is empty: " + std::string(kExpected));
@@ -236,14 +237,18 @@ Header Parser::parse_header() {
     h.field = Field::Real;
   } else if (field == "integer") {
     h.field = Field::Integer;
+  } else if (field == "unsigned-integer") {
+    // SciPy's mmwrite writes it for arrays of unsigned integers (incidence matrices, counts).
+    h.field = Field::Unsigned;
   } else if (field == "pattern") {
     h.field = Field::Pattern;
   } else if (field == "complex") {
     fail(
-        "field 'complex' is not supported: complex matrices cannot be read (only real, integer "
-        "and pattern)");
+        "field 'complex' is not supported: complex matrices cannot be read (only real, integer, "
+        "unsigned-integer and pattern)");
   } else {
-    fail("unknown field " + quoted(tok[3]) + ": expected 'real', 'integer' or 'pattern'");
+    fail("unknown field " + quoted(tok[3]) +
+         ": expected 'real', 'integer', 'unsigned-integer' or 'pattern'");
   }
   if (symmetry == "general") {
     h.symmetry = Symmetry::General;
@@ -263,6 +268,8 @@ Header Parser::parse_header() {
     fail("field 'pattern' is only allowed with the 'coordinate' format");
   if (h.field == Field::Pattern && h.symmetry == Symmetry::Skew)
     fail("field 'pattern' cannot be skew-symmetric");
+  if (h.field == Field::Unsigned && h.symmetry == Symmetry::Skew)
+    fail("field 'unsigned-integer' cannot be skew-symmetric: the mirrored entries are negative");
   h.pub.format = format;
   h.pub.field = h.field == Field::Real ? "real" : field;
   h.pub.symmetry = symmetry;
@@ -360,13 +367,24 @@ std::int64_t Parser::parse_index(std::string_view tok, const char* what, std::in
 double Parser::parse_value(std::string_view tok, Field field) {
   std::string_view t = tok;
   if (t.size() > 1 && t.front() == '+' && t[1] != '-' && t[1] != '+') t.remove_prefix(1);
-  if (field == Field::Integer) {
+  if (field == Field::Integer || field == Field::Unsigned) {
+    const bool is_unsigned = field == Field::Unsigned;
+    const char* name = is_unsigned ? "'unsigned-integer'" : "'integer'";
     std::int64_t v = 0;
     auto [p, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
-    if (ec == std::errc() && p == t.data() + t.size()) return static_cast<double>(v);
+    if (ec == std::errc() && p == t.data() + t.size()) {
+      if (is_unsigned && v < 0) fail("bad value " + quoted(tok) + ": the field is " + name);
+      return static_cast<double>(v);
+    }
+    if (is_unsigned && ec == std::errc::result_out_of_range && t.front() != '-') {
+      // Above 2^63 - 1: still an unsigned 64-bit integer.
+      std::uint64_t u = 0;
+      auto [pu, ecu] = std::from_chars(t.data(), t.data() + t.size(), u);
+      if (ecu == std::errc() && pu == t.data() + t.size()) return static_cast<double>(u);
+    }
     if (ec == std::errc::result_out_of_range)
       fail("integer value " + quoted(tok) + " is out of range");
-    fail("bad value " + quoted(tok) + ": the field is 'integer'");
+    fail("bad value " + quoted(tok) + ": the field is " + name);
   }
   double v = 0.0;
   auto [p, ec] = std::from_chars(t.data(), t.data() + t.size(), v);

@@ -155,6 +155,24 @@ TEST(MatrixMarketRead, PatternAndIntegerFields) {
   expected_int << 0, -7, 12, 0;
   EXPECT_EQ(to_dense(read_matrix_market_sparse(q)), expected_int);
   EXPECT_EQ(read_matrix_market_header(q).field, "integer");
+
+  // SciPy's mmwrite writes the field 'unsigned-integer' for unsigned integer arrays (here as
+  // scipy.io.mmwrite writes an incidence matrix of dtype uint8: banner, its comment line, size).
+  const fs::path u = dir / "U.mtx";
+  write_raw(u,
+            "%%MatrixMarket matrix coordinate unsigned-integer general\n%\n3 2 3\n1 1 1\n2 1 "
+            "1\n3 2 18446744073709551615\n");
+  Matrix expected_unsigned = Matrix::Zero(3, 2);
+  expected_unsigned(0, 0) = 1;
+  expected_unsigned(1, 0) = 1;
+  expected_unsigned(2, 1) = 18446744073709551615.0;
+  EXPECT_EQ(to_dense(read_matrix_market_sparse(u)), expected_unsigned);
+  EXPECT_EQ(read_matrix_market_header(u).field, "unsigned-integer");
+  const fs::path ua = dir / "UA.mtx";
+  write_raw(ua, "%%MatrixMarket matrix array unsigned-integer symmetric\n2 2\n4\n1\n9\n");
+  Matrix expected_array(2, 2);
+  expected_array << 4, 1, 1, 9;
+  EXPECT_EQ(to_dense(read_matrix_market_sparse(ua)), expected_array);
 }
 
 TEST(MatrixMarketRead, ArrayFormats) {
@@ -281,6 +299,15 @@ TEST(MatrixMarketErrors, UnsupportedComplexAndHermitianSaidPlainly) {
   TempDir dir{"ecmor_test_mm"};
   expect_error(dir, "complex.mtx",
                "%%MatrixMarket matrix coordinate complex general\n1 1 1\n1 1 1 2\n", 1,
+               "field 'complex' is not supported");
+  expect_error(dir, "negative_unsigned.mtx",
+               "%%MatrixMarket matrix coordinate unsigned-integer general\n2 2 1\n1 1 -3\n", 3,
+               "bad value '-3': the field is 'unsigned-integer'");
+  expect_error(dir, "skew_unsigned.mtx",
+               "%%MatrixMarket matrix coordinate unsigned-integer skew-symmetric\n2 2 1\n2 1 3\n",
+               1, "field 'unsigned-integer' cannot be skew-symmetric");
+  expect_error(dir, "complex_array.mtx",
+               "%%MatrixMarket matrix array complex general\n1 1\n1 2\n", 1,
                "field 'complex' is not supported");
   expect_error(dir, "herm.mtx", "%%MatrixMarket matrix coordinate real hermitian\n1 1 1\n1 1 1\n",
                1, "symmetry 'hermitian' is not supported");
