@@ -8,8 +8,10 @@
 /// backward stable). Each frequency then costs O(n^2) (Gaussian elimination with partial pivoting
 /// on the Hessenberg matrix s I - Q' F Q) instead of the O(n^3) of a dense LU: Laub's method
 /// (A. J. Laub, "Efficient multivariable frequency response computations", IEEE TAC 26, 1981).
-/// When Mr (or Er) is singular or ill-conditioned (reciprocal condition < 1e-8), the evaluator
-/// falls back to a dense LU of P_r(s) per frequency.
+/// When Mr (or Er) is singular or ill-conditioned (reciprocal condition < 1e-8), or when the
+/// Hessenberg path differs from a dense LU of P_r(s) by more than 1e-8 (relative) at a frequency
+/// inside the model's spectrum (a badly scaled model, whose realisation lost digits), the
+/// evaluator falls back to a dense LU of P_r(s) per frequency.
 ///
 /// Thread safety: operator() is const and may be called concurrently from several threads (each
 /// thread keeps its own scratch space, reused across calls and evaluators).
@@ -33,6 +35,8 @@ class ECMOR_API ReducedResponse {
   bool hessenberg() const { return m_hessenberg; }
 
  private:
+  void self_check();  // the Hessenberg path against the dense LU at one frequency
+
   ReducedModel m_model;  // for the fallback path
   bool m_hessenberg = false;
   bool m_transposed = false;  // H, G, L describe Hr' (fewer outputs than inputs): transpose back
