@@ -132,11 +132,17 @@ int main(int argc, char** argv) {
                        "0-based input (column of B) driven; default -1: all inputs at once");
   simulate->add_option("--amplitude", sim.amplitude, "input amplitude (default 1)");
   simulate->add_option("--t-end", sim.t_end,
-                       "end time [s] (default: 5 periods of the band's f_min, or of the chirp's "
-                       "lowest frequency if lower)");
+                       "end time [s] (default: 5 time constants of the slowest decaying term of "
+                       "the reduced model's response that matters, at most 5 periods of the "
+                       "band's f_min; a chirp, or a response that does not settle: 5 periods of "
+                       "f_min, or of the chirp's lowest frequency if lower)");
   simulate->add_option("--steps", sim.steps,
-                       "time steps (default: 20 per period of the band's f_max, or of the chirp's "
-                       "highest frequency if higher; at least 100, at most 200000)");
+                       "time steps (default: 20 per period of the fastest term that matters, at "
+                       "most the band's f_max, or of the chirp's highest frequency if higher; at "
+                       "least 200, at most 200000)");
+  simulate->add_option("--time-axis", sim.time_axis,
+                       "auto | linear | log: time axis of the plot (auto: log when the dynamics "
+                       "span more than three decades)");
   simulate->add_option("--scheme", sim.scheme,
                        "newmark (average acceleration; trapezoidal rule for descriptor models; "
                        "default) | generalized-alpha");

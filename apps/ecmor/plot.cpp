@@ -399,35 +399,39 @@ std::vector<fs::path> plot_run(const fs::path& run_dir, PlotFormat format) {
 
 std::vector<std::filesystem::path> plot_time_response(const std::filesystem::path& run_dir,
                                                       Index outputs, const std::string& title,
-                                                      PlotFormat format, Index max_outputs) {
+                                                      bool log_time, PlotFormat format,
+                                                      Index max_outputs) {
   const Index shown = std::min(outputs, max_outputs);
   const char* colours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd"};
   // The reduced output dashed in a darker shade of its full output's colour.
   const char* dark[] = {"#0b3c61", "#7a1414", "#165016", "#4b3366"};
   std::string top, bottom;
+  // On a log axis the row at t = 0 is left out (every ::1: from the second data row on).
+  const char* rows = log_time ? "every ::1 " : "";
   for (Index i = 0; i < shown; ++i) {
     const Index y = 2 + i, yr = 2 + outputs + i;  // gnuplot columns (1-based; column 1 is t)
     const char* c = colours[i % 4];
     top += fmt::format(
-        "{}'time_response.csv' skip 1 using 1:{} with lines lw 2 lc rgb '{}' title "
-        "'y{} full', \\\n     '' skip 1 using 1:{} with lines dt 2 lw 2 lc rgb "
+        "{}'time_response.csv' skip 1 {}using 1:{} with lines lw 2 lc rgb '{}' title "
+        "'y{} full', \\\n     '' skip 1 {}using 1:{} with lines dt 2 lw 2 lc rgb "
         "'{}' title 'y{} reduced'",
-        i == 0 ? "plot " : ", \\\n     ", y, c, i + 1, yr, dark[i % 4], i + 1);
+        i == 0 ? "plot " : ", \\\n     ", rows, y, c, i + 1, rows, yr, dark[i % 4], i + 1);
     bottom += fmt::format(
-        "{}'time_response.csv' skip 1 using 1:(column({}) - column({})) with "
+        "{}'time_response.csv' skip 1 {}using 1:(column({}) - column({})) with "
         "lines lc rgb '{}' title 'y{} - yr{}'",
-        i == 0 ? "plot " : ", \\\n     ", y, yr, c, i + 1, i + 1);
+        i == 0 ? "plot " : ", \\\n     ", rows, y, yr, c, i + 1, i + 1);
   }
   const std::string more =
       shown < outputs ? fmt::format(" (first {} of {} outputs)", shown, outputs) : std::string();
   PlotScript script{"time_response",
                     fmt::format("set datafile separator ','\n"
                                 "set multiplot layout 2,1 title {}\n"
-                                "set grid\nset key outside right\nset format y '%g'\n"
+                                "set grid\nset key outside right\nset format y '%g'\n{}"
                                 "set ylabel 'output y(t)'\n{}\n"
                                 "set xlabel 't [s]'\nset ylabel 'error y(t) - yr(t) (Eq. 11)'\n{}\n"
                                 "unset multiplot\n",
-                                gnuplot_string(title + more), top, bottom),
+                                gnuplot_string(title + more),
+                                log_time ? "set logscale x\nset format x '%g'\n" : "", top, bottom),
                     1100, 800};
   return render_plots(run_dir, {script}, format);
 }

@@ -76,9 +76,11 @@ std::vector<std::filesystem::path> plot_run(const std::filesystem::path& run_dir
 /// time_response.{png,svg} of `ecmor simulate` in `run_dir`, from time_response.csv
 /// (t,y1..yp,yr1..yrp): the full (solid) and reduced (dashed) outputs over time, at most the first
 /// `max_outputs` of them, and below them the output error y_i - yr_i (Eq. 11). `title` heads it.
+/// `log_time`: a logarithmic time axis (from the first step; t = 0 is left out).
 /// \throws GnuplotNotFound; IoError when gnuplot fails.
 std::vector<std::filesystem::path> plot_time_response(const std::filesystem::path& run_dir,
                                                       Index outputs, const std::string& title,
+                                                      bool log_time = false,
                                                       PlotFormat format = PlotFormat::Both,
                                                       Index max_outputs = 4);
 

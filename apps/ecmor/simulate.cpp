@@ -106,30 +106,40 @@ int simulate(const SimulateOptions& o, const CommonOptions& common) {
     TimeIntegrationOptions ti;
     ti.scheme = parse_scheme(o.scheme);
     ti.rho_inf = o.rho_inf;
-    // Defaults: 5 periods of the band's lowest frequency; 20 steps per period of the highest
-    // frequency (of the band, or of the chirp if higher), capped.
-    const double f_low = std::min(run.f_min_hz, input.kind == InputSignal::Kind::Chirp
-                                                    ? std::min(input.f0_hz, input.f1_hz)
-                                                    : run.f_min_hz);
-    const double f_high = input.kind == InputSignal::Kind::Chirp
-                              ? std::max({run.f_max_hz, input.f0_hz, input.f1_hz})
-                              : run.f_max_hz;
+    if (o.time_axis != "auto" && o.time_axis != "linear" && o.time_axis != "log")
+      throw ConfigError("--time-axis = " + o.time_axis + ": must be auto, linear or log");
+    input.validate();
+
+    const Model model = load_model(run.model);
+    const ReducedModel reduced = read_reduced_model(o.run_dir);
+    // Defaults from the reduced model's dynamics (suggest_time_span): the span its transient
+    // needs, 20 steps per period of its fastest term that matters. A chirp, or a model whose
+    // response does not settle, keeps the band's: 5 periods of its lowest frequency (or the
+    // chirp's, if lower), 20 steps per period of its highest (or the chirp's, if higher).
+    TimeSpan span = suggest_time_span(reduced, input.kind, run.f_min_hz, run.f_max_hz);
+    if (input.kind == InputSignal::Kind::Chirp) {
+      const double f_low = std::min({run.f_min_hz, input.f0_hz, input.f1_hz});
+      span.f_fast_hz = std::max({run.f_max_hz, input.f0_hz, input.f1_hz});
+      span.t_end = 5.0 / f_low;
+    }
     // An explicit value (even an invalid one, which validate() then names) wins over the default.
-    ti.t_end = o.t_end != 0.0 ? o.t_end : 5.0 / f_low;
+    ti.t_end = o.t_end != 0.0 ? o.t_end : span.t_end;
     bool capped = false;
     if (o.steps != 0) {
       ti.steps = o.steps;
     } else {
-      const double wanted = std::ceil(20.0 * f_high * ti.t_end);
+      const double wanted = std::ceil(20.0 * span.f_fast_hz * ti.t_end);
       capped = !(wanted <= static_cast<double>(SimulateOptions::kMaxDefaultSteps));
       ti.steps = capped ? SimulateOptions::kMaxDefaultSteps
-                        : std::max<Index>(100, static_cast<Index>(wanted));
+                        : std::max<Index>(200, static_cast<Index>(wanted));
     }
-    input.validate();
+    const double f_high = span.f_fast_hz;
+    // A log-time axis where the dynamics span more than three decades: 1 / (2 pi f_fast) to t_end.
+    const bool log_time =
+        o.time_axis == "log" ||
+        (o.time_axis == "auto" && ti.t_end * kTwoPi * span.f_fast_hz > 1e3);
     ti.validate();
 
-    const Model model = load_model(run.model);
-    const ReducedModel reduced = read_reduced_model(o.run_dir);
     auto solver = make_shifted_solver(model);
     const TimeResponse y = simulate(model, *solver, input, ti);
     const TimeResponse yr = simulate(reduced, input, ti);
@@ -165,6 +175,12 @@ int simulate(const SimulateOptions& o, const CommonOptions& common) {
     j["steps"] = ti.steps;
     j["dt"] = y.dt;
     j["steps_capped"] = capped;
+    j["span"] = {{"t_end_default", o.t_end == 0.0},
+                 {"from_poles", span.from_poles},
+                 {"tau_slow", span.tau_slow},
+                 {"f_fast_hz", span.f_fast_hz},
+                 {"reason", span.reason},
+                 {"time_axis", log_time ? "log" : "linear"}};
     j["error"] = {{"l2", e.l2},
                   {"max", e.max},
                   {"t_at_max", e.t_max},
@@ -192,6 +208,7 @@ int simulate(const SimulateOptions& o, const CommonOptions& common) {
       fmt::print("{} input{}, t in [0, {:g}] s, {} steps of {:.3e} s, {}\n", to_string(input.kind),
                  input.input < 0 ? std::string(" (all inputs)") : fmt::format(" {}", input.input),
                  ti.t_end, ti.steps, y.dt, y.scheme);
+      if (o.t_end == 0.0) fmt::print("span: {}\n", span.reason);
       fmt::print("full    N = {:>7}  {:.3f} s  {} factorisations  {} solves\n", size_of(model),
                  y.seconds, y.factorizations, y.solves);
       fmt::print("reduced n = {:>7}  {:.3f} s  {} factorisations  {} solves\n", size_of(reduced),
@@ -212,7 +229,8 @@ int simulate(const SimulateOptions& o, const CommonOptions& common) {
                            fmt::format("{} response: full N = {}, reduced n = {}; max |y - yr| = "
                                        "{:.3e} (relative {:.3e})",
                                        to_string(input.kind), size_of(model), size_of(reduced),
-                                       e.max, e.relative_max));
+                                       e.max, e.relative_max),
+                           log_time);
         if (!common.quiet) {
           fmt::print("plot: {}\n", (o.run_dir / "time_response.png").string());
         }

@@ -19,12 +19,14 @@
 
 #include <fmt/core.h>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <type_traits>
 #include <variant>
 
@@ -432,6 +434,121 @@ OutputError output_error(const TimeResponse& full, const TimeResponse& reduced) 
   const double nan = std::numeric_limits<double>::quiet_NaN();
   out.relative_l2 = out.relative_defined ? out.l2 / out.y_l2 : nan;
   out.relative_max = out.relative_defined ? out.max / out.y_max : nan;
+  return out;
+}
+
+namespace {
+
+// x' = F x + G u, y = L x of a reduced model, or nothing when M_r (E_r) is (nearly) singular.
+struct FirstOrder {
+  Matrix F, G, L;
+};
+
+std::optional<FirstOrder> first_order(const ReducedModel& model) {
+  constexpr double kSingular = 1e-12;
+  FirstOrder out;
+  if (const auto* so = std::get_if<ReducedSecondOrderModel>(&model)) {
+    const Index n = so->size();
+    Eigen::PartialPivLU<Matrix> lu(so->M);
+    if (!(lu.rcond() > kSingular)) return std::nullopt;
+    out.F = Matrix::Zero(2 * n, 2 * n);
+    out.F.topRightCorner(n, n).setIdentity();
+    out.F.bottomLeftCorner(n, n) = -lu.solve(so->K);
+    out.F.bottomRightCorner(n, n) = -lu.solve(so->D);
+    out.G = Matrix::Zero(2 * n, so->inputs());
+    out.G.bottomRows(n) = lu.solve(so->B);
+    out.L = Matrix::Zero(so->outputs(), 2 * n);
+    out.L.leftCols(n) = so->C;
+    if (so->has_velocity_output()) out.L.rightCols(n) = so->Cv;
+  } else {
+    const auto& ds = std::get<ReducedDescriptorModel>(model);
+    Eigen::PartialPivLU<Matrix> lu(ds.E);
+    if (!(lu.rcond() > kSingular)) return std::nullopt;
+    out.F = lu.solve(ds.A);
+    out.G = lu.solve(ds.B);
+    out.L = ds.C;
+  }
+  // rcond() is an estimate: an exactly singular matrix can pass it and leave inf / NaN here.
+  if (!out.F.allFinite() || !out.G.allFinite()) return std::nullopt;
+  return out;
+}
+
+}  // namespace
+
+TimeSpan suggest_time_span(const ReducedModel& model, InputSignal::Kind input, double f_min_hz,
+                           double f_max_hz) {
+  if (!(f_min_hz > 0.0 && f_max_hz > f_min_hz && std::isfinite(f_max_hz)))
+    throw ConfigError(fmt::format("suggest_time_span: band [{:g}, {:g}] Hz: must satisfy 0 < "
+                                  "f_min_hz < f_max_hz",
+                                  f_min_hz, f_max_hz));
+  TimeSpan band;
+  band.t_end = 5.0 / f_min_hz;
+  band.f_fast_hz = f_max_hz;
+  band.steps = static_cast<Index>(std::min(1e12, std::ceil(20.0 * f_max_hz * band.t_end)));
+  band.reason = "5 periods of the band's lowest frequency, 20 steps per period of its highest";
+  if (input == InputSignal::Kind::Chirp) return band;
+  const std::optional<FirstOrder> sys = first_order(model);
+  if (!sys || sys->F.rows() == 0) {
+    band.reason += " (the reduced mass or descriptor matrix is singular: no modal terms)";
+    return band;
+  }
+  Eigen::EigenSolver<Matrix> eig(sys->F, true);
+  if (eig.info() != Eigen::Success) {
+    band.reason += " (the reduced model's eigenvalues did not converge)";
+    return band;
+  }
+  const ComplexVector p = eig.eigenvalues();
+  const ComplexMatrix V = eig.eigenvectors();
+  Eigen::PartialPivLU<ComplexMatrix> vlu(V);
+  if (!(vlu.rcond() > 1e-12)) {
+    band.reason +=
+        " (a repeated pole without independent modes, such as the double pole at 0 of a "
+        "rigid-body mode: the response need not settle)";
+    return band;
+  }
+  const ComplexMatrix Y = vlu.solve(sys->G.cast<Complex>());  // rows: w_i^T G
+  const ComplexMatrix LV = sys->L.cast<Complex>() * V;         // columns: L v_i
+  const Index n = p.size();
+  // Amplitude of each modal term of the response: ||L v_i|| ||w_i^T G|| (impulse), over |p_i|
+  // for a step (the term (R_i / p_i) e^(p_i t)); a pole at 0 gives an infinite amplitude.
+  std::vector<double> amplitude(static_cast<std::size_t>(n));
+  double largest = 0.0;
+  for (Index i = 0; i < n; ++i) {
+    double a = LV.col(i).norm() * Y.row(i).norm();
+    if (input == InputSignal::Kind::Step) a /= std::abs(p(i));
+    amplitude[static_cast<std::size_t>(i)] = std::isnan(a) ? 0.0 : a;
+    largest = std::max(largest, amplitude[static_cast<std::size_t>(i)]);
+  }
+  if (!(largest > 0.0)) {
+    band.reason += " (no pole of the reduced model is seen at its outputs)";
+    return band;
+  }
+  double slowest_rate = std::numeric_limits<double>::infinity();
+  double fastest_hz = 0.0;
+  for (Index i = 0; i < n; ++i) {
+    if (!(amplitude[static_cast<std::size_t>(i)] >= 1e-3 * largest)) continue;
+    const double rate = -p(i).real();
+    if (!(rate > 1e-12 * std::abs(p(i))) || !std::isfinite(amplitude[static_cast<std::size_t>(i)])) {
+      band.reason += fmt::format(" (a term that matters does not decay: pole {:.3g}{:+.3g}i, a "
+                                 "rigid-body, undamped or unstable mode)",
+                                 p(i).real(), p(i).imag());
+      return band;
+    }
+    slowest_rate = std::min(slowest_rate, rate);
+    fastest_hz = std::max(fastest_hz, std::abs(p(i)) / kTwoPi);
+  }
+  TimeSpan out;
+  out.from_poles = true;
+  out.tau_slow = 1.0 / slowest_rate;
+  out.t_end = std::min(band.t_end, 5.0 * out.tau_slow);
+  out.f_fast_hz = std::min(f_max_hz, fastest_hz);
+  out.steps = std::max<Index>(
+      200, static_cast<Index>(std::min(1e12, std::ceil(20.0 * out.f_fast_hz * out.t_end))));
+  out.reason = fmt::format(
+      "5 time constants of the slowest decaying term of the response that matters (tau = {:.3g} "
+      "s{}), 20 steps per period of its fastest ({:.3g} Hz)",
+      out.tau_slow, out.t_end < 5.0 * out.tau_slow ? ", capped at 5 / f_min" : "",
+      out.f_fast_hz);
   return out;
 }
 

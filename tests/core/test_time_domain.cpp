@@ -467,3 +467,106 @@ TEST(TimeDomainValidation, SolverOfAnotherModelRefused) {
 
 }  // namespace
 }  // namespace ecmor
+
+namespace ecmor {
+namespace {
+
+using Kind = InputSignal::Kind;
+
+// ---------------------------------------------------------------------------------------------
+// The default span of a response (suggest_time_span), on oscillators whose poles are known in
+// closed form: p = -zeta w +- i w sqrt(1 - zeta^2), decay time constant 1 / (zeta w).
+
+// Uncoupled modes: diagonal M = I, D = diag(2 zeta_i w_i), K = diag(w_i^2), B = b, C = c'.
+ReducedSecondOrderModel modes(const std::vector<double>& f_hz, const std::vector<double>& zeta,
+                              const std::vector<double>& b, const std::vector<double>& c) {
+  const Index n = static_cast<Index>(f_hz.size());
+  ReducedSecondOrderModel r;
+  r.M = Matrix::Identity(n, n);
+  r.D = Matrix::Zero(n, n);
+  r.K = Matrix::Zero(n, n);
+  r.B = Matrix(n, 1);
+  r.C = Matrix(1, n);
+  for (Index i = 0; i < n; ++i) {
+    const double w = kTwoPi * f_hz[static_cast<std::size_t>(i)];
+    r.D(i, i) = 2.0 * zeta[static_cast<std::size_t>(i)] * w;
+    r.K(i, i) = w * w;
+    r.B(i, 0) = b[static_cast<std::size_t>(i)];
+    r.C(0, i) = c[static_cast<std::size_t>(i)];
+  }
+  return r;
+}
+
+TEST(TimeSpanSuggestion, FiveTimeConstantsOfTheSlowestTermThatMatters) {
+  const double tau1 = 1.0 / (0.05 * kTwoPi * 1.0);  // 1 Hz, zeta 0.05: 3.18 s
+  // One mode: 5 tau, 20 steps per period of |p| / 2 pi = 1 Hz.
+  const TimeSpan one = suggest_time_span(modes({1.0}, {0.05}, {1.0}, {1.0}), Kind::Step, 0.01, 10);
+  EXPECT_TRUE(one.from_poles) << one.reason;
+  EXPECT_NEAR(one.tau_slow, tau1, 1e-12 * tau1);
+  EXPECT_NEAR(one.t_end, 5.0 * tau1, 1e-12 * tau1);
+  EXPECT_NEAR(one.f_fast_hz, 1.0, 1e-12);
+  EXPECT_EQ(one.steps, static_cast<Index>(std::ceil(20.0 * one.t_end)));
+  // A second, slow (0.1 Hz, zeta 0.001: tau 1592 s) mode that the outputs barely see (b = c =
+  // 1e-5: its step term is 1e-8 of the first one's) does not stretch the span...
+  const TimeSpan weak = suggest_time_span(modes({1.0, 0.1}, {0.05, 0.001}, {1.0, 1e-5}, {1.0, 1e-5}),
+                                          Kind::Step, 0.01, 10);
+  EXPECT_TRUE(weak.from_poles) << weak.reason;
+  EXPECT_NEAR(weak.t_end, 5.0 * tau1, 1e-9 * tau1);
+  // ... seen fully, it does, up to 5 periods of f_min (500 s).
+  const TimeSpan strong = suggest_time_span(
+      modes({1.0, 0.1}, {0.05, 0.001}, {1.0, 1.0}, {1.0, 1.0}), Kind::Step, 0.01, 10);
+  EXPECT_TRUE(strong.from_poles) << strong.reason;
+  EXPECT_NEAR(strong.tau_slow, 1.0 / (0.001 * kTwoPi * 0.1), 1e-9);
+  EXPECT_DOUBLE_EQ(strong.t_end, 500.0);
+  EXPECT_NE(strong.reason.find("capped at 5 / f_min"), std::string::npos) << strong.reason;
+  // The fastest term is capped at the band's top.
+  const TimeSpan fast = suggest_time_span(modes({1.0, 50.0}, {0.05, 0.05}, {1.0, 50.0}, {1.0, 50.0}),
+                                          Kind::Impulse, 0.01, 10);
+  EXPECT_TRUE(fast.from_poles) << fast.reason;
+  EXPECT_DOUBLE_EQ(fast.f_fast_hz, 10.0);
+}
+
+TEST(TimeSpanSuggestion, ResponsesThatDoNotSettleKeepTheBandDefaults) {
+  auto expect_band = [](const TimeSpan& s, const std::string& why) {
+    EXPECT_FALSE(s.from_poles) << why;
+    EXPECT_DOUBLE_EQ(s.t_end, 5.0 / 0.01) << why;
+    EXPECT_DOUBLE_EQ(s.f_fast_hz, 10.0) << why;
+    EXPECT_NE(s.reason.find(why), std::string::npos) << why << ": " << s.reason;
+  };
+  // A rigid-body mode (K = 0 and D = 0 in one direction: a double pole at 0): the step response
+  // drifts for ever.
+  expect_band(suggest_time_span(modes({1.0, 0.0}, {0.05, 0.0}, {1.0, 1.0}, {1.0, 1.0}),
+                                Kind::Step, 0.01, 10),
+              "rigid-body");
+  // A pole at 0 with a mode of its own (damped but unrestrained: K = 0, D > 0).
+  ReducedSecondOrderModel drifting = modes({1.0, 0.0}, {0.05, 0.0}, {1.0, 1.0}, {1.0, 1.0});
+  drifting.D(1, 1) = 0.3;
+  expect_band(suggest_time_span(drifting, Kind::Step, 0.01, 10), "does not decay");
+  // Undamped.
+  expect_band(suggest_time_span(modes({1.0}, {0.0}, {1.0}, {1.0}), Kind::Impulse, 0.01, 10),
+              "does not decay");
+  // A chirp sweeps the band.
+  expect_band(suggest_time_span(modes({1.0}, {0.05}, {1.0}, {1.0}), Kind::Chirp, 0.01, 10),
+              "5 periods");
+  // A singular reduced mass matrix.
+  ReducedSecondOrderModel singular = modes({1.0, 2.0}, {0.05, 0.05}, {1.0, 1.0}, {1.0, 1.0});
+  singular.M(1, 1) = 0.0;
+  expect_band(suggest_time_span(singular, Kind::Step, 0.01, 10), "singular");
+  EXPECT_THROW((void)suggest_time_span(singular, Kind::Step, 10, 1), ConfigError);
+}
+
+// A descriptor model x' = -x / tau + u, y = x: t_end = 5 tau.
+TEST(TimeSpanSuggestion, DescriptorModelsToo) {
+  ReducedDescriptorModel d;
+  d.E = Matrix::Identity(1, 1);
+  d.A = Matrix::Constant(1, 1, -1.0 / 2.5);
+  d.B = Matrix::Ones(1, 1);
+  d.C = Matrix::Ones(1, 1);
+  const TimeSpan s = suggest_time_span(d, Kind::Step, 1e-4, 1.0);
+  EXPECT_TRUE(s.from_poles) << s.reason;
+  EXPECT_NEAR(s.t_end, 12.5, 1e-12);
+  EXPECT_EQ(s.steps, 200);  // 20 x (0.4 / 2 pi Hz) x 12.5 s = 16, raised to the minimum
+}
+
+}  // namespace
+}  // namespace ecmor

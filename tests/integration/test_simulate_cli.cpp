@@ -7,6 +7,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -15,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "ecmor/frequency_response.hpp"
 #include "ecmor/model_io.hpp"
 #include "ecmor/projection.hpp"
 
@@ -126,15 +129,28 @@ TEST_F(SimulateCli, FullOrderReductionHasRoundOffErrorForEveryInput) {
   }
 }
 
-TEST_F(SimulateCli, TruncatedModelShowsTheErrorAndDefaultsFollowTheBand) {
+TEST_F(SimulateCli, TruncatedModelShowsTheErrorAndDefaultsFollowItsPoles) {
   const fs::path run_dir = make_run(6);
   const Result r =
       run({"simulate", run_dir.string(), "--scheme", "generalized-alpha", "--rho-inf", "0.8"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json j = read_json(run_dir / "time_error.json");
-  // 5 periods of f_min = 0.1 Hz; 20 steps per period of f_max = 2 Hz over 50 s.
-  EXPECT_DOUBLE_EQ(j["t_end"].get<double>(), 50.0);
-  EXPECT_EQ(j["steps"], 2000);
+  // The span follows the reduced model's slowest decaying term, within 5 periods of f_min =
+  // 0.1 Hz (50 s): its time constant is that of a pole of the reduced model (computed here by
+  // the QZ algorithm on the pencil, not by the eigensolver the suggestion uses).
+  const nlohmann::json& span = j["span"];
+  ASSERT_TRUE(span["from_poles"].get<bool>()) << span.dump();
+  const double tau = span["tau_slow"].get<double>();
+  EXPECT_DOUBLE_EQ(j["t_end"].get<double>(), std::min(50.0, 5.0 * tau));
+  double nearest = 1.0;
+  for (const Complex& p : poles(read_reduced_model(run_dir)))
+    nearest = std::min(nearest, std::abs(-p.real() * tau - 1.0));
+  EXPECT_LT(nearest, 1e-8) << "tau = " << tau;
+  // 20 steps per period of the fastest term, at most f_max = 2 Hz, at least 200 steps.
+  EXPECT_LE(span["f_fast_hz"].get<double>(), 2.0);
+  EXPECT_EQ(j["steps"].get<long>(),
+            std::max(200L, static_cast<long>(std::ceil(20.0 * span["f_fast_hz"].get<double>() *
+                                                       j["t_end"].get<double>()))));
   EXPECT_EQ(j["scheme"], "generalized-alpha");
   EXPECT_EQ(j["input"]["kind"], "step");
   EXPECT_GT(j["error"]["relative_max"].get<double>(), 1e-6);
@@ -170,6 +186,42 @@ TEST_F(SimulateCli, TruncatedModelShowsTheErrorAndDefaultsFollowTheBand) {
   EXPECT_FALSE(fs::exists(run_dir / "time_response.svg"));
 }
 
+// The README's first command reduces the shipped example; `ecmor simulate` on its output must show
+// the step response, not a flat line: with the default span most of the change of y happens in
+// its first half (the response has settled), and not within its first 0.1 % (the transient is
+// resolved, not squeezed against t = 0). The band's 5 / f_min = 500 000 s did the latter.
+TEST_F(SimulateCli, TheShippedExampleShowsItsTransient) {
+  const fs::path run_dir = m_dir / "example";
+  const Result reduce = run({"reduce", "configs/triplechain_saak09_n451.yaml", "-o",
+                             run_dir.string(), "--no-plot", "-q"});
+  ASSERT_EQ(reduce.exit_code, 0) << reduce.err;
+  const Result r = run({"simulate", run_dir.string(), "--no-plot"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::vector<std::string> lines = read_lines(run_dir / "time_response.csv");
+  ASSERT_GT(lines.size(), 200u);
+  std::vector<double> t, y;
+  for (std::size_t k = 1; k < lines.size(); ++k) {
+    std::stringstream ss(lines[k]);
+    std::string tk, yk;
+    std::getline(ss, tk, ',');
+    std::getline(ss, yk, ',');
+    t.push_back(std::stod(tk));
+    y.push_back(std::stod(yk));
+  }
+  const double t_end = t.back();
+  auto y_at = [&](double when) {
+    const auto it = std::lower_bound(t.begin(), t.end(), when);
+    return y[static_cast<std::size_t>(it - t.begin())];
+  };
+  const double change = y.back() - y.front();
+  ASSERT_GT(std::abs(change), 0.0);
+  EXPECT_LE(std::abs(y.back() - y_at(0.5 * t_end)), 0.1 * std::abs(change))
+      << "the response has not settled by the middle of the span, t_end = " << t_end;
+  EXPECT_LE(std::abs(y_at(1e-3 * t_end) - y.front()), 0.5 * std::abs(change))
+      << "half the change happens in the first 0.1 % of the span, t_end = " << t_end;
+  EXPECT_NE(r.out.find("span: 5 time constants"), std::string::npos) << r.out;
+}
+
 TEST_F(SimulateCli, BadRunDirectoriesAndOptionsAreNamed) {
   Result r = run({"simulate", (m_dir / "nothing").string()});
   EXPECT_EQ(r.exit_code, 1);
@@ -199,6 +251,10 @@ TEST_F(SimulateCli, BadRunDirectoriesAndOptionsAreNamed) {
   r = run({"simulate", run_dir.string(), "--input", "chirp", "--chirp-hz", "1,0"});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("InputSignal::f1_hz = 0: must be finite and > 0"), std::string::npos)
+      << r.err;
+  r = run({"simulate", run_dir.string(), "--time-axis", "sideways"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--time-axis = sideways: must be auto, linear or log"), std::string::npos)
       << r.err;
   EXPECT_FALSE(fs::exists(run_dir / "time_error.json")) << "an error must not look like a result";
 }

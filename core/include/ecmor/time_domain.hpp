@@ -117,6 +117,27 @@ ECMOR_API TimeResponse simulate(const Model& model, ShiftedSolver& solver, const
 ECMOR_API TimeResponse simulate(const ReducedModel& model, const InputSignal& input,
                                 const TimeIntegrationOptions& options);
 
+/// A time span and step count that show a response: where its transient happens, not a flat line.
+struct ECMOR_API TimeSpan {
+  double t_end = 0.0;       ///< [s]
+  Index steps = 0;          ///< before any cap the caller applies
+  double f_fast_hz = 0.0;   ///< the fastest relevant dynamics, resolved by 20 steps per period
+  double tau_slow = 0.0;    ///< slowest decay time constant that matters [s]; 0: none found
+  bool from_poles = false;  ///< false: the band's defaults (5 / f_min, 20 steps per 1 / f_max)
+  std::string reason;       ///< how it was chosen, for the user
+};
+
+/// The span of a step or impulse response of `model` over the band [f_min, f_max] Hz, chosen from
+/// its poles: the modal terms (R_i / p_i) e^(p_i t) of the response (R_i the residue of pole p_i;
+/// for an impulse R_i e^(p_i t)) whose amplitude is at least 1e-3 of the largest matter;
+/// t_end = 5 tau of the slowest of them (e^-5: 0.7 % of the term left), at most 5 / f_min, and 20
+/// steps per period of the fastest of them (|p| / 2 pi), at most f_max, at least 200 steps.
+/// Falls back to the band's defaults (5 periods of f_min, 20 steps per period of f_max) when M_r
+/// (E_r) is singular, or when a term that matters does not decay (a rigid-body mode, an undamped
+/// or unstable pole): that response does not settle. A chirp keeps the band's defaults.
+ECMOR_API TimeSpan suggest_time_span(const ReducedModel& model, InputSignal::Kind input,
+                                     double f_min_hz, double f_max_hz);
+
 /// The output error e(t) = y(t) - yr(t) (seed Eq. 11) and its norms.
 struct ECMOR_API OutputError {
   Matrix e;  ///< p x (steps + 1)
