@@ -1144,5 +1144,37 @@ TEST_F(Cli, SummaryErrorHinfOfABadlyScaledModel) {
   expect_certified_hinf_matches_a_sweep(output(), kLf10);
 }
 
+// The README's configuration example is the shipped example: every setting line of its yaml block
+// (comments dropped) is a line of configs/triplechain_saak09_n451.yaml, and the shipped file has no
+// other run setting (its check: budget aside). Issue 31 found f_max_hz 10.0 in the README against
+// 0.02 in the file.
+TEST(Readme, ConfigurationExampleIsTheShippedConfig) {
+  auto setting_lines = [](std::istream& in, bool stop_at_fence) {
+    std::vector<std::string> out;
+    for (std::string line; std::getline(in, line);) {
+      if (stop_at_fence && line.rfind("```", 0) == 0) break;
+      if (const auto hash = line.find(" #"); hash != std::string::npos) line.erase(hash);
+      if (line.rfind('#', 0) == 0) continue;
+      while (!line.empty() && line.back() == ' ') line.pop_back();
+      if (!line.empty() && line.rfind("check:", 0) != 0) out.push_back(line);
+    }
+    return out;
+  };
+  std::ifstream readme("README.md");
+  ASSERT_TRUE(readme) << "README.md not found from " << fs::current_path();
+  std::string line;
+  while (std::getline(readme, line) && line != "## Configuration") {
+  }
+  while (std::getline(readme, line) && line != "```yaml") {
+  }
+  ASSERT_EQ(line, "```yaml") << "no yaml block under '## Configuration'";
+  const std::vector<std::string> snippet = setting_lines(readme, true);
+  std::ifstream shipped("configs/triplechain_saak09_n451.yaml");
+  ASSERT_TRUE(shipped);
+  const std::vector<std::string> config = setting_lines(shipped, false);
+  ASSERT_GE(snippet.size(), 5u);
+  EXPECT_EQ(snippet, config);
+}
+
 }  // namespace
 }  // namespace ecmor
