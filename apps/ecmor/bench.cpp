@@ -157,17 +157,24 @@ std::string chart_status(const BenchRow& r) {
   return r.met ? "met" : "missed";
 }
 
-// The series a run belongs to: reducer / strategy, prefixed by the model when the bench has more
-// than one (a point of one model is no trade-off against another's).
+// The series a run belongs to: its method, reducer / strategy. The charts draw one panel per model
+// (a point of one model is no trade-off against another's), and a method keeps its colour and
+// marker in every panel.
 std::vector<std::string> chart_labels(const std::vector<BenchRow>& rows) {
-  std::set<std::string> models;
-  for (const BenchRow& r : rows) models.insert(r.model);
   std::vector<std::string> labels;
-  for (const BenchRow& r : rows) {
-    const std::string rs = r.reducer + " / " + r.strategy;
-    labels.push_back(models.size() > 1 ? r.model + ": " + rs : rs);
-  }
+  for (const BenchRow& r : rows) labels.push_back(r.reducer + " / " + r.strategy);
   return labels;
+}
+
+// Colour and marker of series k (1-based): ten colours that stay apart in print and for the
+// common colour-vision deficiencies (Tableau 10) and seven filled or open markers, so that no two
+// of the first 70 series look alike.
+std::string series_style(std::size_t k) {
+  static const char* colours[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
+                                  "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"};
+  static const int markers[] = {7, 5, 9, 11, 13, 4, 8};
+  const std::size_t i = k - 1;
+  return fmt::format("pt {} lc rgb '{}'", markers[i % 7], colours[i % 10]);
 }
 
 // Gnuplot's number syntax for a finite double.
@@ -221,44 +228,65 @@ class BenchCharts {
     }
     write_text_atomically(m_out / "bench_chart.csv", csv);
 
+    // The models, one panel each, in order of first appearance.
+    std::vector<std::string> models_in_order;
+    for (const BenchRow& r : rows)
+      if (std::find(models_in_order.begin(), models_in_order.end(), r.model) ==
+          models_in_order.end())
+        models_in_order.push_back(r.model);
+
     // Where failed runs are drawn: a row above every real value (they have no error to plot),
     // and at a positive time on the log axis even when they failed before the clock mattered.
-    double top = 0.0, min_seconds = 0.0;
+    double top = 0.0, min_seconds = 0.0, max_seconds = 0.0, bottom = 0.0;
+    Index max_order = 0;
     std::set<double> tolerances;
     std::size_t failed = 0, missed = 0, on_front = 0;
     for (std::size_t i = 0; i < rows.size(); ++i) {
       tolerances.insert(rows[i].tolerance);
       top = std::max(top, rows[i].tolerance);
+      bottom = bottom == 0.0 ? rows[i].tolerance : std::min(bottom, rows[i].tolerance);
       const std::string status = chart_status(rows[i]);
       failed += status == "failed" ? 1 : 0;
       missed += status == "missed" ? 1 : 0;
       on_front += front[i] ? 1 : 0;
       if (status == "failed") continue;
-      if (rows[i].verified_error > 0.0) top = std::max(top, rows[i].verified_error);
-      if (rows[i].seconds > 0.0 && (min_seconds == 0.0 || rows[i].seconds < min_seconds)) {
-        min_seconds = rows[i].seconds;
+      max_order = std::max(max_order, rows[i].order);
+      if (rows[i].verified_error > 0.0) {
+        top = std::max(top, rows[i].verified_error);
+        bottom = std::min(bottom, rows[i].verified_error);
+      }
+      if (rows[i].seconds > 0.0) {
+        if (min_seconds == 0.0 || rows[i].seconds < min_seconds) min_seconds = rows[i].seconds;
+        max_seconds = std::max(max_seconds, rows[i].seconds);
       }
     }
     const double fail_y = top > 0.0 ? std::pow(10.0, std::ceil(std::log10(top)) + 1.0) : 1.0;
     const double fail_x = min_seconds > 0.0 ? min_seconds : 1e-2;
 
-    // Failed runs are stacked upwards from fail_y (0.3 decades apart) so that their labels never
-    // overlap, each a red cross with "label tol t" beside it.
+    // Failed runs are stacked upwards from fail_y (0.3 decades apart, ranked within their panel)
+    // so that their labels never overlap, each a red cross with "label tol t" beside it.
     auto failed_y = [&](std::size_t rank) {
       return fail_y * std::pow(10.0, 0.3 * static_cast<double>(rank));
     };
-    // Shared series: one per label that has a run with an error to draw, the markers for the
-    // Pareto front and for missed runs, the tolerance ladder; failed runs as labels with a point
-    // and one key entry. `x` is the gnuplot expression of the abscissa for a non-failed run,
-    // `failed_x` the abscissa of failed run i.
-    auto plot_command = [&](const std::string& x,
+    std::size_t most_failed_in_a_panel = 0;
+    for (const std::string& model : models_in_order) {
+      std::size_t n = 0;
+      for (const BenchRow& r : rows) n += r.model == model && chart_status(r) == "failed" ? 1 : 0;
+      most_failed_in_a_panel = std::max(most_failed_in_a_panel, n);
+    }
+    // One panel's plot: the model's runs per method, its Pareto front and missed runs, its failed
+    // runs as labels, the tolerance ladder. `x` is the gnuplot expression of the abscissa for a
+    // non-failed run, `failed_x` the abscissa of failed run i. The key is drawn once, in a panel of
+    // its own (keys_only), listing every method in the bench.
+    auto plot_command = [&](const std::string& model, const std::string& x,
                             const std::function<double(std::size_t)>& failed_x, bool with_front) {
-      std::string labels_cmd;
+      const std::string mine = fmt::format("strcol(4) eq {}", gnuplot_string(model));
+      std::string labels_cmd = "unset label\n";
       std::size_t rank = 0;
       for (std::size_t i = 0; i < rows.size(); ++i) {
-        if (chart_status(rows[i]) != "failed") continue;
+        if (rows[i].model != model || chart_status(rows[i]) != "failed") continue;
         labels_cmd += fmt::format(
-            "set label {} {} at {},{} left point pt 2 ps 2.5 lc rgb '#d62728' offset char 1.2,0 "
+            "set label {} {} at {},{} left point pt 2 ps 2 lc rgb '#d62728' offset char 1.2,0 "
             "tc rgb '#d62728' front\n",
             rank + 1, gnuplot_string(fmt::format("{} tol {:g}", labels[i], rows[i].tolerance)),
             gp_number(failed_x(i)), gp_number(failed_y(rank)));
@@ -268,74 +296,116 @@ class BenchCharts {
       for (std::size_t k = 0; k < series.size(); ++k) {
         bool drawable = false;
         for (std::size_t i = 0; i < rows.size(); ++i) {
-          drawable = drawable || (series_of[i] == k + 1 && chart_status(rows[i]) != "failed");
+          drawable = drawable || (series_of[i] == k + 1 && rows[i].model == model &&
+                                  chart_status(rows[i]) != "failed");
         }
         if (!drawable) continue;
         parts.push_back(fmt::format(
-            "'bench_chart.csv' skip 1 using (($2 == {0} && strcol(8) ne 'failed') ? {1} : NaN):10 "
-            "with linespoints lw 1.5 pt {2} ps 1.3 lc {0} title {3}",
-            k + 1, x, 5 + 2 * (k % 4), gnuplot_string(series[k])));
+            "'bench_chart.csv' skip 1 using (($2 == {0} && {1} && strcol(8) ne 'failed') ? {2} : "
+            "NaN):10 with linespoints lw 1.5 {3} ps 1.2 notitle",
+            k + 1, mine, x, series_style(k + 1)));
       }
       if (with_front && on_front > 0) {
         parts.push_back(fmt::format(
-            "'bench_chart.csv' skip 1 using ($13 == 1 ? {} : NaN):10 with points pt 6 ps 2.8 "
-            "lw 2 lc rgb '#000000' title 'Pareto front (time, error; per model)'",
-            x));
+            "'bench_chart.csv' skip 1 using (($13 == 1 && {}) ? {} : NaN):10 with points pt 6 "
+            "ps 2.5 lw 2 lc rgb '#000000' notitle",
+            mine, x));
       }
       if (missed > 0) {
         parts.push_back(fmt::format(
-            "'bench_chart.csv' skip 1 using (strcol(8) eq 'missed' ? {} : NaN):10 with points "
-            "pt 3 ps 2 lw 1.5 lc rgb '#ff7f0e' title 'target missed (model kept)'",
-            x));
+            "'bench_chart.csv' skip 1 using ((strcol(8) eq 'missed' && {}) ? {} : NaN):10 with "
+            "points pt 3 ps 1.8 lw 1.5 lc rgb '#ff7f0e' notitle",
+            mine, x));
       }
-      if (failed > 0) {
-        // Key entry only: the crosses themselves are the labels' points.
-        parts.push_back(fmt::format(
-            "NaN with points pt 2 ps 2.5 lc rgb '#d62728' title {}",
-            gnuplot_string(fmt::format("FAILED ({} run{}): crosses at the top, no error", failed,
-                                       failed == 1 ? "" : "s"))));
-      }
-      bool first = true;
-      for (double t : tolerances) {
-        parts.push_back(fmt::format("{} with lines dt 2 lw 1 lc rgb '#555555' {}", gp_number(t),
-                                    first ? "title 'tolerance ladder'" : "notitle"));
-        first = false;
-      }
-      std::string cmd = labels_cmd + "plot ";
+      for (double t : tolerances)
+        parts.push_back(fmt::format("{} with lines dt 2 lw 1 lc rgb '#555555' notitle",
+                                    gp_number(t)));
+      std::string cmd = labels_cmd + fmt::format("set title {} noenhanced\nplot ",
+                                                 gnuplot_string(model));
       for (std::size_t i = 0; i < parts.size(); ++i) {
         cmd += (i > 0 ? ", \\\n     " : "") + parts[i];
       }
       return cmd + "\n";
     };
-    const std::string common = fmt::format(
-        "set logscale y\n"
-        "set grid\n"
-        "set key outside right top\n"
-        "set format y '%g'\n"
-        "set yrange [*:{}]\n"
-        "set ylabel 'verified band error (independent re-check)'\n",
-        gp_number(3.0 * failed_y(failed > 0 ? failed - 1 : 0)));
+    auto keys_only = [&](bool with_front) {
+      std::vector<std::string> parts;
+      for (std::size_t k = 0; k < series.size(); ++k)
+        parts.push_back(fmt::format("NaN with linespoints lw 1.5 {} ps 1.2 title {}",
+                                    series_style(k + 1), gnuplot_string(series[k])));
+      if (with_front && on_front > 0)
+        parts.push_back("NaN with points pt 6 ps 2.5 lw 2 lc rgb '#000000' title 'Pareto front "
+                        "(time, error; per model)'");
+      if (missed > 0)
+        parts.push_back("NaN with points pt 3 ps 1.8 lw 1.5 lc rgb '#ff7f0e' title 'target "
+                        "missed (model kept)'");
+      if (failed > 0)
+        parts.push_back(fmt::format(
+            "NaN with points pt 2 ps 2 lc rgb '#d62728' title {}",
+            gnuplot_string(fmt::format("FAILED ({} run{}): crosses at the top, no error", failed,
+                                       failed == 1 ? "" : "s"))));
+      parts.push_back("NaN with lines dt 2 lw 1 lc rgb '#555555' title 'tolerance ladder'");
+      std::string cmd =
+          "unset label\nunset title\nunset border\nunset tics\nunset xlabel\nunset ylabel\n"
+          "unset grid\nset key center center horizontal maxrows 3 noenhanced\nset xrange [0:1]\n"
+          "set yrange [0:1]\n"
+          "unset logscale\nplot ";
+      for (std::size_t i = 0; i < parts.size(); ++i) {
+        cmd += (i > 0 ? ", \\\n     " : "") + parts[i];
+      }
+      return cmd + "\n";
+    };
+    // Small multiples: one panel per model on shared axes, up to three per row, and below them
+    // one key for all panels, laid out by hand (a layout grid would give the key a whole row).
+    const std::size_t columns = std::min<std::size_t>(models_in_order.size(), 3);
+    const std::size_t rows_of_panels = (models_in_order.size() + columns - 1) / columns;
+    const int width = 1200;
+    const int height = static_cast<int>(std::max<std::size_t>(650, 400 * rows_of_panels + 170));
+    const double key_fraction = 150.0 / height;  // the key's strip at the bottom
+    const double title_fraction = 30.0 / height;
+    const double panel_h = (1.0 - key_fraction - title_fraction) / static_cast<double>(rows_of_panels);
+    const double panel_w = 1.0 / static_cast<double>(columns);
+    const double y_low = bottom > 0.0 ? bottom / 3.0 : 1e-16;
+    const double y_high = 3.0 * failed_y(most_failed_in_a_panel > 0 ? most_failed_in_a_panel - 1 : 0);
+    auto chart = [&](const std::string& title, const std::string& axes, const std::string& x,
+                     const std::function<double(std::size_t)>& failed_x, bool with_front) {
+      std::string body = fmt::format("set multiplot title {} noenhanced\n", gnuplot_string(title));
+      for (std::size_t m = 0; m < models_in_order.size(); ++m) {
+        const std::size_t row = m / columns, column = m % columns;
+        body += fmt::format(
+            "set origin {},{}\nset size {},{}\n"
+            "set logscale y\nset grid\nset border\nset tics\nunset key\nset format y '%g'\n"
+            "set yrange [{}:{}]\nset ylabel 'verified band error'\n",
+            gp_number(panel_w * static_cast<double>(column)),
+            gp_number(key_fraction + panel_h * static_cast<double>(rows_of_panels - 1 - row)),
+            gp_number(panel_w), gp_number(panel_h), gp_number(y_low), gp_number(y_high));
+        body += axes + plot_command(models_in_order[m], x, failed_x, with_front);
+      }
+      body += fmt::format("set origin 0,0\nset size 1,{}\n", gp_number(key_fraction)) +
+              keys_only(with_front) + "unset multiplot\n";
+      return body;
+    };
     std::vector<PlotScript> scripts;
+    const double x_low = fail_x / 1.5;
+    const double x_high = std::max(max_seconds, fail_x) * 1.5;
     scripts.push_back(
         {"bench_time_error",
-         common +
-             "set logscale x\n"
-             "set format x '%g'\n"
-             "set xlabel 'total run time [s] (wall clock, load to summary)'\n"
-             "set title 'ecmor bench: run time vs achieved band error (circled: Pareto front)'\n" +
-             plot_command(
-                 "$11",
-                 [&](std::size_t i) { return rows[i].seconds > 0.0 ? rows[i].seconds : fail_x; },
-                 true),
-         1200, 650});
-    scripts.push_back({"bench_order_error",
-                       common +
-                           "set xlabel 'reduced order'\n"
-                           "set xrange [0:*]\n"
-                           "set title 'ecmor bench: reduced order vs achieved band error'\n" +
-                           plot_command(
-                               "$9", [&](std::size_t i) { return double(rows[i].order); }, false),
-                       1200, 650});
+         chart("ecmor bench: run time vs achieved band error, one panel per model (circled: "
+               "Pareto front)",
+               fmt::format("set logscale x\nset format x '%g'\nset xrange [{}:{}]\n"
+                           "set xlabel 'total run time [s]'\n",
+                           gp_number(x_low), gp_number(x_high)),
+               "$11",
+               [&](std::size_t i) { return rows[i].seconds > 0.0 ? rows[i].seconds : fail_x; },
+               true),
+         width, height});
+    scripts.push_back(
+        {"bench_order_error",
+         chart("ecmor bench: reduced order vs achieved band error, one panel per model",
+               fmt::format("unset logscale x\nset format x '%g'\nset xrange [0:{}]\n"
+                           "set xlabel 'reduced order'\n",
+                           std::max<Index>(1, max_order + max_order / 10 + 1)),
+               "$9", [&](std::size_t i) { return static_cast<double>(rows[i].order); }, false),
+         width, height});
     try {
       render_plots(m_out, scripts, PlotFormat::Both);
     } catch (const GnuplotNotFound& e) {

@@ -425,17 +425,26 @@ TEST_F(Plots, BenchChartsMatchTheTableAndShowFailedRuns) {
   bad_text.replace(bad_text.find("modal"), 5, "no_such_reducer");
   const fs::path bad = m_dir / "bad.yaml";
   write_text(bad, bad_text);
+  // A second model with the same method: its own panel, the same series (colour and marker).
+  const fs::path other = m_dir / "build_so.yaml";
+  write_text(other, "model:    {dir: " + fs::absolute("../shared/models/build_so").string() +
+                        "}\n"
+                        "band:     {f_min_hz: 0.1, f_max_hz: 10}\n"
+                        "target:   {tolerance: 1.0e-3}\n"
+                        "reducer:  {name: modal}\n"
+                        "strategy: {name: grow_order, max_order: 24}\n"
+                        "output:   {dir: unused}\n");
   const fs::path out = m_dir / "bench out";
-  const Result r = run_ecmor(
-      m_dir, {"bench", good.string(), bad.string(), "-t", "1e-3,1e-6", "-o", out.string()});
+  const Result r = run_ecmor(m_dir, {"bench", good.string(), bad.string(), other.string(), "-t",
+                                     "1e-3,1e-6", "-o", out.string()});
   EXPECT_EQ(r.exit_code, 2) << r.out << r.err;
   // Progress lines carry the elapsed time since the bench started.
-  EXPECT_NE(r.out.find("[1/4 "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("[1/6 "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("s elapsed"), std::string::npos) << r.out;
 
   const auto table = read_csv(out / "bench.csv");
   const auto chart = read_csv(out / "bench_chart.csv");
-  ASSERT_EQ(table.size(), 4u);
+  ASSERT_EQ(table.size(), 6u);
   ASSERT_EQ(chart.size(), table.size());
   std::vector<TradeoffPoint> points;
   for (std::size_t k = 0; k < table.size(); ++k) {
@@ -454,14 +463,21 @@ TEST_F(Plots, BenchChartsMatchTheTableAndShowFailedRuns) {
   }
   EXPECT_EQ(chart[2].at("status"), "failed");
   EXPECT_EQ(chart[3].at("status"), "failed");
-  // The Pareto column is the front of the table's own numbers (one model here, so one front);
-  // failed rows are never on it.
-  for (const auto& t : table) ASSERT_EQ(t.at("model"), "lf10");
-  const std::vector<bool> front = pareto_front(points);
+  // The Pareto column is the front of the table's own numbers, one front per model; failed rows
+  // are never on it.
+  for (std::size_t k = 0; k < 4; ++k) ASSERT_EQ(table[k].at("model"), "lf10");
+  for (std::size_t k = 4; k < 6; ++k) ASSERT_EQ(table[k].at("model"), "build_so");
+  const std::vector<bool> front_lf10 = pareto_front({points.begin(), points.begin() + 4});
+  const std::vector<bool> front_build = pareto_front({points.begin() + 4, points.end()});
   for (std::size_t k = 0; k < chart.size(); ++k) {
-    EXPECT_EQ(chart[k].at("pareto"), front[k] ? "1" : "0") << "row " << k;
+    const bool on = k < 4 ? front_lf10[k] : front_build[k - 4];
+    EXPECT_EQ(chart[k].at("pareto"), on ? "1" : "0") << "row " << k;
   }
   EXPECT_EQ(chart[2].at("pareto"), "0");
+  // One series per method across models: modal / grow_order is series 1 on both models (its
+  // colour and marker in every panel), the failing reducer series 2.
+  for (std::size_t k : {0u, 1u, 4u, 5u}) EXPECT_EQ(chart[k].at("series"), "1") << "row " << k;
+  for (std::size_t k : {2u, 3u}) EXPECT_EQ(chart[k].at("series"), "2") << "row " << k;
 
   if (!have_gnuplot()) GTEST_SKIP() << "gnuplot is not on PATH: chart images not checked";
   for (const std::string name : {"bench_time_error", "bench_order_error"}) {
@@ -472,7 +488,7 @@ TEST_F(Plots, BenchChartsMatchTheTableAndShowFailedRuns) {
     const std::string svg = read_text(out / (name + ".svg"));
     for (const std::string t :
          {"modal / grow_order", "no_such_reducer / grow_order", "FAILED (2 runs)",
-          "no_such_reducer / grow_order tol 0.001", "tolerance ladder"}) {
+          "no_such_reducer / grow_order tol 0.001", "tolerance ladder", "lf10", "build_so"}) {
       EXPECT_NE(svg.find(t), std::string::npos) << name << ".svg lacks '" << t << "'";
     }
     EXPECT_TRUE(fs::is_regular_file(out / (name + ".gp")));
