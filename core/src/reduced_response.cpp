@@ -1,5 +1,7 @@
 #include "ecmor/reduced_response.hpp"
 
+#include "first_order_realisation.hpp"
+
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -18,11 +20,11 @@ namespace {
 constexpr double kMinRcond = 1e-8;
 
 // Solves X = A^-1 B with a pivoted LU if A is well conditioned; returns false otherwise.
-bool solve_if_well_conditioned(const Matrix& A, const Matrix& B, Matrix& X) {
+bool solve_if_well_conditioned(const Matrix& A, const Matrix& B, Matrix& X, double min_rcond) {
   if (A.rows() == 0) return false;
   Eigen::PartialPivLU<Matrix> lu(A);
   const double rcond = lu.rcond();
-  if (!(rcond > kMinRcond)) return false;
+  if (!(rcond > min_rcond)) return false;
   X = lu.solve(B);
   return X.allFinite();
 }
@@ -75,40 +77,49 @@ void check_shapes(const Sys& sys) {
 
 }  // namespace
 
-ReducedResponse::ReducedResponse(const ReducedModel& model) : m_model(model) {
-  std::visit([](const auto& sys) { check_shapes(sys); }, model);
-  Matrix F, G, L;
-  bool ok = false;
+namespace detail {
+
+std::optional<FirstOrderRealisation> first_order_realisation(const ReducedModel& model,
+                                                             double min_rcond) {
+  FirstOrderRealisation out;
   if (const auto* so = std::get_if<ReducedSecondOrderModel>(&model)) {
     const Index n = so->size();
     Matrix MinvKD, MinvB;
     Matrix KD(n, 2 * n);
     KD << so->K, so->D;
-    if (solve_if_well_conditioned(so->M, KD, MinvKD) &&
-        solve_if_well_conditioned(so->M, so->B, MinvB)) {
-      F = Matrix::Zero(2 * n, 2 * n);
-      F.topRightCorner(n, n).setIdentity();
-      F.bottomRows(n) = -MinvKD;
-      G = Matrix::Zero(2 * n, so->inputs());
-      G.bottomRows(n) = MinvB;
-      L = Matrix::Zero(so->outputs(), 2 * n);
-      L.leftCols(n) = so->C;
-      if (so->has_velocity_output()) L.rightCols(n) = so->Cv;
-      ok = true;
-    }
+    if (!solve_if_well_conditioned(so->M, KD, MinvKD, min_rcond) ||
+        !solve_if_well_conditioned(so->M, so->B, MinvB, min_rcond))
+      return std::nullopt;
+    out.F = Matrix::Zero(2 * n, 2 * n);
+    out.F.topRightCorner(n, n).setIdentity();
+    out.F.bottomRows(n) = -MinvKD;
+    out.G = Matrix::Zero(2 * n, so->inputs());
+    out.G.bottomRows(n) = MinvB;
+    out.L = Matrix::Zero(so->outputs(), 2 * n);
+    out.L.leftCols(n) = so->C;
+    if (so->has_velocity_output()) out.L.rightCols(n) = so->Cv;
   } else {
     const auto& ds = std::get<ReducedDescriptorModel>(model);
     Matrix AB(ds.size(), ds.size() + ds.inputs());
     AB << ds.A, ds.B;
     Matrix X;
-    if (solve_if_well_conditioned(ds.E, AB, X)) {
-      F = X.leftCols(ds.size());
-      G = X.rightCols(ds.inputs());
-      L = ds.C;
-      ok = true;
-    }
+    if (!solve_if_well_conditioned(ds.E, AB, X, min_rcond)) return std::nullopt;
+    out.F = X.leftCols(ds.size());
+    out.G = X.rightCols(ds.inputs());
+    out.L = ds.C;
   }
-  if (!ok || F.rows() == 0) return;
+  return out;
+}
+
+}  // namespace detail
+
+ReducedResponse::ReducedResponse(const ReducedModel& model) : m_model(model) {
+  std::visit([](const auto& sys) { check_shapes(sys); }, model);
+  std::optional<detail::FirstOrderRealisation> realisation =
+      detail::first_order_realisation(model, kMinRcond);
+  if (!realisation || realisation->F.rows() == 0) return;
+  Matrix F = std::move(realisation->F), G = std::move(realisation->G),
+         L = std::move(realisation->L);
   Eigen::HessenbergDecomposition<Matrix> hess(F);
   Matrix H = hess.matrixH();
   // Q applied as its Householder reflectors, never formed: forming it cost a quarter of the

@@ -31,6 +31,7 @@
 #include <variant>
 
 #include "ecmor/error.hpp"
+#include "first_order_realisation.hpp"
 
 namespace ecmor {
 
@@ -437,44 +438,6 @@ OutputError output_error(const TimeResponse& full, const TimeResponse& reduced) 
   return out;
 }
 
-namespace {
-
-// x' = F x + G u, y = L x of a reduced model, or nothing when M_r (E_r) is (nearly) singular.
-struct FirstOrder {
-  Matrix F, G, L;
-};
-
-std::optional<FirstOrder> first_order(const ReducedModel& model) {
-  constexpr double kSingular = 1e-12;
-  FirstOrder out;
-  if (const auto* so = std::get_if<ReducedSecondOrderModel>(&model)) {
-    const Index n = so->size();
-    Eigen::PartialPivLU<Matrix> lu(so->M);
-    if (!(lu.rcond() > kSingular)) return std::nullopt;
-    out.F = Matrix::Zero(2 * n, 2 * n);
-    out.F.topRightCorner(n, n).setIdentity();
-    out.F.bottomLeftCorner(n, n) = -lu.solve(so->K);
-    out.F.bottomRightCorner(n, n) = -lu.solve(so->D);
-    out.G = Matrix::Zero(2 * n, so->inputs());
-    out.G.bottomRows(n) = lu.solve(so->B);
-    out.L = Matrix::Zero(so->outputs(), 2 * n);
-    out.L.leftCols(n) = so->C;
-    if (so->has_velocity_output()) out.L.rightCols(n) = so->Cv;
-  } else {
-    const auto& ds = std::get<ReducedDescriptorModel>(model);
-    Eigen::PartialPivLU<Matrix> lu(ds.E);
-    if (!(lu.rcond() > kSingular)) return std::nullopt;
-    out.F = lu.solve(ds.A);
-    out.G = lu.solve(ds.B);
-    out.L = ds.C;
-  }
-  // rcond() is an estimate: an exactly singular matrix can pass it and leave inf / NaN here.
-  if (!out.F.allFinite() || !out.G.allFinite()) return std::nullopt;
-  return out;
-}
-
-}  // namespace
-
 TimeSpan suggest_time_span(const ReducedModel& model, InputSignal::Kind input, double f_min_hz,
                            double f_max_hz) {
   if (!(f_min_hz > 0.0 && f_max_hz > f_min_hz && std::isfinite(f_max_hz)))
@@ -487,7 +450,9 @@ TimeSpan suggest_time_span(const ReducedModel& model, InputSignal::Kind input, d
   band.steps = static_cast<Index>(std::min(1e12, std::ceil(20.0 * f_max_hz * band.t_end)));
   band.reason = "5 periods of the band's lowest frequency, 20 steps per period of its highest";
   if (input == InputSignal::Kind::Chirp) return band;
-  const std::optional<FirstOrder> sys = first_order(model);
+  // A reciprocal condition of M_r (E_r) down to 1e-12: the poles and residues only choose a span.
+  const std::optional<detail::FirstOrderRealisation> sys =
+      detail::first_order_realisation(model, 1e-12);
   if (!sys || sys->F.rows() == 0) {
     band.reason += " (the reduced mass or descriptor matrix is singular: no modal terms)";
     return band;
