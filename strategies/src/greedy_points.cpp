@@ -72,6 +72,43 @@ double hz_of(const ExpansionPoint& p) { return p.s.imag() / kTwoPi; }
 
 std::string hz_text(double f) { return strategy_support::sci(f) + " Hz"; }
 
+// A step that spoiled the model is not taken again near its frequency: within this distance in
+// |ln f| (5 %), which covers the resonance hump of any lightly damped mode (half-width zeta f).
+constexpr double kBlockedRadius = 0.048790164169432;  // ln(1.05)
+
+bool near_any(double f, const std::vector<double>& frequencies, double radius) {
+  return std::any_of(frequencies.begin(), frequencies.end(),
+                     [&](double g) { return std::abs(std::log(f / g)) <= radius; });
+}
+
+// A step spoiled the model when its error is not finite (a reduced pole on a sample) or exceeds
+// both 1, the error of no model at all, and ten times the error of the model before it: a
+// spurious pole on the band, not the ordinary unevenness of greedy growth.
+bool spoiled(const BandError& trial, const BandError& before) {
+  const double e = trial.sup_relative;
+  if (!std::isfinite(before.sup_relative)) return false;
+  return !std::isfinite(e) || (e > 1.0 && e > 10.0 * before.sup_relative);
+}
+
+// Where the next point goes: the error's peak, unless a step near it spoiled the model
+// (`blocked`); then the largest finite error away from every blocked frequency. NaN when no
+// sample is left.
+double next_target(const BandError& error, const std::vector<double>& blocked) {
+  const double peak = error.f_peak_hz;
+  if (!(std::isfinite(peak) && peak > 0.0)) return peak;
+  if (!near_any(peak, blocked, kBlockedRadius)) return peak;
+  double best_f = std::numeric_limits<double>::quiet_NaN();
+  double best_e = -1.0;
+  for (std::size_t k = 0; k < error.f_hz.size() && k < error.relative.size(); ++k) {
+    const double e = error.relative[k];
+    if (std::isfinite(e) && e > best_e && !near_any(error.f_hz[k], blocked, kBlockedRadius)) {
+      best_e = e;
+      best_f = error.f_hz[k];
+    }
+  }
+  return best_f;
+}
+
 }  // namespace
 
 GreedyPointsOptions GreedyPointsOptions::from(const ParameterMap& p) {
@@ -164,6 +201,9 @@ StrategyResult GreedyPoints::run(StrategyContext& ctx) {
     Candidate c =
         run.assess(std::move(first), "initial", {{"points", static_cast<double>(points.size())}});
     std::vector<double> best_trace;  // best error after each assessed model
+    // Frequencies where a new point or moment spoiled the model (a spurious pole on the band):
+    // such a step is not taken; growth backs off to the model before it and aims elsewhere.
+    std::vector<double> blocked;
     while (true) {
       if (run.stopped()) {
         return run.finish(Termination::Interrupted,
@@ -192,7 +232,15 @@ StrategyResult GreedyPoints::run(StrategyContext& ctx) {
                               std::to_string(points.size()) + " points; " + shortfall());
       }
       // Where the error is worst (the re-check's peak when it found a larger error).
-      double f = c.error.f_peak_hz;
+      double f = next_target(c.error, blocked);
+      if (std::isnan(f) && !blocked.empty()) {
+        return run.finish(Termination::Stagnated,
+                          "every frequency left to place a point at spoiled the model (a "
+                          "spurious pole on the band; " +
+                              std::to_string(blocked.size()) + " tried, e.g. " +
+                              hz_text(blocked.front()) + "); order " +
+                              std::to_string(c.order()) + "; " + shortfall());
+      }
       if (!std::isfinite(f) || f <= 0.0) {
         throw NumericalError(std::string("strategy '") + kStrategy + "': the band error " +
                              sci(c.error.sup_relative) +
@@ -242,10 +290,16 @@ StrategyResult GreedyPoints::run(StrategyContext& ctx) {
                               "); " + shortfall());
       }
       if (delivered > max_order) return over_budget(delivered, "adding " + what);
+      extra["points"] = static_cast<double>(next.size());
+      Candidate trial = run.assess(std::move(r), phase, extra);
+      if (spoiled(trial.error, c.error)) {
+        // A spurious pole on the band: keep the model before the step and aim elsewhere.
+        blocked.push_back(f);
+        continue;
+      }
       points = std::move(next);
       previous = delivered;
-      extra["points"] = static_cast<double>(points.size());
-      c = run.assess(std::move(r), phase, extra);
+      c = std::move(trial);
     }
 
     // Phase 2: drop what is not needed (order of trials and its cost: see prune_points.hpp).

@@ -330,6 +330,64 @@ TEST(GreedyPoints, PeakAtAnExistingPointAddsAMoment) {
             "add_moment");
 }
 
+// A point within 2 % of 5 Hz (the chain's fifth resonance, the band's largest error after the
+// first step) gives a model with an undamped pole at 1 Hz, its first resonance, which the
+// estimator samples: a band error of 1e7 there, as a Krylov model that lost its damping has.
+class PoleOnTheBandNear5Hz final : public Reducer {
+ public:
+  static bool poisons(const ExpansionPoint& p) { return std::abs(hz_of(p) / 5.0 - 1.0) < 0.02; }
+  void setup(const ReductionContext& ctx) override { m_inner.setup(ctx); }
+  ReducerResult reduce(const ReductionRequest& request) override {
+    ReducerResult r = m_inner.reduce(request);
+    const bool poisoned = std::any_of(request.points.begin(), request.points.end(),
+                                      poisons);
+    if (!poisoned) return r;
+    ++poisoned_calls;
+    auto& m = std::get<ReducedSecondOrderModel>(r.model);
+    const Index n = m.size();
+    auto grow = [n](Matrix& a) { a.conservativeResize(n + 1, n + 1); a.row(n).setZero(); a.col(n).setZero(); };
+    grow(m.M);
+    grow(m.D);
+    grow(m.K);
+    m.M(n, n) = 1.0;
+    m.K(n, n) = kTwoPi * kTwoPi;  // omega = 2 pi rad/s: f = 1 Hz, undamped
+    m.B.conservativeResize(n + 1, Eigen::NoChange);
+    m.B.row(n).setOnes();
+    m.C.conservativeResize(Eigen::NoChange, n + 1);
+    m.C.col(n).setOnes();
+    return r;
+  }
+  int poisoned_calls = 0;
+
+ private:
+  InterpolationReducer m_inner;
+};
+
+TEST(GreedyPoints, AStepThatPutsAPoleOnTheBandIsNotTaken) {
+  Fixture fx;
+  PoleOnTheBandNear5Hz reducer;
+  const StrategyResult r = fx.run(reducer, 1e-3, params());
+  ASSERT_GT(reducer.poisoned_calls, 0) << "the test never reached the band top: " << r.message;
+  bool saw_spoiled = false;
+  for (const auto& rec : r.history) {
+    const bool poisoned =
+        std::any_of(rec.points.begin(), rec.points.end(), PoleOnTheBandNear5Hz::poisons);
+    if (poisoned) {
+      EXPECT_GT(rec.band_error, 1.0) << "record " << rec.iteration << " (" << rec.phase << ")";
+      saw_spoiled = true;
+    } else {
+      EXPECT_TRUE(std::isfinite(rec.band_error)) << "record " << rec.iteration;
+    }
+  }
+  EXPECT_TRUE(saw_spoiled);
+  // Growth went on from the model before each such step and met the tolerance without a point
+  // near 5 Hz, checked independently.
+  ASSERT_EQ(r.termination, Termination::Converged) << r.message;
+  ASSERT_TRUE(r.best.has_value());
+  for (const ExpansionPoint& p : r.best->points) EXPECT_FALSE(PoleOnTheBandNear5Hz::poisons(p));
+  EXPECT_LE(dense_sup_error(std::get<SecondOrderModel>(fx.model), r.best->model, 400).first, 1e-3);
+}
+
 TEST(GreedyPoints, UnreachableToleranceStopsWithAReason) {
   Fixture fx;
   InterpolationReducer reducer;
