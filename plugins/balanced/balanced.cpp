@@ -74,6 +74,7 @@ struct Balancing {
   Matrix U, V;
   Vector s;
   Index rank = 0;
+  double floor = 0.0;  ///< s_i at or below this are not resolved by the factors (balance())
 };
 
 /// Thin SVD of Zl' Zr. Numerical rank: s_i^2 is an eigenvalue of Xr Xl (Xr = Zr Zr', Xl = Zl Zl'),
@@ -91,6 +92,7 @@ Balancing balance(const Matrix& Zl, const Matrix& Zr, Index n) {
   b.s = std::move(svd.s);
   const double floor =
       std::sqrt(static_cast<double>(n) * kEps * Zl.squaredNorm() * Zr.squaredNorm());
+  b.floor = floor;
   while (b.rank < b.s.size() && b.s(b.rank) > floor) ++b.rank;
   return b;
 }
@@ -231,6 +233,11 @@ class BalancedReducer final : public Reducer {
       result.note += fmt::format("; order {} capped at {} ({})", request.order, r,
                                  r == m_hsv_cap ? "hsv_tolerance" : "numerical rank of the hsv");
     }
+    // At the numerical rank the driver cannot grow the order further: say why here, since the
+    // strategy's message only says "the reducer delivers at most order r".
+    const bool at_rank = r == m_rank && m_rank < m_hsv_cap;
+    result.diagnostics["order_limit_reached"] = at_rank ? 1.0 : 0.0;
+    if (at_rank) result.note += "; " + limit_text(r);
     if (unstable > 0) result.note += fmt::format("; {} reduced poles with Re >= 0", unstable);
     if (m_adi) {
       result.note += fmt::format("; low-rank ADI Gramians (ranks {} / {}, {} / {} iterations, "
@@ -258,6 +265,36 @@ class BalancedReducer final : public Reducer {
       }
     }
     return result;
+  }
+
+  /// Names why r = max_order() is the largest order: the resolution floor of the HSVs and, when
+  /// the low-rank ADI stopped at its budget, that the Gramians are unconverged (the case of a
+  /// lightly damped model such as triplechain_mess_n1501, README "When BT stops early").
+  std::string limit_text(Index r) const {
+    const Vector& s = m_main.s;
+    std::string text = fmt::format(
+        "BT LIMIT: order {} is the largest this reducer delivers (s_{} = {:.3e} is at or below "
+        "{:.3e}, the floor at which the Gramian factors resolve Hankel singular values)",
+        r, r + 1, r < s.size() ? s(r) : 0.0, m_main.floor);
+    if (m_adi && !(m_adi->controllability.converged && m_adi->observability.converged)) {
+      text += fmt::format(
+          "; cause: low-rank ADI did not converge (residuals {:.2e} / {:.2e} > adi_tolerance "
+          "{:.1e} after {} / {} iterations{}), so the Gramians are approximate",
+          m_adi->controllability.residual, m_adi->observability.residual,
+          m_options.adi.tolerance, m_adi->controllability.iterations,
+          m_adi->observability.iterations, route_text());
+      text += m_view->second_order() && m_options.structure == Structure::FirstOrder
+                  ? "; try a larger adi_max_iterations with structure: second_order"
+                  : "; try a larger adi_max_iterations";
+    }
+    return text;
+  }
+
+  /// How the Gramian route was chosen, for the note.
+  std::string route_text() const {
+    if (m_options.gramians != GramianRoute::Auto) return "";
+    return fmt::format("; gramians: auto took low-rank ADI for {} > {} first-order states",
+                       m_view->state_size(), kAutoDenseStates);
   }
 
   Index max_order() const override {

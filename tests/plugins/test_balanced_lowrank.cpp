@@ -211,6 +211,37 @@ TEST(BalancedLowRank, AnAdiRunThatStopsAtItsBudgetIsReportedOrRefused) {
   EXPECT_EQ(good.diagnostics.count("error_bound"), 1u);
 }
 
+/// At its numerical rank the reducer cannot grow the order, and the strategy's message only says
+/// "the reducer delivers at most order r": the note must name why (issue 29, item 5). build with
+/// 4 ADI iterations is the unconverged case of triplechain_mess_n1501 on a small model: the note
+/// names the floor and the unconverged ADI with its residuals; below the rank it says nothing;
+/// with converged ADI it names the floor only.
+TEST(BalancedLowRank, TheLargestOrderNamesItsCause) {
+  auto f = make("build", params({{"gramians", std::string("lowrank")},
+                                 {"adi_max_iterations", 4LL}}),
+                band_of(0.1, 10.0));
+  const Index cap = f->reducer->max_order();
+  ASSERT_GT(cap, 1);
+  const ReducerResult at = f->reducer->reduce(ReductionRequest{cap, {}});
+  EXPECT_EQ(at.diagnostics.at("order_limit_reached"), 1.0);
+  EXPECT_NE(at.note.find(fmt::format("BT LIMIT: order {} is the largest", cap)),
+            std::string::npos)
+      << at.note;
+  EXPECT_NE(at.note.find("cause: low-rank ADI did not converge"), std::string::npos) << at.note;
+  EXPECT_NE(at.note.find(fmt::format("{:.2e}", at.diagnostics.at("adi_residual_c"))),
+            std::string::npos)
+      << at.note;
+  const ReducerResult below = f->reducer->reduce(ReductionRequest{cap - 1, {}});
+  EXPECT_EQ(below.diagnostics.at("order_limit_reached"), 0.0);
+  EXPECT_EQ(below.note.find("BT LIMIT"), std::string::npos) << below.note;
+
+  auto ok = make("build", params({{"gramians", std::string("lowrank")}}), band_of(0.1, 10.0));
+  const ReducerResult good = ok->reducer->reduce(ReductionRequest{ok->reducer->max_order(), {}});
+  EXPECT_EQ(good.diagnostics.at("adi_converged"), 1.0);
+  EXPECT_NE(good.note.find("BT LIMIT"), std::string::npos) << good.note;
+  EXPECT_EQ(good.note.find("did not converge"), std::string::npos) << good.note;
+}
+
 TEST(BalancedLowRank, BadParametersAreNamed) {
   auto create = [](const ParameterMap& p) { registry().create("balanced", p); };
   std::string msg = message_of<ConfigError>(
