@@ -152,6 +152,18 @@ std::string StrategyRun::shortfall() const {
 StrategyResult StrategyRun::finish(Termination t, std::string message) {
   m_out.termination = t;
   m_out.message = std::move(message);
+  // A run that misses a tolerance below what the evaluation resolves says so: its best error sits
+  // at the reference floor (the rounding of the reference model where the full model was solved).
+  if (!m_smallest_pass && m_most_accurate) {
+    const double floor = m_most_accurate->error.reference_floor;
+    if (floor > 0.0 && std::isfinite(floor) && best_error() <= 2.0 * floor &&
+        m_ctx.tolerance < floor) {
+      m_out.message += "; the band error " + sci(best_error()) + " is at the reference floor " +
+                       sci(floor) +
+                       " (the rounding of the error's evaluation on this model): a tolerance "
+                       "below it cannot be certified";
+    }
+  }
   const std::optional<Candidate>& chosen = m_smallest_pass ? m_smallest_pass : m_most_accurate;
   if (chosen) {
     m_out.best = chosen->result;

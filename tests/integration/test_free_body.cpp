@@ -215,6 +215,33 @@ TEST_P(ClampedSolid, GreedyKrylovIsWithinOneAndAHalfTimesModalWithStaticCorrecti
   }
 }
 
+// Asked for less than the model's responses resolve, greedy Krylov stagnates at the reference
+// floor (the rounding of the error's evaluation at the first resonance, 1.4e-8 here) and says so.
+TEST(ClampedSolidFloor, AToleranceBelowTheReferenceFloorIsNamed) {
+  test::TempDir tmp("ecmor_clamped_solid");
+  bench::SolidOptions options;
+  options.nx = 16;
+  options.ny = 4;
+  options.nz = 3;
+  write_model(tmp / "model", bench::solid(options));
+  const std::string yaml = "model: {dir: " + (tmp / "model").string() +
+                           "}\nband: {f_min_hz: 10, f_max_hz: 3000}\n"
+                           "target: {tolerance: 1.0e-10}\nreducer: {name: krylov}\n"
+                           "strategy: {name: greedy_points, stagnation_window: 2}\n"
+                           "error: {verify: estimate}\noutput: {dir: " +
+                           (tmp / "out").string() + "}\n";
+  Registry registry;
+  registry.load_plugin(fs::path(ECMOR_TEST_PLUGIN_DIR) / "libecmor_krylov.so");
+  const RunSummary s = run_reduction(parse_run_config(yaml, "floor.yaml"), registry);
+  ASSERT_EQ(s.termination, Termination::Stagnated) << s.message;
+  std::ifstream in(tmp / "out" / "summary.json");
+  const double floor = nlohmann::json::parse(in).at("error_control").at("reference_floor");
+  EXPECT_GT(floor, 1e-10);
+  EXPECT_LE(s.band_error, 2.0 * floor);
+  EXPECT_NE(s.message.find("is at the reference floor"), std::string::npos) << s.message;
+  EXPECT_NE(s.message.find("cannot be certified"), std::string::npos) << s.message;
+}
+
 // N = 960 and 900: a slender bar and a stubby block.
 INSTANTIATE_TEST_SUITE_P(Shapes, ClampedSolid,
                          ::testing::Values(Shape{16, 4, 3}, Shape{10, 5, 4}),

@@ -391,10 +391,7 @@ TEST(GreedyPoints, AStepThatPutsAPoleOnTheBandIsNotTaken) {
 TEST(GreedyPoints, UnreachableToleranceStopsWithAReason) {
   Fixture fx;
   InterpolationReducer reducer;
-  const auto t0 = std::chrono::steady_clock::now();
   const StrategyResult r = fx.run(reducer, 1e-15, params());
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_NE(r.termination, Termination::Converged) << r.message;
   EXPECT_NE(r.termination, Termination::Failed) << r.message;
   EXPECT_TRUE(
@@ -402,7 +399,6 @@ TEST(GreedyPoints, UnreachableToleranceStopsWithAReason) {
       r.termination == Termination::MaxOrderReached || r.termination == Termination::IterationLimit)
       << to_string(r.termination) << ": " << r.message;
   EXPECT_LE(r.history.size(), 200u);
-  EXPECT_LT(seconds, 30.0);
   ASSERT_TRUE(r.best.has_value());  // the most accurate model is kept
   EXPECT_GT(r.best_error.sup_relative, 1e-15);
   EXPECT_NE(r.message.find("1.000e-15"), std::string::npos) << r.message;
