@@ -80,7 +80,7 @@ CheckRow check_one(const RunConfig& base, const std::filesystem::path& out_dir,
     StopOnSignal observer;
     const RunSummary s = run_reduction(config, registry, &observer);
     row.termination = to_string(s.termination);
-    if (!config.portfolio.empty() && s.has_model) {
+    if (config.is_portfolio() && s.has_model) {
       row.reducer = "portfolio: " + s.reducer + "/" + s.strategy;
     }
     row.order = s.has_model ? s.order : 0;

@@ -316,7 +316,7 @@ void Parser::parse_portfolio(const YAML::Node& strategy, RunConfig& config) {
   const YAML::Node members = strategy["members"];
   const std::string shape =
       "a list of {reducer: {name: ..., <parameters>}, strategy: {name: ..., <parameters>}}";
-  if (!members.IsDefined()) fail(at(strategy), "strategy 'portfolio' needs 'members': " + shape);
+  if (!members.IsDefined()) return;  // the driver fills in the default members
   if (!members.IsSequence() || members.size() == 0)
     fail(members.IsNull() ? key_location(strategy, "members") : at(members),
          fmt::format("strategy.members must be {}, found {}", shape,

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -222,13 +223,55 @@ int select_winner(const std::vector<PortfolioAttempt>& attempts) {
 
 }  // namespace
 
-RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserver* observer) {
+std::vector<PortfolioMember> default_portfolio(const Model& model, const Registry& registry) {
+  const bool second_order = kind_of(model) == ModelKind::SecondOrder;
+  auto symmetric = [](const SparseMatrix& A) {
+    return (A - SparseMatrix(A.transpose())).norm() <= 1e-14 * A.norm();
+  };
+  bool modal_suits = second_order;
+  if (const auto* d = std::get_if<DescriptorModel>(&model))
+    modal_suits = symmetric(d->E) && symmetric(d->A);
+  struct Candidate {
+    const char* reducer;
+    const char* strategy;
+    bool suits;
+  };
+  const Candidate candidates[] = {{"krylov", "greedy_points", true},
+                                  {"balanced", "grow_order", true},
+                                  {"modal", "grow_order", modal_suits}};
+  std::vector<PortfolioMember> members;
+  for (const Candidate& c : candidates) {
+    const auto& entries = registry.entries();
+    const auto it = std::find_if(entries.begin(), entries.end(),
+                                 [&](const Registry::Entry& e) { return e.info.name == c.reducer; });
+    if (it == entries.end() || !c.suits) continue;
+    if (second_order ? !it->info.second_order : !it->info.descriptor) continue;
+    PortfolioMember m;
+    m.reducer_name = c.reducer;
+    m.reducer_params = ParameterMap(std::string("reducer '") + c.reducer + "'");
+    m.strategy_name = c.strategy;
+    m.strategy_params = ParameterMap(std::string("strategy '") + c.strategy + "'");
+    if (m.strategy_name == "greedy_points") m.strategy_params.set("moments", 2LL);
+    members.push_back(std::move(m));
+  }
+  if (members.empty()) {
+    throw ConfigError(
+        "strategy 'portfolio' without members: none of the bundled reducers krylov, balanced, "
+        "modal is loaded for this model; give strategy.members");
+  }
+  return members;
+}
+
+RunSummary run_reduction(const RunConfig& given, Registry& registry, RunObserver* observer) {
   const auto start = std::chrono::steady_clock::now();
   auto elapsed = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   };
 
-  const Model model = load_model(config.model);
+  const Model model = load_model(given.model);
+  RunConfig config = given;
+  if (config.is_portfolio() && config.portfolio.empty())
+    config.portfolio = default_portfolio(model, registry);
   const double load_seconds = elapsed();
   if (observer) observer->on_model_loaded(config, model, load_seconds);
 

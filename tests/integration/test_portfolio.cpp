@@ -98,8 +98,6 @@ TEST(PortfolioConfig, BadShapesAreErrorsWithTheirLine) {
   expect_config_error(kHead + "reducer: {name: modal}\nstrategy:\n  name: portfolio\n  members:\n" +
                           kModal + "output: {dir: o}\n",
                       {"portfolio.yaml:5", "remove the top-level 'reducer' section"});
-  expect_config_error(kHead + "strategy: {name: portfolio}\noutput: {dir: o}\n",
-                      {"needs 'members'"});
   expect_config_error(kHead + "strategy: {name: portfolio, members: modal}\noutput: {dir: o}\n",
                       {"strategy.members must be a list", "found a scalar"});
   expect_config_error(kHead + "strategy: {name: portfolio, members: []}\noutput: {dir: o}\n",
@@ -178,6 +176,66 @@ TEST(Portfolio, ReportsTheSmallestModelOfItsMembersAndSharesTheFullResponses) {
   EXPECT_EQ(j["portfolio"]["winner"], smallest_label);
   ASSERT_EQ(j["portfolio"]["members"].size(), 3u);
   EXPECT_EQ(j["final_order"], smallest);
+}
+
+// Without members, the bundled reducers that suit the model: all three for a second-order model,
+// no modal for an unsymmetric descriptor model (cdplayer). Each member's result is checked
+// against the same member run alone; the portfolio reports the smallest passing order.
+TEST(Portfolio, WithoutMembersTriesTheBundledReducersThatSuitTheModel) {
+  struct Case {
+    const char* model;
+    std::vector<std::string> labels;
+  };
+  const Case cases[] = {
+      {"build_so", {"krylov/greedy_points", "balanced/grow_order", "modal/grow_order"}},
+      {"cdplayer", {"krylov/greedy_points", "balanced/grow_order"}}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.model);
+    test::TempDir dir;
+    Registry registry;
+    fill_registry(registry);
+    const std::string head = std::string("model: {dir: ../shared/models/") + c.model +
+                             "}\nband: {f_min_hz: 0.1, f_max_hz: 100}\n"
+                             "target: {tolerance: 1.0e-2}\n";
+    const RunSummary s = run_yaml(head + "strategy: {name: portfolio, prune: false}\n" +
+                                      "output: {dir: " + (dir / "all").string() + "}\n",
+                                  registry);
+    ASSERT_EQ(s.attempts.size(), c.labels.size()) << s.message;
+    Index smallest = 0;
+    for (std::size_t k = 0; k < c.labels.size(); ++k) {
+      const PortfolioAttempt& a = s.attempts[k];
+      EXPECT_EQ(a.label(), c.labels[k]);
+      // The member alone, as a plain run, ends the same way.
+      const std::string reducer = c.labels[k].substr(0, c.labels[k].find('/'));
+      const std::string strategy = c.labels[k].substr(c.labels[k].find('/') + 1);
+      const RunSummary alone = run_yaml(
+          head + "reducer: {name: " + reducer + "}\nstrategy: {name: " + strategy +
+              (strategy == "greedy_points" ? ", moments: 2" : "") + "}\noutput: {dir: " +
+              (dir / reducer).string() + "}\n",
+          registry);
+      EXPECT_EQ(a.met, alone.exit_code() == 0) << a.label() << ": " << a.message;
+      if (a.met) {
+        EXPECT_EQ(a.order, alone.order) << a.label();
+        if (smallest == 0 || a.order < smallest) smallest = a.order;
+      }
+    }
+    ASSERT_GT(smallest, 0) << "no member met the target: " << s.message;
+    ASSERT_EQ(s.termination, Termination::Converged) << s.message;
+    EXPECT_EQ(s.order, smallest);
+    EXPECT_LE(s.verified_band_error, 1e-2);
+  }
+}
+
+TEST(Portfolio, WithoutMembersAndWithoutTheBundledReducersIsNamed) {
+  test::TempDir dir;
+  Registry registry;  // no plugin loaded
+  const std::string msg = test::message_of<ConfigError>([&] {
+    run_yaml(kHead + "strategy: {name: portfolio}\noutput: {dir: " + dir.path().string() + "}\n",
+             registry);
+  });
+  EXPECT_NE(msg.find("none of the bundled reducers krylov, balanced, modal is loaded"),
+            std::string::npos)
+      << msg;
 }
 
 // Pruning: with the best member first, a later grow_order member stops as soon as its order

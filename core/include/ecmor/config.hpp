@@ -14,8 +14,9 @@
 ///   plugins:  [path/to/libmy_plugin.so, path/to/dir]     # optional: extra plugins
 ///   check:    {max_order: 48, max_seconds: 600}          # optional: budgets for `ecmor check`
 ///
-/// A portfolio run races several reducer/strategy pairs on the same model (no top-level
-/// `reducer` section then):
+/// A portfolio run tries several reducer/strategy pairs on the same model, one after another, and
+/// keeps the smallest passing model (no top-level `reducer` section then). Without `members` it
+/// tries the bundled reducers suited to the model (driver.hpp, default_portfolio):
 ///
 ///   strategy:
 ///     name: portfolio
@@ -81,9 +82,11 @@ struct RunConfig {
   std::filesystem::path output_dir;
   OutputFormat output_format = OutputFormat::Mtx;  ///< output.format: mtx (default), mat, both
   std::vector<std::filesystem::path> plugins;
-  /// Non-empty for `strategy: {name: portfolio, members: [...]}`; reducer_name and strategy_name
-  /// are then both "portfolio" and the members carry the real ones.
+  /// `strategy: {name: portfolio, members: [...]}`: reducer_name and strategy_name are then both
+  /// "portfolio" and the members carry the real ones. Empty for a portfolio without `members`
+  /// until the driver, knowing the model, fills in default_portfolio().
   std::vector<PortfolioMember> portfolio;
+  bool is_portfolio() const { return strategy_name == "portfolio"; }
   /// Portfolio only: stop a grow_order member once its order reaches the smallest order that met
   /// the target so far without meeting it (it can then no longer win).
   bool portfolio_prune = true;

@@ -117,7 +117,15 @@ class RunObserver {
   virtual void on_finished(const RunSummary&) {}
 };
 
-/// Runs one configured reduction; a portfolio (config.portfolio non-empty) runs its members one
+/// The members of `strategy: {name: portfolio}` without `members`: the bundled reducers loaded in
+/// `registry` that suit the model, in this order: krylov / greedy_points (2 moments, any model),
+/// balanced / grow_order (any model; it refuses an unstable one by name), modal / grow_order
+/// (second-order models, and descriptor models with symmetric E and A). Point strategies first:
+/// they are never pruned, and the order they reach prunes the grow_order members after them.
+/// \throws ConfigError when none of them is loaded.
+std::vector<PortfolioMember> default_portfolio(const Model& model, const Registry& registry);
+
+/// Runs one configured reduction; a portfolio (config.is_portfolio()) runs its members one
 /// after the other on the same solver and full-response cache, so full-model responses computed
 /// for one member are reused by the next; it reports the smallest model that meets the target
 /// (ties: the member that took less time), else the most accurate one. A member that throws is a
