@@ -13,6 +13,7 @@
 #include <tuple>
 #include <vector>
 
+#include "ecmor/band_error.hpp"
 #include "ecmor/eigensolver.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/plugin.hpp"
@@ -32,8 +33,20 @@ constexpr double kTrustRatio = 1e4;
 /// shifted solver's own default, so that it uses Cholesky on them).
 constexpr double kExactSymmetry = 1e-12;
 
+/// How modes within the band margin are ordered (YAML `mode_ranking`).
+enum class ModeRanking {
+  Band,       ///< by log distance to the band, ties by ascending f
+  Dominance,  ///< by relative dominance at the nearest band frequency, largest first
+};
+constexpr const char* kModeRankingNames[] = {"band", "dominance"};
+std::string to_string(ModeRanking r) { return kModeRankingNames[static_cast<int>(r)]; }
+ModeRanking parse_mode_ranking(const std::string& name) {
+  return name == kModeRankingNames[1] ? ModeRanking::Dominance : ModeRanking::Band;
+}
+
 struct Options {
   bool static_correction = true;
+  ModeRanking mode_ranking = ModeRanking::Band;
   Index batch_size = 20;
   double tolerance = 0.0;
   double band_margin = 10.0;
@@ -529,6 +542,13 @@ class ModalReducer final : public Reducer {
         m_path = "general descriptor";
       }
     }
+    if (m_options.mode_ranking == ModeRanking::Dominance && !m_slicer) {
+      throw ConfigError(fmt::format(
+          "modal: mode_ranking: dominance needs the symmetric eigenproblem (second-order model "
+          "with K symmetric up to symmetry_tolerance, or descriptor model with A symmetric and E "
+          "SPD); this model takes the {} path: use mode_ranking: band",
+          m_path));
+    }
   }
 
   ReducerResult reduce(const ReductionRequest& request) override {
@@ -560,7 +580,8 @@ class ModalReducer final : public Reducer {
   }
 
   /// Indices of the computed modes in rank order, only those whose rank is final.
-  std::vector<Index> final_ranked() const {
+  std::vector<Index> final_ranked() {
+    if (m_options.mode_ranking == ModeRanking::Dominance) return final_ranked_by_dominance();
     const SymmetricSlicer& s = *m_slicer;
     const Key bound = m_ranking->bound(s.frontier_frequency());
     std::vector<std::pair<Key, Index>> keyed;
@@ -574,6 +595,102 @@ class ModalReducer final : public Reducer {
     std::vector<Index> out;
     for (const auto& k : keyed) out.push_back(k.second);
     return out;
+  }
+
+  /// mode_ranking: dominance. Rigid modes first; then the modes within the band margin by
+  /// descending relative dominance (ties by the band key); then the far modes by ascending f, as
+  /// with the band ranking. The dominance of a mode depends on every other mode (through ||H||),
+  /// so no near mode is final before the slicing covers [f_min / margin, f_max * margin]; the
+  /// scores are then computed once and frozen, which keeps the bases nested: every mode computed
+  /// later lies above the margin and ranks after all of them.
+  std::vector<Index> final_ranked_by_dominance() {
+    const SymmetricSlicer& s = *m_slicer;
+    const bool covered = s.frontier_frequency() >= m_band.f_max_hz * m_options.band_margin;
+    if (covered && m_dominance.empty()) m_dominance = dominance_scores();
+    const Key bound = m_ranking->bound(s.frontier_frequency());
+    // (tier, -dominance, band key's distance, f, index)
+    std::vector<std::tuple<int, double, double, double, Index>> keyed;
+    for (Index j = 0; j < s.known(); ++j) {
+      const double l = s.lambda(j);
+      const bool rigid = s.is_rigid(l);
+      const Key k = m_ranking->key(rigid ? 0.0 : s.frequency(l), rigid);
+      if (k.tier == 0) {
+        keyed.emplace_back(0, 0.0, 0.0, 0.0, j);
+      } else if (covered && k.tier == 1) {
+        keyed.emplace_back(1, -m_dominance[static_cast<std::size_t>(j)], k.distance, k.f, j);
+      } else if (covered && k <= bound) {
+        keyed.emplace_back(2, 0.0, k.distance, k.f, j);
+      }
+    }
+    std::stable_sort(keyed.begin(), keyed.end());
+    std::vector<Index> out;
+    for (const auto& k : keyed) out.push_back(std::get<4>(k));
+    return out;
+  }
+
+  /// Relative dominance of every computed mode within the band margin (0 for the others):
+  ///   ||(c_j + i w cv_j) b_j'|| / |lambda_j - w^2 + i w d_j| / ||H(i w)||,  w = clamp(omega_j, band)
+  /// with c_j = C phi_j, cv_j = Cv phi_j, b_j = phi_j' B, d_j = phi_j' D phi_j (descriptor:
+  /// denominator lambda_j + i w, no Cv). ||H(i w)|| (largest singular value) is estimated without
+  /// full solves: the same modal sum over all computed modes (diagonal modal damping) plus the
+  /// static residual of the uncomputed ones, (C + i w Cv) (K^-1 B - sum_k phi_k b_k' / lambda_k),
+  /// when K is nonsingular. Cost O(n_modes^2 p m) after the projections. Dividing by ||H|| targets
+  /// the relative band error: a mode that is large where H is larger still matters less (README
+  /// has the measured comparison with absolute dominance).
+  std::vector<double> dominance_scores() {
+    const SymmetricSlicer& s = *m_slicer;
+    const Index n = s.known();
+    const Matrix& Phi = s.vectors();
+    const auto* so = std::get_if<SecondOrderModel>(m_model);
+    const Matrix& B = input_matrix();
+    const Matrix& C = so ? so->C : std::get<DescriptorModel>(*m_model).C;
+    const bool velocity = so != nullptr && so->has_velocity_output();
+    const Matrix Bm = Phi.transpose() * B;  // n x m, row k = b_k'
+    const ComplexMatrix Bc = Bm.cast<Complex>();
+    const Matrix Cm = C * Phi;  // p x n
+    const Matrix Cvm = velocity ? Matrix(so->Cv * Phi) : Matrix();
+    Vector lambda(n), damping = Vector::Zero(n);
+    for (Index k = 0; k < n; ++k) {
+      lambda[k] = s.is_rigid(s.lambda(k)) ? 0.0 : s.lambda(k);
+      if (so) damping[k] = Phi.col(k).dot(so->D * Phi.col(k));
+    }
+    // Static residual of the modes not computed (K nonsingular only: the shifted block of a
+    // singular K is not a static response).
+    const Index p = C.rows(), m = B.cols();
+    Matrix residual = Matrix::Zero(p, m), residual_v = Matrix::Zero(p, m);
+    const Matrix& X = static_block();
+    if (m_static_shift == 0.0 && s.rigid().count == 0) {
+      Vector inv(n);
+      for (Index k = 0; k < n; ++k) inv[k] = lambda[k] > 0.0 ? 1.0 / lambda[k] : 0.0;
+      residual = C * X - Cm * inv.asDiagonal() * Bm;
+      if (velocity) residual_v = so->Cv * X - Cvm * inv.asDiagonal() * Bm;
+    }
+    const double omega_lo = kTwoPi * m_band.f_min_hz, omega_hi = kTwoPi * m_band.f_max_hz;
+    std::vector<double> score(static_cast<std::size_t>(n), 0.0);
+    ComplexVector alpha(n);
+    for (Index j = 0; j < n; ++j) {
+      if (m_ranking->key(s.frequency(lambda[j]), s.is_rigid(s.lambda(j))).tier != 1) continue;
+      const double w = std::clamp(kTwoPi * s.frequency(lambda[j]), omega_lo, omega_hi);
+      for (Index k = 0; k < n; ++k) {
+        Complex den = so ? Complex(lambda[k] - w * w, w * damping[k]) : Complex(lambda[k], w);
+        // An undamped mode at its own resonance: a finite stand-in that keeps it dominant there.
+        const double floor = 1e-12 * std::max(std::abs(lambda[k]), w * w);
+        if (std::abs(den) < floor) den = floor;
+        alpha[k] = 1.0 / den;
+      }
+      ComplexMatrix Ccw = Cm.cast<Complex>();
+      ComplexMatrix Rw = residual.cast<Complex>();
+      if (velocity) {
+        Ccw += Complex(0.0, w) * Cvm.cast<Complex>();
+        Rw += Complex(0.0, w) * residual_v.cast<Complex>();
+      }
+      const ComplexMatrix H = Ccw * alpha.asDiagonal() * Bc + Rw;
+      const double residue = Ccw.col(j).norm() * Bm.row(j).norm();
+      const double h = matrix_norm(H, ErrorNorm::Spectral);
+      score[static_cast<std::size_t>(j)] =
+          residue == 0.0 ? 0.0 : residue * std::abs(alpha[j]) / std::max(h, 1e-300);
+    }
+    return score;
   }
 
   /// The static-correction block X (N x m): K^-1 B, or (K - sigma_0 M)^-1 B when K is singular
@@ -837,6 +954,8 @@ class ModalReducer final : public Reducer {
   std::optional<SymmetricSlicer> m_slicer;
   std::optional<GeneralModes> m_general;
   std::optional<Matrix> m_static;
+  /// Relative dominance per computed mode (mode_ranking: dominance), frozen once computed.
+  std::vector<double> m_dominance;
   Index m_static_rank = 0;
   double m_static_shift = 0.0;
 };
@@ -855,6 +974,11 @@ ReducerInfo modal_info() {
       {"static_correction", "bool", "true",
        "append the M-orthogonalised static response K^-1 B (shifted for singular K); counted in "
        "the order"},
+      {"mode_ranking", "string", to_string(Options{}.mode_ranking),
+       "order of the modes within the band margin: band (log distance to the band, then ascending "
+       "f) or dominance (relative dominance ||c_j b_j'|| / |lambda_j - w^2 + i w d_j| / ||H(i w)||"
+       " at w = clamp(omega_j, band), largest first; computes every mode within the margin "
+       "first; symmetric eigenproblems only)"},
       {"batch_size", "int", "20", "eigenpairs per ARPACK run (slice), >= 1"},
       {"tolerance", "double", "0", "ARPACK relative accuracy of the Ritz values, 0 = machine precision, in [0, 1e-2]"},
       {"band_margin", "double", "10",
@@ -872,6 +996,9 @@ ReducerInfo modal_info() {
 std::unique_ptr<Reducer> create_modal(const ParameterMap& params) {
   Options o;
   o.static_correction = params.get_bool("static_correction", o.static_correction);
+  o.mode_ranking = parse_mode_ranking(
+      params.get_string("mode_ranking", to_string(o.mode_ranking),
+                        {std::begin(kModeRankingNames), std::end(kModeRankingNames)}));
   o.batch_size = params.get_int("batch_size", o.batch_size, 1, 100000);
   o.tolerance = params.get_double("tolerance", o.tolerance, 0.0, 1e-2);
   o.band_margin = params.get_double("band_margin", o.band_margin, 1.0);
