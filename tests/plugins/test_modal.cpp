@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -397,6 +398,169 @@ TEST(Modal, BuildSoUnsymmetricStiffnessUsesTheGeneralEigenproblem) {
   expect_subset(got, pencil_eigenvalues(Matrix(m.K), Matrix(m.M)), 1e-8);
 }
 
+// ---- mode_ranking: dominance -------------------------------------------------------------------
+
+// Fixed-fixed chain of n (odd) unit masses and unit springs, Rayleigh damping, force and position
+// sensor at the middle mass. Modes antisymmetric about the middle vanish there: they are neither
+// controllable nor observable, so half of the band's modes do not contribute to H at all.
+SecondOrderModel collocated_chain(Index n) {
+  std::vector<Eigen::Triplet<double, int>> t;
+  for (int i = 0; i < n; ++i) {
+    t.emplace_back(i, i, 2.0);
+    if (i + 1 < n) {
+      t.emplace_back(i, i + 1, -1.0);
+      t.emplace_back(i + 1, i, -1.0);
+    }
+  }
+  SecondOrderModel m;
+  m.K.resize(n, n);
+  m.K.setFromTriplets(t.begin(), t.end());
+  m.M.resize(n, n);
+  m.M.setIdentity();
+  m.D = SparseMatrix(1e-4 * m.M + 2e-3 * m.K);
+  m.B = Matrix::Zero(n, 1);
+  m.B(n / 2, 0) = 1.0;
+  m.C = m.B.transpose();
+  return m;
+}
+
+ParameterMap dominance_params(bool static_correction, int batch_size = 10) {
+  ParameterMap p = params(static_correction, batch_size);
+  p.set("mode_ranking", "dominance");
+  return p;
+}
+
+// Log grid over the band plus every eigenfrequency inside it (the resonance peaks), with the full
+// model's response there by dense solves (independent of the plugin and of the shifted solver).
+struct Reference {
+  std::vector<double> f_hz;
+  std::vector<ComplexMatrix> H;
+};
+
+Reference dense_reference(const SecondOrderModel& m, const Band& band, const Vector& lambda) {
+  Reference ref;
+  for (int i = 0; i < 200; ++i) {
+    ref.f_hz.push_back(band.f_min_hz * std::pow(band.f_max_hz / band.f_min_hz, i / 199.0));
+  }
+  for (Index j = 0; j < lambda.size(); ++j) {
+    const double fj = std::sqrt(lambda[j]) / kTwoPi;
+    if (fj >= band.f_min_hz && fj <= band.f_max_hz) ref.f_hz.push_back(fj);
+  }
+  const Matrix M = Matrix(m.M), D = Matrix(m.D), K = Matrix(m.K);
+  for (const double f : ref.f_hz) {
+    const double w = kTwoPi * f;
+    const ComplexMatrix A = (K - w * w * M).cast<Complex>() + Complex(0.0, w) * D.cast<Complex>();
+    ref.H.push_back(m.C.cast<Complex>() * A.partialPivLu().solve(m.B.cast<Complex>()));
+  }
+  return ref;
+}
+
+// Relative spectral band error of a reduced second-order model on the reference's grid.
+double band_error(const Reference& ref, const ReducedModel& reduced) {
+  const auto& r = std::get<ReducedSecondOrderModel>(reduced);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < ref.f_hz.size(); ++i) {
+    const double w = kTwoPi * ref.f_hz[i];
+    const ComplexMatrix Ar =
+        (r.K - w * w * r.M).cast<Complex>() + Complex(0.0, w) * r.D.cast<Complex>();
+    const ComplexMatrix Hr = r.C.cast<Complex>() * Ar.partialPivLu().solve(r.B.cast<Complex>());
+    const Eigen::JacobiSVD<ComplexMatrix> e(ref.H[i] - Hr), h(ref.H[i]);
+    worst = std::max(worst, e.singularValues()(0) / h.singularValues()(0));
+  }
+  return worst;
+}
+
+// Smallest order whose reduced model meets `tol` on the reference grid (N + 1 if none does).
+Index smallest_order(Fixture& fx, const Reference& ref, double tol) {
+  const Index n = fx.reducer->max_order();
+  for (Index order = 1; order <= n; ++order) {
+    if (band_error(ref, fx.reducer->reduce({order, {}}).model) <= tol) return order;
+  }
+  return n + 1;
+}
+
+TEST(Modal, DominanceSkipsUnobservableModesAndReachesTheToleranceWithFewerStates) {
+  const Index n = 61;
+  const SecondOrderModel chain = collocated_chain(n);
+  const Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> dense{Matrix(chain.K), Matrix(chain.M)};
+  // The band holds the lowest 16 modes (8 of them antisymmetric: invisible at the middle mass).
+  const Band band{0.5 * std::sqrt(dense.eigenvalues()[0]) / kTwoPi,
+                  std::sqrt(0.5 * (dense.eigenvalues()[15] + dense.eigenvalues()[16])) / kTwoPi};
+  const Reference ref = dense_reference(chain, band, dense.eigenvalues());
+  auto by_band = make(Model(chain), band, params(false));
+  auto by_dominance = make(Model(chain), band, dominance_params(false));
+  const auto& m = std::get<SecondOrderModel>(by_band->model);
+
+  // The leading dominance-ranked modes are the ones the input and output see: |c_j b_j| well
+  // above rounding for each of the 8 symmetric band modes, which come first.
+  const ReducerResult r8 = by_dominance->reducer->reduce({8, {}});
+  ASSERT_EQ(r8.V.cols(), 8);
+  for (Index k = 0; k < 8; ++k) {
+    const double residue = std::abs((m.C * r8.V.col(k))(0) * (r8.V.col(k).transpose() * m.B)(0));
+    EXPECT_GT(residue, 1e-3) << "column " << k << " is a mode the middle mass cannot see";
+  }
+
+  const double tol = 1e-2;
+  const Index order_band = smallest_order(*by_band, ref, tol);
+  const Index order_dominance = smallest_order(*by_dominance, ref, tol);
+  EXPECT_LE(order_band, n) << "band ranking never met the tolerance";
+  // Without the static correction the band ranking needs every mode (here N: the invisible modes
+  // rank among the visible ones, and all quasi-static contributions count), dominance the visible
+  // half.
+  EXPECT_LE(2 * order_dominance, order_band + 2)
+      << "dominance " << order_dominance << ", band " << order_band;
+
+  // With the static correction the saving stays.
+  auto band_sc = make(Model(chain), band, params(true));
+  auto dominance_sc = make(Model(chain), band, dominance_params(true));
+  const Index sc_band = smallest_order(*band_sc, ref, tol);
+  const Index sc_dominance = smallest_order(*dominance_sc, ref, tol);
+  EXPECT_LE(3 * sc_dominance, 2 * sc_band);
+  std::printf("smallest order for %g: band %td, dominance %td; with static correction %td, %td\n",
+              tol, order_band, order_dominance, sc_band, sc_dominance);
+}
+
+TEST(Modal, DominanceBasesAreNestedAndEqualAFreshComputation) {
+  const Model model(collocated_chain(61));
+  const Band band{1e-3, 0.1};
+  auto grown = make(model, band, dominance_params(false, 8));
+  const ReducerResult r5 = grown->reducer->reduce({5, {}});
+  const ReducerResult r12 = grown->reducer->reduce({12, {}});
+  const ReducerResult r40 = grown->reducer->reduce({40, {}});
+  ASSERT_EQ(r40.V.cols(), 40);
+  EXPECT_LT(largest_angle_sin(r5.V, r12.V.leftCols(5)), 1e-12);
+  EXPECT_LT(largest_angle_sin(r12.V, r40.V.leftCols(12)), 1e-12);
+  auto fresh = make(model, band, dominance_params(false, 8));
+  EXPECT_LT(largest_angle_sin(fresh->reducer->reduce({40, {}}).V, r40.V), 1e-8);
+  EXPECT_LT(largest_angle_sin(fresh->reducer->reduce({12, {}}).V, r12.V), 1e-8);
+  // With the static correction: nested as subspaces.
+  auto sc = make(model, band, dominance_params(true, 8));
+  const ReducerResult s6 = sc->reducer->reduce({6, {}});
+  const ReducerResult s20 = sc->reducer->reduce({20, {}});
+  EXPECT_LT(largest_angle_sin(s6.V, s20.V), 1e-10);
+}
+
+TEST(Modal, DominanceIsRefusedByNameOnTheGeneralPath) {
+  ParameterMap p = dominance_params(true);
+  try {
+    make(load("build_so"), band_rad(1e-1, 1e3), p);
+    FAIL() << "expected ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("mode_ranking: dominance needs the symmetric eigenproblem"),
+              std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("general"), std::string::npos) << e.what();
+  }
+  ParameterMap q("reducer 'modal'");
+  q.set("mode_ranking", "dominant");
+  try {
+    registry().create("modal", q);
+    FAIL() << "expected ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("mode_ranking"), std::string::npos) << e.what();
+  }
+}
+
 // ---- requests, parameters and bad input ---------------------------------------------------------
 
 TEST(Modal, OrderBeyondNReturnsAllModesAndSaysSo) {
@@ -472,7 +636,7 @@ TEST(Modal, InfoDocumentsEveryParameter) {
   ASSERT_NE(it, entries.end());
   std::vector<std::string> names;
   for (const auto& p : it->info.parameters) names.push_back(p.name);
-  for (const char* key : {"static_correction", "batch_size", "tolerance", "band_margin",
+  for (const char* key : {"static_correction", "mode_ranking", "batch_size", "tolerance", "band_margin",
                           "max_iterations", "symmetry_tolerance", "seed"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), key), names.end()) << key;
   }
