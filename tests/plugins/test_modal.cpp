@@ -14,6 +14,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/SparseCholesky>
 
+#include "common/dense_reference.hpp"
 #include "common/plugin_registry.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/model_io.hpp"
@@ -404,20 +405,7 @@ TEST(Modal, BuildSoUnsymmetricStiffnessUsesTheGeneralEigenproblem) {
 // sensor at the middle mass. Modes antisymmetric about the middle vanish there: they are neither
 // controllable nor observable, so half of the band's modes do not contribute to H at all.
 SecondOrderModel collocated_chain(Index n) {
-  std::vector<Eigen::Triplet<double, int>> t;
-  for (int i = 0; i < n; ++i) {
-    t.emplace_back(i, i, 2.0);
-    if (i + 1 < n) {
-      t.emplace_back(i, i + 1, -1.0);
-      t.emplace_back(i + 1, i, -1.0);
-    }
-  }
-  SecondOrderModel m;
-  m.K.resize(n, n);
-  m.K.setFromTriplets(t.begin(), t.end());
-  m.M.resize(n, n);
-  m.M.setIdentity();
-  m.D = SparseMatrix(1e-4 * m.M + 2e-3 * m.K);
+  SecondOrderModel m = test::spring_chain(n, 1.0, 1e-4, 2e-3);
   m.B = Matrix::Zero(n, 1);
   m.B(n / 2, 0) = 1.0;
   m.C = m.B.transpose();
