@@ -225,9 +225,7 @@ int select_winner(const std::vector<PortfolioAttempt>& attempts) {
 
 std::vector<PortfolioMember> default_portfolio(const Model& model, const Registry& registry) {
   const bool second_order = kind_of(model) == ModelKind::SecondOrder;
-  auto symmetric = [](const SparseMatrix& A) {
-    return (A - SparseMatrix(A.transpose())).norm() <= 1e-14 * A.norm();
-  };
+  auto symmetric = [](const SparseMatrix& A) { return relative_asymmetry(A) <= 1e-14; };
   bool modal_suits = second_order;
   if (const auto* d = std::get_if<DescriptorModel>(&model))
     modal_suits = symmetric(d->E) && symmetric(d->A);
