@@ -54,6 +54,18 @@ void write_model(const fs::path& dir, const SecondOrderModel& m) {
   write_matrix_market(dir / "C.mtx", Matrix(m.C), "free solid");
 }
 
+// Runs the driver on the model in `tmp / "model"` with `sections` (YAML after the model line) and
+// the bundled `reducer`, writing to `out`.
+RunSummary reduce_solid(const test::TempDir& tmp, const std::string& sections,
+                        const std::string& reducer, const fs::path& out) {
+  const std::string yaml = "model: {dir: " + (tmp / "model").string() + "}\n" + sections +
+                           "reducer: {name: " + reducer + "}\noutput: {dir: " + out.string() +
+                           "}\n";
+  Registry registry;
+  registry.load_plugin(fs::path(ECMOR_TEST_PLUGIN_DIR) / ("libecmor_" + reducer + ".so"));
+  return run_reduction(parse_run_config(yaml, "solid.yaml"), registry);
+}
+
 struct Method {
   const char* reducer;
   const char* strategy;
@@ -71,19 +83,11 @@ TEST_P(FreeBody, MeetsTheTargetAndKeepsTheRigidBodyPoles) {
   const bench::SolidOptions options = free_solid();
   write_model(tmp / "model", bench::solid(options));
   const fs::path out = tmp / "out";
-  const std::string yaml = "model:  {dir: " + (tmp / "model").string() +
-                           "}\n"
-                           "band:   {f_min_hz: 20, f_max_hz: 2000}\n"
-                           "target: {tolerance: 1.0e-3, norm: spectral}\n"
-                           "reducer: {name: " +
-                           run.reducer + "}\nstrategy: {name: " + run.strategy +
-                           "}\n"
-                           "output: {dir: " +
-                           out.string() + "}\n";
-  Registry registry;
-  registry.load_plugin(fs::path(ECMOR_TEST_PLUGIN_DIR) /
-                       ("libecmor_" + std::string(run.reducer) + ".so"));
-  const RunSummary s = run_reduction(parse_run_config(yaml, "free_body.yaml"), registry);
+  const RunSummary s = reduce_solid(tmp,
+                                    "band: {f_min_hz: 20, f_max_hz: 2000}\n"
+                                    "target: {tolerance: 1.0e-3, norm: spectral}\n"
+                                    "strategy: {name: " + std::string(run.strategy) + "}\n",
+                                    run.reducer, out);
   SCOPED_TRACE(s.message);
   EXPECT_EQ(s.exit_code(), 0);
   EXPECT_EQ(s.termination, Termination::Converged);
@@ -131,15 +135,10 @@ TEST(FreeBodyRefusal, BalancedTruncationRefusesByName) {
   bench::SolidOptions options = free_solid();
   options.nx = 8;
   write_model(tmp / "model", bench::solid(options));
-  const std::string yaml = "model:  {dir: " + (tmp / "model").string() +
-                           "}\nband: {f_min_hz: 20, f_max_hz: 2000}\n"
-                           "target: {tolerance: 1.0e-3}\nreducer: {name: balanced}\n"
-                           "output: {dir: " +
-                           (tmp / "out").string() + "}\n";
-  Registry registry;
-  registry.load_plugin(fs::path(ECMOR_TEST_PLUGIN_DIR) / "libecmor_balanced.so");
-  const std::string msg = test::message_of<InputError>(
-      [&] { run_reduction(parse_run_config(yaml, "free_body.yaml"), registry); });
+  const std::string msg = test::message_of<InputError>([&] {
+    reduce_solid(tmp, "band: {f_min_hz: 20, f_max_hz: 2000}\ntarget: {tolerance: 1.0e-3}\n",
+                 "balanced", tmp / "out");
+  });
   EXPECT_NE(msg.find("balanced truncation needs an asymptotically stable model; this one has 6 "
                      "rigid-body modes (K is singular"),
             std::string::npos)
@@ -188,20 +187,17 @@ TEST_P(ClampedSolid, GreedyKrylovIsWithinOneAndAHalfTimesModalWithStaticCorrecti
   write_model(tmp / "model", full);
   // Both shapes have their tenth mode below 2.4 kHz and the eleventh near 3 kHz.
   const Band band{10.0, 3000.0};
-  Registry registry;
   Index order[2] = {0, 0};
   ReducedModel models[2];
   const char* reducers[2] = {"modal", "krylov"};
   for (int k = 0; k < 2; ++k) {
     const fs::path out = tmp / reducers[k];
-    const std::string yaml =
-        "model: {dir: " + (tmp / "model").string() +
-        "}\nband: {f_min_hz: 10, f_max_hz: 3000}\ntarget: {tolerance: 1.0e-3}\n"
-        "reducer: {name: " + std::string(reducers[k]) + "}\nstrategy: {name: " +
-        (k == 0 ? "grow_order" : "greedy_points") + "}\noutput: {dir: " + out.string() + "}\n";
-    registry.load_plugin(fs::path(ECMOR_TEST_PLUGIN_DIR) /
-                         ("libecmor_" + std::string(reducers[k]) + ".so"));
-    const RunSummary s = run_reduction(parse_run_config(yaml, "clamped_solid.yaml"), registry);
+    const RunSummary s =
+        reduce_solid(tmp,
+                     "band: {f_min_hz: 10, f_max_hz: 3000}\ntarget: {tolerance: 1.0e-3}\n"
+                     "strategy: {name: " + std::string(k == 0 ? "grow_order" : "greedy_points") +
+                         "}\n",
+                     reducers[k], out);
     SCOPED_TRACE(std::string(reducers[k]) + ": " + s.message);
     ASSERT_EQ(s.termination, Termination::Converged);
     order[k] = s.order;
@@ -224,15 +220,12 @@ TEST(ClampedSolidFloor, AToleranceBelowTheReferenceFloorIsNamed) {
   options.ny = 4;
   options.nz = 3;
   write_model(tmp / "model", bench::solid(options));
-  const std::string yaml = "model: {dir: " + (tmp / "model").string() +
-                           "}\nband: {f_min_hz: 10, f_max_hz: 3000}\n"
-                           "target: {tolerance: 1.0e-10}\nreducer: {name: krylov}\n"
-                           "strategy: {name: greedy_points, stagnation_window: 2}\n"
-                           "error: {verify: estimate}\noutput: {dir: " +
-                           (tmp / "out").string() + "}\n";
-  Registry registry;
-  registry.load_plugin(fs::path(ECMOR_TEST_PLUGIN_DIR) / "libecmor_krylov.so");
-  const RunSummary s = run_reduction(parse_run_config(yaml, "floor.yaml"), registry);
+  const RunSummary s = reduce_solid(tmp,
+                                    "band: {f_min_hz: 10, f_max_hz: 3000}\n"
+                                    "target: {tolerance: 1.0e-10}\n"
+                                    "strategy: {name: greedy_points, stagnation_window: 2}\n"
+                                    "error: {verify: estimate}\n",
+                                    "krylov", tmp / "out");
   ASSERT_EQ(s.termination, Termination::Stagnated) << s.message;
   std::ifstream in(tmp / "out" / "summary.json");
   const double floor = nlohmann::json::parse(in).at("error_control").at("reference_floor");
