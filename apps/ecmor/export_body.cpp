@@ -1,7 +1,7 @@
 // `ecmor export-body RUN_DIR`: the reduced elastic body of a finished `ecmor reduce` run as a
-// SID file and JSON (docs/multibody.md). Reads the run and its model directory, calls the core
-// (flexible_body.hpp, sid.hpp), prints what was written. No numerics here beyond comparing the
-// core's W' M V with the run's Mr.
+// SID file, JSON and .mat (docs/multibody.md). Reads the run and its model directory, calls the
+// core (flexible_body.hpp, sid.hpp), prints what was written. No numerics here beyond comparing
+// W' M V with the run's Mr.
 #include <fmt/core.h>
 
 #include <cmath>
@@ -14,6 +14,7 @@
 #include "ecmor/flexible_body.hpp"
 #include "ecmor/matrix_market.hpp"
 #include "ecmor/model_io.hpp"
+#include "ecmor/rigid_body.hpp"
 
 namespace ecmor::app {
 namespace {
@@ -101,6 +102,14 @@ double relative_difference(const Matrix& a, const Matrix& b) {
   return scale == 0.0 ? 0.0 : (a - b).cwiseAbs().maxCoeff() / scale;
 }
 
+/// max |W' A V - Ar| / max |Ar|, |W' A V| for the run's reduced matrix Ar (an empty Ar is zero).
+double reduced_difference(const Matrix& W, const SparseMatrix& A, const Matrix& V,
+                          const Matrix& Ar) {
+  if (Ar.size() == 0 && A.nonZeros() == 0) return 0.0;
+  const Matrix projected = W.transpose() * (A * V);
+  return relative_difference(projected, Ar.size() == 0 ? Matrix::Zero(V.cols(), V.cols()) : Ar);
+}
+
 }  // namespace
 
 int export_body(const ExportBodyOptions& o, const CommonOptions& common) {
@@ -109,13 +118,14 @@ int export_body(const ExportBodyOptions& o, const CommonOptions& common) {
     BodyModel body;
     SecondOrderModel model = second_order(load_model(model_dir), model_dir);
     body.geometry = geometry_of(model_dir, model.size());
-    body.V = read_matrix_market_dense(o.run_dir / "V.mtx");
-    body.W = read_matrix_market_dense(o.run_dir / "W.mtx");
-    if (body.V.rows() != model.size())
+    ProjectionBases bases = read_projection_bases(o.run_dir);
+    if (bases.V.rows() != model.size() || bases.W.rows() != model.size())
       throw InputError(
-          fmt::format("{}: {} rows, but the model has N = {}: the run's basis is "
+          fmt::format("{}: the bases have {} rows, but the model has N = {}: the run's basis is "
                       "not one of the second-order model's coordinates",
-                      (o.run_dir / "V.mtx").string(), body.V.rows(), model.size()));
+                      o.run_dir.string(), bases.V.rows(), model.size()));
+    body.V = std::move(bases.V);
+    body.W = std::move(bases.W);
     if (!o.mass_model_dir.empty()) {
       SecondOrderModel mm = second_order(load_model(o.mass_model_dir), o.mass_model_dir);
       body.mass_model = MassModel{geometry_of(o.mass_model_dir, mm.size()), std::move(mm.M)};
@@ -123,7 +133,6 @@ int export_body(const ExportBodyOptions& o, const CommonOptions& common) {
     body.M = model.M;
     body.D = model.D;
     body.K = model.K;
-    const BodyInvariants inv = compute_body_invariants(body);
 
     // W' M V, W' D V, W' K V must be the run's Mr, Dr, Kr: else the model directory or the
     // bases changed after the run, and the body would not be the reduced model that was checked.
@@ -134,8 +143,9 @@ int export_body(const ExportBodyOptions& o, const CommonOptions& common) {
                       "needs a second-order reduced model",
                       o.run_dir.string()));
     const auto& r = std::get<ReducedSecondOrderModel>(rom);
-    const double dM = relative_difference(inv.Me, r.M), dK = relative_difference(inv.Ke, r.K);
-    const double dD = r.D.size() == 0 ? 0.0 : relative_difference(inv.De, r.D);
+    const double dM = reduced_difference(body.W, body.M, body.V, r.M);
+    const double dD = reduced_difference(body.W, body.D, body.V, r.D);
+    const double dK = reduced_difference(body.W, body.K, body.V, r.K);
     constexpr double kAgreement = 1e-10;
     if (!(std::max({dM, dD, dK}) <= kAgreement))
       throw InputError(fmt::format(
@@ -143,6 +153,18 @@ int export_body(const ExportBodyOptions& o, const CommonOptions& common) {
           "{:.3g} (relative, max entry; must be <= {:g}): the model directory {} or the bases "
           "changed after the run",
           o.run_dir.string(), dM, dD, dK, kAgreement, model_dir.string()));
+
+    // A free-floating body: the frame carries the rigid-body motion, the coordinates the rest.
+    const RigidBodyModes rigid = rigid_body_modes(Model(model));
+    if (!rigid.decided || rigid.indefinite)
+      throw InputError(fmt::format("{}: no rigid-body analysis of K ({}): a multibody body needs a "
+                                   "symmetric positive semidefinite K and a positive definite M",
+                                   model_dir.string(), rigid.method));
+    const ElasticBases elastic = elastic_bases(body, rigid.count);
+    const Index run_order = body.V.cols();
+    body.V = elastic.V;
+    body.W = elastic.W;
+    const BodyInvariants inv = compute_body_invariants(body);
 
     SidExportOptions so;
     so.name = model_dir.filename().string();
@@ -155,10 +177,12 @@ int export_body(const ExportBodyOptions& o, const CommonOptions& common) {
     }
     const SidBody sid = to_sid(inv, body.geometry, body.V, so);
     const fs::path sid_path = o.output.empty() ? o.run_dir / "body.SID_FEM" : o.output;
-    fs::path json_path = sid_path;
+    fs::path json_path = sid_path, mat_path = sid_path;
     json_path.replace_extension(".json");
+    mat_path.replace_extension(".mat");
     write_sid(sid_path, sid);
-    write_body_json(json_path, inv, sid);
+    write_body_json(json_path, inv, sid, elastic);
+    write_body_mat(mat_path, inv, sid, elastic);
 
     if (!common.quiet) {
       fmt::print("model    {} (N = {}), {} constrained DOFs in the mass model\n",
@@ -171,6 +195,12 @@ int export_body(const ExportBodyOptions& o, const CommonOptions& common) {
                  inv.J.a0(1, 2));
       fmt::print("check    W'MV, W'DV, W'KV vs the run's Mr, Dr, Kr: {:.2g}, {:.2g}, {:.2g}\n", dM,
                  dD, dK);
+      if (elastic.free_motions > 0)
+        fmt::print(
+            "free     {} rigid-body motions move the body frame: {} of the run's {} coordinates "
+            "were rigid-body motions and are left out; the other {} have their rigid part "
+            "removed (mean axes: C_t = 0)\n",
+            elastic.free_motions, elastic.removed, run_order, inv.Me.rows());
     }
     if (inv.missing_translations > 0)
       fmt::print(stderr,
@@ -181,10 +211,11 @@ int export_body(const ExportBodyOptions& o, const CommonOptions& common) {
     if (inv.vw_coupling_difference > 1e-8)
       fmt::print(stderr,
                  "ecmor: warning: W != V: the couplings ^vC and ^wC differ by {:.3g} "
-                 "(relative); the SID file holds ^wC (elastic rows), the JSON both\n",
+                 "(relative); the SID file holds ^wC (elastic rows), the JSON and .mat both\n",
                  inv.vw_coupling_difference);
-    fmt::print("wrote {} and {}: n = {} coordinates, {} frame nodes, m = {:.10g}\n",
-               sid_path.string(), json_path.string(), inv.Me.rows(), sid.frame.size(), inv.mass);
+    fmt::print("wrote {}, {} and {}: n = {} coordinates, {} frame nodes, m = {:.10g}\n",
+               sid_path.string(), json_path.string(), mat_path.string(), inv.Me.rows(),
+               sid.frame.size(), inv.mass);
     return 0;
   });
 }

@@ -13,6 +13,8 @@
 
 #include "ecmor/atomic_file.hpp"
 #include "ecmor/error.hpp"
+#include "ecmor/rigid_body.hpp"
+#include "mat_file.hpp"
 
 namespace ecmor {
 namespace {
@@ -105,7 +107,10 @@ Matrix rigid_body_modes(const FeGeometry& g) {
   return G;
 }
 
-BodyInvariants compute_body_invariants(const BodyModel& body) {
+namespace {
+
+/// The shapes both compute_body_invariants() and elastic_bases() rely on.
+void check_body(const BodyModel& body) {
   const Index N = body.M.rows();
   validate(body.geometry, N, "flexible body: model geometry");
   check_square(body.M, "M", N);
@@ -116,6 +121,103 @@ BodyInvariants compute_body_invariants(const BodyModel& body) {
     throw InputError(
         fmt::format("flexible body: V is {} x {}, W is {} x {}: both must be N x n with N = {}",
                     body.V.rows(), body.V.cols(), body.W.rows(), body.W.cols(), N));
+}
+
+/// An orthonormal eigenbasis of the symmetric positive semidefinite G scaled by the inverse
+/// square roots of the eigenvalues above `floor` times the largest: X' G X = I on the range of G.
+Matrix inverse_root_basis(const Matrix& G, double floor) {
+  const Eigen::SelfAdjointEigenSolver<Matrix> eig(0.5 * (G + G.transpose()));
+  const Vector& lambda = eig.eigenvalues();
+  const double top = lambda.size() > 0 ? lambda.maxCoeff() : 0.0;
+  std::vector<Index> kept;
+  for (Index i = 0; i < lambda.size(); ++i)
+    if (top > 0.0 && lambda(i) > floor * top) kept.push_back(i);
+  Matrix X(G.rows(), static_cast<Index>(kept.size()));
+  for (std::size_t j = 0; j < kept.size(); ++j)
+    X.col(static_cast<Index>(j)) = eig.eigenvectors().col(kept[j]) / std::sqrt(lambda(kept[j]));
+  return X;
+}
+
+}  // namespace
+
+ElasticBases elastic_bases(const BodyModel& body, Index rigid_modes) {
+  check_body(body);
+  const Index n = body.V.cols();
+  ElasticBases out{body.V, body.W, Matrix::Identity(n, n), 0, 0};
+  if (rigid_modes <= 0) return out;
+
+  // The rigid motions the model's rows can represent, M-orthonormal (a planar model has fewer
+  // than six), and among their combinations the rigid_modes of least strain energy. For a free
+  // body those are annihilated by K up to rounding; a larger Rayleigh quotient (above
+  // kRigidCeiling of the spectrum scale, the bound of rigid_body_modes) means K's null space is
+  // not made of rigid motions.
+  const Matrix Gamma = rigid_body_modes(body.geometry);
+  const Matrix G1 = Gamma * inverse_root_basis(Gamma.transpose() * (body.M * Gamma), 1e-12);
+  const Matrix KG = G1.transpose() * (body.K * G1);
+  const Eigen::SelfAdjointEigenSolver<Matrix> stiffness(0.5 * (KG + KG.transpose()));
+  double scale = 0.0;
+  for (Index i = 0; i < body.M.rows(); ++i)
+    if (body.M.coeff(i, i) > 0.0) scale = std::max(scale, body.K.coeff(i, i) / body.M.coeff(i, i));
+  const Vector& energy = stiffness.eigenvalues();  // ascending
+  if (rigid_modes > G1.cols() || !(std::abs(energy(rigid_modes - 1)) <= kRigidCeiling * scale))
+    throw InputError(fmt::format(
+        "flexible body: K has {} rigid-body modes, but only {} of the {} rigid motions of the "
+        "geometry are free (Rayleigh quotients {:.3g} relative to max K_ii / M_ii, at most {:g} "
+        "for a free motion): a mechanism or a model whose nodes.csv does not fit K",
+        rigid_modes, (energy.array().abs() <= kRigidCeiling * scale).count(), G1.cols(),
+        rigid_modes <= G1.cols() ? std::abs(energy(rigid_modes - 1)) / scale : 0.0,
+        kRigidCeiling));
+  out.free_motions = rigid_modes;
+  const Matrix R = G1 * stiffness.eigenvectors().leftCols(rigid_modes);
+  const Matrix MR = body.M * R;
+
+  // V M-orthonormal (V Z), then its rigid content R' M V Z = U S Y': a singular value of 1 is a
+  // rigid motion inside span V. Dropping those directions (columns of Y) and removing the rigid
+  // component of the rest leaves n - removed independent elastic directions: a kept direction
+  // has at least kContained of its M-norm outside the rigid motions.
+  constexpr double kContained = 1e-6;
+  const Matrix Z = inverse_root_basis(body.V.transpose() * (body.M * body.V), 1e-14);
+  if (Z.cols() < n)
+    throw InputError(fmt::format(
+        "flexible body: V has rank {} of {} columns in the mass inner product (V' M V is "
+        "singular): its columns must be independent displacement shapes",
+        Z.cols(), n));
+  const Matrix rigid_content = MR.transpose() * (body.V * Z);
+  const Eigen::JacobiSVD<Matrix> svd(rigid_content, Eigen::ComputeFullV);
+  std::vector<Index> kept;
+  for (Index j = 0; j < n; ++j) {
+    const double s = j < svd.singularValues().size() ? svd.singularValues()(j) : 0.0;
+    if (std::sqrt(std::max(0.0, 1.0 - s * s)) >= kContained) kept.push_back(j);
+  }
+  out.removed = n - static_cast<Index>(kept.size());
+  out.T.resize(n, static_cast<Index>(kept.size()));
+  for (std::size_t j = 0; j < kept.size(); ++j)
+    out.T.col(static_cast<Index>(j)) = Z * svd.matrixV().col(kept[j]);
+  const auto without_rigid = [&](const Matrix& X) -> Matrix { return X - R * (MR.transpose() * X); };
+  out.V = without_rigid(body.V * out.T);
+  const bool galerkin = body.W.rows() == body.V.rows() && body.W == body.V;
+  if (!galerkin) {
+    out.W = without_rigid(body.W * out.T);
+    return out;
+  }
+  // Galerkin: the eigenvectors of the elastic pencil, so that a modal run keeps its modes (mass
+  // normalised, ascending frequency) and a Krylov run gets Ritz modes.
+  const Matrix Me = out.V.transpose() * (body.M * out.V);
+  const Matrix Ke = out.V.transpose() * (body.K * out.V);
+  const Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> modes(0.5 * (Ke + Ke.transpose()),
+                                                               0.5 * (Me + Me.transpose()));
+  if (modes.info() != Eigen::Success)
+    throw NumericalError("flexible body: the elastic pencil (W' K V, W' M V) has no eigenbasis");
+  out.T = out.T * modes.eigenvectors();
+  out.V = out.V * modes.eigenvectors();
+  out.W = out.V;
+  return out;
+}
+
+BodyInvariants compute_body_invariants(const BodyModel& body) {
+  check_body(body);
+  const Index N = body.M.rows();
+  const Index n = body.V.cols();
 
   const FeGeometry& mg = body.mass_model ? body.mass_model->geometry : body.geometry;
   const SparseMatrix& Mm = body.mass_model ? body.mass_model->M : body.M;
@@ -357,7 +459,7 @@ SidBody to_sid(const BodyInvariants& inv, const FeGeometry& g, const Matrix& V,
 }
 
 void write_body_json(const std::filesystem::path& path, const BodyInvariants& inv,
-                     const SidBody& sid) {
+                     const SidBody& sid, const ElasticBases& coordinates) {
   nlohmann::json j;
   j["mass"] = inv.mass;
   j["mass_by_direction"] = inv.mass_by_direction;
@@ -376,6 +478,9 @@ void write_body_json(const std::filesystem::path& path, const BodyInvariants& in
   j["constrained_dofs"] = inv.constrained_dofs;
   j["missing_translations"] = inv.missing_translations;
   j["vw_coupling_difference"] = inv.vw_coupling_difference;
+  j["free_rigid_motions"] = coordinates.free_motions;
+  j["removed_coordinates"] = coordinates.removed;
+  j["T"] = matrix_json(coordinates.T);
   nlohmann::json nodes = nlohmann::json::array();
   for (const SidNode& p : sid.frame)
     nodes.push_back({{"id", p.id},
@@ -385,6 +490,65 @@ void write_body_json(const std::filesystem::path& path, const BodyInvariants& in
   j["frame_nodes"] = std::move(nodes);
   j["ielastq"] = sid.ielastq;
   write_text_atomically(path, j.dump(1) + "\n");
+}
+
+namespace {
+
+/// Blocks of equal shape side by side (block k in the k-th group of columns).
+template <class Block>
+Matrix side_by_side(const std::vector<Block>& blocks, Index rows, Index cols) {
+  Matrix out(rows, cols * static_cast<Index>(blocks.size()));
+  for (std::size_t k = 0; k < blocks.size(); ++k)
+    out.middleCols(static_cast<Index>(k) * cols, cols) = blocks[k];
+  return out;
+}
+
+Matrix scalar(double v) { return Matrix::Constant(1, 1, v); }
+
+}  // namespace
+
+void write_body_mat(const std::filesystem::path& path, const BodyInvariants& inv,
+                    const SidBody& sid, const ElasticBases& coordinates) {
+  const Index n = inv.Me.rows(), frames = static_cast<Index>(sid.frame.size());
+  Matrix ids(frames, 1), positions(3, frames), phi(3, n * frames), psi(3, n * frames);
+  for (Index f = 0; f < frames; ++f) {
+    const SidNode& p = sid.frame[static_cast<std::size_t>(f)];
+    ids(f, 0) = static_cast<double>(p.id);
+    positions.col(f) = p.origin.m0;
+    phi.middleCols(f * n, n) = p.phi.m0;
+    psi.middleCols(f * n, n) = p.psi.m0;
+  }
+  write_named_file_atomically(path, [&](const std::filesystem::path& tmp) {
+    detail::MatWriter out(tmp, path, "ecmor reduced elastic body (seed Eq. 5)");
+    out.write("mass", scalar(inv.mass));
+    out.write("mass_by_direction", Eigen::Map<const Matrix>(inv.mass_by_direction.data(), 1, 3));
+    out.write("mc0", inv.mc.a0);
+    out.write("mc1", side_by_side(inv.mc.a1, 3, 1));
+    out.write("J0", inv.J.a0);
+    out.write("J1", side_by_side(inv.J.a1, 3, 3));
+    out.write("Ct_v", inv.Ct_v);
+    out.write("Ct_w", inv.Ct_w);
+    out.write("Cr_v0", inv.Cr_v.a0);
+    out.write("Cr_v1", side_by_side(inv.Cr_v.a1, n, 3));
+    out.write("Cr_w0", inv.Cr_w.a0);
+    out.write("Cr_w1", side_by_side(inv.Cr_w.a1, n, 3));
+    out.write("Gr", side_by_side(inv.Gr, 3, 3));
+    out.write("Ge", side_by_side(inv.Ge, n, 3));
+    out.write("Oe0", inv.Oe.a0);
+    out.write("Oe1", side_by_side(inv.Oe.a1, n, 6));
+    out.write("Me", inv.Me);
+    out.write("De", inv.De);
+    out.write("Ke", inv.Ke);
+    out.write("constrained_dofs", scalar(static_cast<double>(inv.constrained_dofs)));
+    out.write("free_rigid_motions", scalar(static_cast<double>(coordinates.free_motions)));
+    out.write("removed_coordinates", scalar(static_cast<double>(coordinates.removed)));
+    out.write("T", coordinates.T);
+    out.write("frame_ids", ids);
+    out.write("frame_positions", positions);
+    out.write("frame_phi", phi);
+    out.write("frame_psi", psi);
+    out.close();
+  });
 }
 
 }  // namespace ecmor

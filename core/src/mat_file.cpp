@@ -236,8 +236,9 @@ Matrix MatReader::dense_of(const void* var_ptr, const std::string& name) const {
   return A;
 }
 
-MatWriter::MatWriter(const fs::path& path, const fs::path& target) : m_target(target) {
-  m_mat = Mat_CreateVer(path.c_str(), "ecmor reduced model", MAT_FT_MAT5);
+MatWriter::MatWriter(const fs::path& path, const fs::path& target, const char* header)
+    : m_target(target) {
+  m_mat = Mat_CreateVer(path.c_str(), header, MAT_FT_MAT5);
   if (m_mat == nullptr)
     throw IoError("cannot write " + target.string() + ": matio cannot create " + path.string());
 }

@@ -68,7 +68,9 @@ class MatReader {
 class MatWriter {
  public:
   /// \throws IoError naming the target when matio cannot create the file.
-  MatWriter(const std::filesystem::path& path, const std::filesystem::path& target);
+  /// `header` is the file's descriptive text (MATLAB shows it with `whos -file`).
+  MatWriter(const std::filesystem::path& path, const std::filesystem::path& target,
+            const char* header = "ecmor reduced model");
   ~MatWriter();
   MatWriter(const MatWriter&) = delete;
   MatWriter& operator=(const MatWriter&) = delete;

@@ -454,6 +454,25 @@ void write_reduction(const fs::path& dir, const ReducedModel& model, const Matri
   });
 }
 
+ProjectionBases read_projection_bases(const fs::path& run_dir) {
+  std::error_code ec;
+  if (fs::is_regular_file(run_dir / "V.mtx", ec)) {
+    ProjectionBases b;
+    b.V = read_matrix_market_dense(run_dir / "V.mtx");
+    b.W = read_matrix_market_dense(run_dir / "W.mtx");
+    return b;
+  }
+  const fs::path mat = run_dir / kReducedModelMatFile;
+  if (!fs::is_regular_file(mat, ec))
+    throw InputError(run_dir.string() + ": no projection bases: neither V.mtx nor " +
+                     kReducedModelMatFile + " (the output of `ecmor reduce`)");
+  const detail::MatReader file(mat, mat.string());
+  ProjectionBases b;
+  b.V = file.dense("V");
+  b.W = file.has("W") ? file.dense("W") : b.V;
+  return b;
+}
+
 ReducedModel read_reduced_model(const fs::path& path) {
   if (is_mat_path(path)) {
     const MatModel file(path, "reduced model", {}, kReducedRoles);

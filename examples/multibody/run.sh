@@ -6,7 +6,9 @@
 #   3. `ecmor reduce reduce_modal.yaml` reduces the clamped beam with eigenmodes;
 #   4. `ecmor export-body` writes body.SID_FEM and body.json;
 #   5. the mass in the SID file is checked against rho V = 7800 kg/m^3 * 1 m * 0.03 m * 0.05 m;
-#   6. with gnuplot, the shapes of the first four modes along the beam are drawn to PNG.
+#   6. the free beam (model_free) is reduced as a free-floating body (reduce_free.yaml) and
+#      exported: six rigid-body motions in the frame, the elastic modes as coordinates;
+#   7. with gnuplot, the shapes of the first four modes along the beam are drawn to PNG.
 # Usage: examples/multibody/run.sh [ECMOR] [WORK_DIR] [PNG]
 #   ECMOR     the ecmor executable (default build/bin/ecmor)
 #   WORK_DIR  where everything is written (default out/multibody)
@@ -37,6 +39,19 @@ if [ "$status" -ne 0 ]; then echo "run.sh: reduce_modal.yaml ended with exit $st
 jq -e '(.mass - 7800 * 1.0 * 0.03 * 0.05) | fabs < 1e-9 * 11.7' body.json >/dev/null ||
   { echo "run.sh: mass $(jq .mass body.json) differs from rho V = 11.7 kg" >&2; exit 1; }
 echo "mass $(jq .mass body.json) kg = rho V; centre of mass $(jq -c '[.mc.a0[][0] / .mass]' body.json) m"
+
+# The free-floating beam: the rigid-body motion goes to the body frame, the elastic modes stay.
+set +e
+"$ecmor" reduce "$here/reduce_free.yaml" --no-plot --quiet
+status=$?
+set -e
+if [ "$status" -ne 0 ]; then echo "run.sh: reduce_free.yaml ended with exit $status" >&2; exit 1; fi
+"$ecmor" export-body reduced_free -o body_free.SID_FEM
+order=$(jq .final_order reduced_free/summary.json)
+jq -e --argjson n "$order" '.free_rigid_motions == 6 and .removed_coordinates == 6 and
+    (.Me | length) == $n - 6 and ((.mass - 11.7) | fabs) < 1e-9 * 11.7' body_free.json >/dev/null ||
+  { echo "run.sh: the free body has $(jq -c '[.free_rigid_motions, .removed_coordinates, (.Me | length)]' body_free.json) (free motions, removed, coordinates) for order $order" >&2; exit 1; }
+echo "free-floating: order $order, $((order - 6)) elastic coordinates in body_free.SID_FEM"
 
 if ! command -v gnuplot >/dev/null; then
   echo "run.sh: gnuplot not found: no picture"

@@ -13,10 +13,12 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "../../bench/solid.hpp"
 #include "ecmor/error.hpp"
 #include "ecmor/flexible_body.hpp"
+#include "ecmor/rigid_body.hpp"
 
 namespace {
 
@@ -24,6 +26,7 @@ using ecmor::BodyInvariants;
 using ecmor::BodyModel;
 using ecmor::Index;
 using ecmor::Matrix;
+using ecmor::Vector;
 using ecmor::bench::SolidOptions;
 
 constexpr double kRounding = 1e-12;
@@ -294,6 +297,122 @@ TEST(FlexibleBody, RejectsInconsistentInput) {
   } catch (const ecmor::InputError& e) {
     EXPECT_NE(std::string(e.what()).find("node 6 is at"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("same mesh"), std::string::npos) << e.what();
+  }
+}
+
+
+// Free-floating bodies (elastic_bases): the body frame carries the rigid-body motion, so the
+// elastic coordinates must not. The references are dense eigenpairs of the free block computed
+// here: six zero eigenvalues (the rigid motions), then the elastic ones; elastic modes of a free
+// body are M-orthogonal to the rigid motions, so removing the rigid part leaves them unchanged.
+struct FreeBlock {
+  BodyModel body;
+  Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> modes;
+  Index rigid_modes = 0;  // dim null(K) by the driver's analysis (rigid_body.hpp)
+};
+
+FreeBlock free_block(bool clamped = false) {
+  SolidOptions o = block();
+  o.clamped = clamped;
+  FreeBlock f{body_of(o, Eigen::Vector3d(0.3, -0.2, 0.1), Matrix()), {}, 0};
+  f.modes.compute(Matrix(f.body.K), Matrix(f.body.M));
+  f.rigid_modes = ecmor::rigid_body_modes(ecmor::Model(ecmor::bench::solid(o))).count;
+  return f;
+}
+
+// Relative agreement of the eigenvalues of the reduced pencil (W' K V, W' M V) with `expected`.
+void expect_pencil_eigenvalues(const ecmor::ElasticBases& e, const BodyModel& b,
+                               const std::vector<double>& expected) {
+  const Matrix Me = e.W.transpose() * (b.M * e.V), Ke = e.W.transpose() * (b.K * e.V);
+  Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> reduced(Ke, Me);
+  ASSERT_EQ(reduced.eigenvalues().size(), static_cast<Index>(expected.size()));
+  for (std::size_t k = 0; k < expected.size(); ++k)
+    EXPECT_NEAR(reduced.eigenvalues()(static_cast<Index>(k)), expected[k], 1e-9 * expected[k]) << k;
+}
+
+TEST(ElasticBases, AModalBasisOfAFreeBodyLosesItsRigidModesAndKeepsItsElasticOnes) {
+  FreeBlock f = free_block();
+  const Vector& lambda = f.modes.eigenvalues();
+  ASSERT_LT(std::abs(lambda(5)), 1e-8 * lambda(6));  // six rigid-body modes, then elastic ones
+  f.body.V = f.body.W = f.modes.eigenvectors().leftCols(10);
+  ASSERT_EQ(f.rigid_modes, 6);
+  const ecmor::ElasticBases e = ecmor::elastic_bases(f.body, f.rigid_modes);
+  EXPECT_EQ(e.free_motions, 6);
+  EXPECT_EQ(e.removed, 6);
+  ASSERT_EQ(e.V.cols(), 4);
+  EXPECT_EQ(e.T.rows(), 10);
+  EXPECT_TRUE(e.W == e.V);
+  // Mass-normalised elastic modes in ascending order: Me = I, Ke = diag(lambda_7..10).
+  const Matrix Me = e.V.transpose() * (f.body.M * e.V), Ke = e.V.transpose() * (f.body.K * e.V);
+  EXPECT_LT((Me - Matrix::Identity(4, 4)).cwiseAbs().maxCoeff(), 1e-10);
+  for (Index k = 0; k < 4; ++k)
+    EXPECT_NEAR(Ke(k, k), lambda(6 + k), 1e-9 * lambda(6 + k)) << k;
+  // Mean axes: no elastic coordinate moves the centre of mass or turns the body (C_t = 0,
+  // C_r(0) = 0), to rounding of sqrt(m) (a mass-normalised coordinate's coupling scale).
+  f.body.V = e.V;
+  f.body.W = e.W;
+  const BodyInvariants inv = ecmor::compute_body_invariants(f.body);
+  const double scale = std::sqrt(inv.mass) * 1e-9;
+  EXPECT_LT(inv.Ct_v.cwiseAbs().maxCoeff(), scale);
+  EXPECT_LT(inv.Cr_v.a0.cwiseAbs().maxCoeff(), scale * 10.0);  // times lengths of order 1 m
+}
+
+TEST(ElasticBases, AClampedBodyKeepsItsBasis) {
+  FreeBlock f = free_block(/*clamped=*/true);
+  ASSERT_EQ(f.rigid_modes, 0);
+  f.body.V = f.body.W = f.modes.eigenvectors().leftCols(5);
+  const ecmor::ElasticBases e = ecmor::elastic_bases(f.body, f.rigid_modes);
+  EXPECT_EQ(e.free_motions, 0);
+  EXPECT_EQ(e.removed, 0);
+  EXPECT_TRUE(e.V == f.body.V);
+  EXPECT_TRUE(e.W == f.body.W);
+  EXPECT_TRUE(e.T == Matrix::Identity(5, 5));
+  // A clamped block's restricted rigid motions strain the elements at the clamp: they are not
+  // free, and a null space of K claimed for them is refused.
+  try {
+    ecmor::elastic_bases(f.body, 1);
+    ADD_FAILURE() << "a clamped block was given a free rigid-body motion";
+  } catch (const ecmor::InputError& err) {
+    EXPECT_NE(std::string(err.what()).find("only 0 of the 6 rigid motions of the geometry are free"),
+              std::string::npos)
+        << err.what();
+  }
+}
+
+TEST(ElasticBases, PartlyRigidColumnsLoseTheirRigidPartOnly) {
+  FreeBlock f = free_block();
+  const Matrix Gamma = ecmor::rigid_body_modes(f.body.geometry);
+  const Matrix& phi = f.modes.eigenvectors();
+  // A translation, an elastic mode with a rotation added, another elastic mode.
+  Matrix V(phi.rows(), 3);
+  V.col(0) = 0.7 * Gamma.col(0);
+  V.col(1) = phi.col(7) + 0.5 * Gamma.col(5) * phi.col(7).norm() / Gamma.col(5).norm();
+  V.col(2) = phi.col(9) - 0.2 * Gamma.col(1) * phi.col(9).norm() / Gamma.col(1).norm();
+  f.body.V = f.body.W = V;
+  const ecmor::ElasticBases e = ecmor::elastic_bases(f.body, f.rigid_modes);
+  EXPECT_EQ(e.free_motions, 6);
+  EXPECT_EQ(e.removed, 1);
+  expect_pencil_eigenvalues(e, f.body, {f.modes.eigenvalues()(7), f.modes.eigenvalues()(9)});
+
+  // Petrov-Galerkin (W != V): W gets the same transformation, and no rotation to modes.
+  f.body.W = 2.0 * V;
+  const ecmor::ElasticBases pg = ecmor::elastic_bases(f.body, f.rigid_modes);
+  EXPECT_EQ(pg.removed, 1);
+  EXPECT_LT((pg.W - 2.0 * pg.V).cwiseAbs().maxCoeff(), 1e-12 * pg.W.cwiseAbs().maxCoeff());
+  expect_pencil_eigenvalues(pg, f.body, {f.modes.eigenvalues()(7), f.modes.eigenvalues()(9)});
+}
+
+TEST(ElasticBases, DependentColumnsAreRefusedByName) {
+  FreeBlock f = free_block();
+  Matrix V = f.modes.eigenvectors().middleCols(6, 3);
+  V.col(2) = V.col(0) + V.col(1);
+  f.body.V = f.body.W = V;
+  try {
+    ecmor::elastic_bases(f.body, f.rigid_modes);
+    ADD_FAILURE() << "dependent columns were accepted";
+  } catch (const ecmor::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("V has rank 2 of 3 columns"), std::string::npos)
+        << e.what();
   }
 }
 

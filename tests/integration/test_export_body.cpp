@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include "../../bench/solid.hpp"
+#include "common/mat_test_file.hpp"
 #include "common/run_ecmor.hpp"
 #include "ecmor/fe_geometry.hpp"
 #include "ecmor/matrix_market.hpp"
@@ -142,6 +144,78 @@ TEST_F(ExportBody, ReducedBarHasTheBarsMassInvariants) {
   const test::CliResult bare = run({"export-body", run_dir.string()});
   EXPECT_EQ(bare.exit_code, 1);
   EXPECT_NE(bare.err.find("no nodes.csv and dofs.csv"), std::string::npos) << bare.err;
+}
+
+
+// A free-floating bar reduced with modal (which keeps its six rigid-body modes) and written as
+// .mat only: the body exported from it has the rigid-body motion in its frame, not in its
+// coordinates (n = order - 6), its elastic coordinates are mean axes (C_t = 0), and the .mat copy
+// holds the same numbers as the SID file and the JSON.
+TEST_F(ExportBody, AFreeBodyHasOnlyElasticCoordinates) {
+  std::ofstream(m_dir / "free.yaml") << "model:    {dir: " << (m_dir / "free").string() << "}\n"
+                                     << "band:     {f_min_hz: 1.0, f_max_hz: 300.0}\n"
+                                     << "target:   {tolerance: 1.0e-2}\n"
+                                     << "reducer:  {name: modal}\n"
+                                     << "strategy: {name: grow_order}\n"
+                                     << "output:   {dir: " << (m_dir / "free_run").string()
+                                     << ", format: mat}\n";
+  const test::CliResult reduced =
+      run({"reduce", (m_dir / "free.yaml").string(), "--no-plot", "-q"});
+  ASSERT_EQ(reduced.exit_code, 0) << reduced.out << reduced.err;
+  const fs::path run_dir = m_dir / "free_run";
+  ASSERT_FALSE(fs::exists(run_dir / "V.mtx"));  // the bases come from reduced_model.mat
+  const test::CliResult r = run({"export-body", run_dir.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("6 rigid-body motions move the body frame"), std::string::npos) << r.out;
+
+  nlohmann::json summary;
+  std::ifstream(run_dir / "summary.json") >> summary;
+  const Index order = summary.at("final_order").get<Index>();
+  ASSERT_GT(order, 6);
+  const SidBody body = read_sid(run_dir / "body.SID_FEM");
+  EXPECT_EQ(body.nq(), order - 6);
+  nlohmann::json j;
+  std::ifstream(run_dir / "body.json") >> j;
+  EXPECT_EQ(j.at("free_rigid_motions").get<Index>(), 6);
+  EXPECT_EQ(j.at("removed_coordinates").get<Index>(), 6);
+
+  const bench::SolidOptions& o = m_options;
+  const double m = o.rho * o.lx * o.ly * o.lz;
+  EXPECT_NEAR(body.mass, m, 1e-12 * m);
+  // Mass-normalised elastic modes: Me = I; mean axes: C_t = 0 to rounding of sqrt(m).
+  EXPECT_LT((body.Me.m0 - Matrix::Identity(order - 6, order - 6)).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT(body.Ct.m0.cwiseAbs().maxCoeff(), 1e-9 * std::sqrt(m));
+  // The elastic frequencies are the run's nonzero ones: Ke's diagonal is Kr's spectrum without
+  // the six zeros (modal: Mr, Kr diagonal in its eigenvector coordinates).
+  const ReducedModel rom = read_reduced_model(run_dir);
+  const auto& rs = std::get<ReducedSecondOrderModel>(rom);
+  Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> run_modes(rs.K, rs.M);
+  for (Index k = 0; k < order - 6; ++k)
+    EXPECT_NEAR(body.Ke.m0(k, k), run_modes.eigenvalues()(6 + k),
+                1e-9 * run_modes.eigenvalues()(order - 1))
+        << k;
+
+  // The .mat copy: the numbers of the JSON (full precision) and the SID file.
+  const fs::path mat = run_dir / "body.mat";
+  ASSERT_TRUE(fs::exists(mat));
+  EXPECT_EQ(test::mat_read_dense(mat, "mass")(0, 0), j.at("mass").get<double>());
+  const Matrix Ke = test::mat_read_dense(mat, "Ke");
+  ASSERT_EQ(Ke.rows(), order - 6);
+  for (Index a = 0; a < Ke.rows(); ++a)
+    for (Index b = 0; b < Ke.cols(); ++b)
+      EXPECT_EQ(Ke(a, b), j.at("Ke")[static_cast<std::size_t>(a)][static_cast<std::size_t>(b)]
+                              .get<double>());
+  const Matrix J1 = test::mat_read_dense(mat, "J1");  // 3 x 3n: reshape(J1, 3, 3, n) in MATLAB
+  ASSERT_EQ(J1.cols(), 3 * (order - 6));
+  for (Index k = 0; k < order - 6; ++k)
+    for (Index a = 0; a < 3; ++a)
+      for (Index b = 0; b < 3; ++b)
+        EXPECT_EQ(J1(a, 3 * k + b), j.at("J").at("a1")[static_cast<std::size_t>(k)]
+                                        [static_cast<std::size_t>(a)][static_cast<std::size_t>(b)]
+                                            .get<double>());
+  EXPECT_EQ(test::mat_read_dense(mat, "T").rows(), order);
+  EXPECT_EQ(test::mat_read_dense(mat, "frame_ids").rows(),
+            static_cast<Index>(body.frame.size()));
 }
 
 }  // namespace

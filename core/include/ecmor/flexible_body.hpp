@@ -101,6 +101,38 @@ struct BodyInvariants {
 ///         direction) of the model, or a mass model's node has other coordinates than the model's.
 ECMOR_API BodyInvariants compute_body_invariants(const BodyModel& body);
 
+/// The bases of a body whose elastic coordinates exclude the rigid-body motion (elastic_bases()).
+struct ElasticBases {
+  Matrix V, W;  ///< N x n_el: the bases with the free rigid-body motions removed
+  /// n x n_el: V = P V_run T, W = P W_run T, where P x = x - R R' M x removes the M-orthogonal
+  /// component in the free rigid-body motions R (M-orthonormal, N x free_motions).
+  Matrix T;
+  /// Rigid-body motions moved to the body frame: the rigid_modes of elastic_bases() (6 for a
+  /// free-floating solid, 0 for a clamped one).
+  Index free_motions = 0;
+  /// Run coordinates dropped because span V contained a rigid-body motion (to 1e-6 of its
+  /// M-norm): n_el = n - removed.
+  Index removed = 0;
+};
+
+/// The elastic coordinates of a free-floating body. In the floating frame of reference the body
+/// frame carries the rigid-body motion, so the displacement ansatz S_el must not: a rigid motion
+/// in both would make the multibody equations singular. `rigid_modes` is the dimension of the
+/// null space of K, decided by rigid_body_modes(const Model&) (rigid_body.hpp): its Cholesky and
+/// gap tests, not a threshold here, tell a free body from a clamped one whose restricted rigid
+/// motions are merely soft. The free rigid-body motions R are the `rigid_modes` combinations of
+/// the six rigid motions of `body.geometry` (restricted to the model's rows, M-orthonormal) of
+/// least strain energy. Their M-orthogonal component is removed from V and W (the Tisserand /
+/// Buckens mean-axis condition: the elastic coordinates then have ᵛC_t = 0 and ᵛC_r(0) = 0), and
+/// the directions of span V that were rigid motions are dropped. For a Galerkin basis (W == V)
+/// the coordinates are then rotated to the eigenvectors of the reduced elastic pencil (Me = I, Ke
+/// diagonal): a modal run keeps its elastic modes. rigid_modes = 0 returns V, W unchanged and
+/// T = I.
+/// \throws InputError for the cases of compute_body_invariants(); for a V that is rank deficient
+///         in the mass inner product; when K's null space is not made of rigid motions of the
+///         geometry (a mechanism, or more zero-energy modes than the geometry's rigid motions).
+ECMOR_API ElasticBases elastic_bases(const BodyModel& body, Index rigid_modes);
+
 /// The six rigid-body motions of a geometry as columns (N x 6): translations along x, y, z
 /// (1 at the rows of that direction), then rotations about x, y, z (e_a x X at translational rows,
 /// 1 at the rotational rows about a). Rows are those of `geometry.dofs` (1-based row r -> r - 1).
@@ -125,10 +157,18 @@ ECMOR_API SidBody to_sid(const BodyInvariants& invariants, const FeGeometry& geo
                          const Matrix& V, const SidExportOptions& options);
 
 /// Writes the invariants (both the V and the W variants of C_t and C_r), the frame nodes of
-/// `sid` and the reduced matrices as JSON (docs/multibody.md, "The JSON file"), atomically.
+/// `sid`, the reduced matrices and how the body's coordinates relate to the run's (`coordinates`:
+/// free_motions, removed, T) as JSON (docs/multibody.md, "The JSON file"), atomically.
 /// \throws IoError.
 ECMOR_API void write_body_json(const std::filesystem::path& path, const BodyInvariants& invariants,
-                               const SidBody& sid);
+                               const SidBody& sid, const ElasticBases& coordinates);
+
+/// The same data as write_body_json() as a MAT v5 file of dense double variables, atomically
+/// (docs/multibody.md, "The .mat file"). A term linear in the n coordinates is one variable whose
+/// blocks for q_1 .. q_n stand side by side: J1 is 3 x 3n, and reshape(J1, 3, 3, n) gives
+/// J1(:, :, k) in MATLAB. \throws IoError; NumericalError for a non-finite entry.
+ECMOR_API void write_body_mat(const std::filesystem::path& path, const BodyInvariants& invariants,
+                              const SidBody& sid, const ElasticBases& coordinates);
 
 /// The 6-component symmetric layout index pairs of J (xx, yy, zz, xy, xz, yz) and of Oe's columns
 /// (xx, yy, zz, xy, yz, xz), FEMBS's orders (docs/multibody.md).

@@ -100,6 +100,14 @@ ECMOR_API void write_reduction(const std::filesystem::path& dir, const ReducedMo
 /// \throws InputError naming the directory or file and the rule broken.
 ECMOR_API ReducedModel read_reduced_model(const std::filesystem::path& path);
 
+/// The projection bases of a run directory: V.mtx and W.mtx, else the variables V and W of its
+/// kReducedModelMatFile (no W there means W = V, as write_reduction writes a Galerkin basis).
+struct ProjectionBases {
+  Matrix V, W;
+};
+/// \throws InputError naming the directory when neither is there, or the file and the rule broken.
+ECMOR_API ProjectionBases read_projection_bases(const std::filesystem::path& run_dir);
+
 /// Sizes, nnz, symmetry and definiteness of a model's matrices (for `ecmor info`).
 struct MatrixSummary {
   std::string name;   ///< "M", "K", "E", ...
