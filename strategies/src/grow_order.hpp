@@ -27,6 +27,7 @@ class GrowOrder final : public Strategy {
  public:
   explicit GrowOrder(GrowOrderOptions options) : m_options(options) {}
   StrategyResult run(StrategyContext& context) override;
+  bool order_only_grows() const override { return true; }
 
  private:
   GrowOrderOptions m_options;

@@ -1,0 +1,337 @@
+#include "portfolio.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <limits>
+
+#include "ecmor/error.hpp"
+#include "ecmor/interrupt.hpp"
+#include "ecmor/parallel.hpp"
+
+namespace ecmor {
+namespace driver {
+namespace {
+
+/// Wraps the configured reducer to measure the reduction proper: wall time and solver work inside
+/// setup() and reduce(), apart from the error estimation around them. setup() counts: the low-rank
+/// ADI of balanced truncation factorises there (rail_5177_bt: 123 Cholesky factorisations that the
+/// summary once left out of the reducer's count).
+class TimedReducer final : public Reducer {
+ public:
+  TimedReducer(Reducer& inner, const RecentFactorizations& solver)
+      : m_inner(inner), m_solver(solver) {}
+  void setup(const ReductionContext& context) override {
+    const Account account{*this};
+    m_inner.setup(context);
+  }
+  ReducerResult reduce(const ReductionRequest& request) override {
+    const Account account{*this};
+    ++m_calls;
+    return m_inner.reduce(request);
+  }
+  Index max_order() const override { return m_inner.max_order(); }
+  Index order_step() const override { return m_inner.order_step(); }
+
+  double seconds() const { return m_seconds; }
+  Index calls() const { return m_calls; }
+  const SolverCounters& counters() const { return m_counters; }
+  /// Factorisations the reducer asked for and got from the error control's full solves.
+  std::int64_t reuses() const { return m_reuses; }
+
+ private:
+  // Counts the time and solver work of one call, also when it throws: the work was done.
+  struct Account {
+    explicit Account(TimedReducer& reducer)
+        : self(reducer),
+          start(std::chrono::steady_clock::now()),
+          before(reducer.m_solver.counters()),
+          reuses_before(reducer.m_solver.reuses()) {}
+    ~Account() {
+      self.m_seconds +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      self.m_counters += self.m_solver.counters() - before;
+      self.m_reuses += self.m_solver.reuses() - reuses_before;
+    }
+    Account(const Account&) = delete;
+    Account& operator=(const Account&) = delete;
+    TimedReducer& self;
+    std::chrono::steady_clock::time_point start;
+    SolverCounters before;
+    std::int64_t reuses_before;
+  };
+
+  Reducer& m_inner;
+  const RecentFactorizations& m_solver;
+  double m_seconds = 0.0;
+  Index m_calls = 0;
+  SolverCounters m_counters;
+  std::int64_t m_reuses = 0;
+};
+
+/// Index of the reported attempt: the smallest order meeting the target (ties: less time), else
+/// the smallest band error among members with a model; -1 when no member has one.
+int select_winner(const std::vector<PortfolioAttempt>& attempts) {
+  int best = -1;
+  for (std::size_t k = 0; k < attempts.size(); ++k) {
+    const PortfolioAttempt& a = attempts[k];
+    if (!a.has_model) continue;
+    if (best < 0) {
+      best = static_cast<int>(k);
+      continue;
+    }
+    const PortfolioAttempt& b = attempts[static_cast<std::size_t>(best)];
+    // Ties on the order go to the faster member; under MPI to the first one, since the ranks'
+    // clocks differ and every rank must report the same winner.
+    const bool faster = process_count() == 1 && a.seconds < b.seconds;
+    const bool better = a.met != b.met ? a.met
+                        : a.met ? (a.order != b.order ? a.order < b.order : faster)
+                                : a.band_error < b.band_error;
+    if (better) best = static_cast<int>(k);
+  }
+  return best;
+}
+
+}  // namespace
+
+std::vector<PreparedMember> prepare_members(const RunConfig& config, Registry& registry) {
+  std::vector<PortfolioMember> members = config.portfolio;
+  const bool portfolio = !members.empty();
+  if (!portfolio) {
+    members.push_back(PortfolioMember{config.reducer_name, config.reducer_params,
+                                      config.strategy_name, config.strategy_params});
+  }
+  std::vector<PreparedMember> out;
+  for (std::size_t k = 0; k < members.size(); ++k) {
+    PreparedMember p;
+    p.member = members[k];
+    p.reducer = registry.create(p.member.reducer_name, p.member.reducer_params);
+    p.strategy = make_strategy(p.member.strategy_name, p.member.strategy_params);
+    for (const Registry::Entry& e : registry.entries()) {
+      if (e.info.name == p.member.reducer_name) p.info = e.info;
+    }
+    if (p.strategy->moves_points() && !p.info.uses_expansion_points) {
+      const std::string where =
+          portfolio ? fmt::format(" (strategy.members[{}])", k + 1) : std::string();
+      throw ConfigError(config.source.string() + ": strategy '" + p.member.strategy_name +
+                        "' moves expansion points, but reducer '" + p.member.reducer_name +
+                        "' does not use them; use strategy grow_order with it" + where);
+    }
+    out.push_back(std::move(p));
+  }
+  return out;
+}
+
+MemberRuns run_members(std::vector<PreparedMember>& members, const MemberEnvironment& env) {
+  const bool portfolio = !env.config.portfolio.empty();
+  auto elapsed = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - env.start).count();
+  };
+  MemberRuns runs;
+  Index smallest_met_order = 0;  // of the members so far; 0: none met yet
+  for (std::size_t k = 0; k < members.size(); ++k) {
+    PreparedMember& m = members[k];
+    PortfolioAttempt attempt;
+    attempt.reducer = m.member.reducer_name;
+    attempt.strategy = m.member.strategy_name;
+    if (k > 0 && env.stop.requested()) {
+      attempt.termination = "not_run";
+      attempt.message = env.stop.out_of_time() ? "the time limit was used up before it started"
+                                    : "interrupted before it started";
+      runs.attempts.push_back(attempt);
+      runs.results.emplace_back();
+      continue;
+    }
+    if (env.observer && portfolio) env.observer->on_member_started(k, members.size(), attempt.label());
+    const double member_start = elapsed();
+    TimedReducer timed(*m.reducer, env.solver);
+    const Index offset = env.recorded();
+    bool pruned = false;
+    StrategyContext ctx;
+    ctx.reducer = &timed;
+    ctx.reducer_info = m.info;
+    ctx.estimator = &env.estimator;
+    ctx.tolerance = env.config.tolerance;
+    ctx.full_rigid = &env.rigid;
+    ctx.verify_factor = env.config.verify_factor;
+    ctx.start = env.start;
+    ctx.counters = [&] { return env.solver.counters(); };
+    ctx.full_evaluations = [&] { return env.cache.size(); };
+    ctx.stop_requested = [&] { return env.stop.requested(); };
+    ctx.on_iteration = [&](const IterationRecord& rec) {
+      IterationRecord r = rec;
+      r.iteration += offset;  // one numbering over all members
+      r.diagnostics["peak_memory_mb"] = peak_memory_mb();
+      if (portfolio) {
+        r.diagnostics["portfolio_member"] = static_cast<double>(k + 1);
+        r.note = "[" + attempt.label() + "] " + r.note;
+      }
+      env.record(r);
+      const bool go_on = env.observer ? env.observer->on_iteration(r) : true;
+      // A grow_order member's order only grows: once it reaches the smallest order that met the
+      // target without meeting it, it cannot win.
+      if (portfolio && env.config.portfolio_prune && m.strategy->order_only_grows() &&
+          smallest_met_order > 0 && r.order >= smallest_met_order && !r.meets_tolerance) {
+        pruned = true;
+        return false;
+      }
+      return !any_process(env.stop.time_is_up() || !go_on);
+    };
+
+    StrategyResult result;
+    bool set_up = false;
+    try {
+      // The stop condition also reaches inside reducer calls (interrupt.hpp): a time limit or a
+      // signal ends an ARPACK run, an IRKA or ADI iteration within a fraction of a second.
+      InterruptScope interrupt([&] { return env.stop.requested(); });
+      set_up = false;
+      timed.setup(ReductionContext{&env.model, &env.solver, env.config.band});
+      set_up = true;
+      result = m.strategy->run(ctx);
+    } catch (const Interrupted& e) {
+      // Stopped inside the reducer's setup (e.g. the Gramians of balanced truncation), before
+      // any model, or inside a strategy that does not handle the stop itself (the bundled ones
+      // do, keeping their best model): the run ends as interrupted, not as failed.
+      result = StrategyResult{};
+      result.termination = Termination::Interrupted;
+      result.message = (set_up ? "stopped in strategy '" + m.member.strategy_name + "': "
+                               : std::string("stopped during the reducer's setup: ")) +
+                       e.what();
+    } catch (const std::exception& e) {
+      if (!portfolio) throw;  // a plain run reports its error as before
+      // The next member may well do the job (e.g. balanced truncation refuses an undamped
+      // model that modal reduction handles): record the failure and go on.
+      result = StrategyResult{};
+      result.termination = Termination::Failed;
+      result.message = e.what();
+      IterationRecord r;
+      r.iteration = env.recorded() + 1;
+      r.phase = "failed";
+      r.band_error = std::numeric_limits<double>::quiet_NaN();
+      r.seconds = elapsed();
+      r.step_seconds = elapsed() - member_start;
+      r.counters = env.solver.counters();
+      r.full_evaluations = env.cache.size();
+      r.note = "[" + attempt.label() + "] failed: " + e.what();
+      r.diagnostics["portfolio_member"] = static_cast<double>(k + 1);
+      env.record(r);
+      if (env.observer) env.observer->on_iteration(r);
+    }
+    if (env.stop.out_of_time() && result.termination == Termination::Interrupted) {
+      result.message = env.stop.time_limit_text() + ": " + result.message;
+    }
+    attempt.termination = pruned ? std::string("pruned") : to_string(result.termination);
+    attempt.message = pruned
+                          ? fmt::format(
+                                "stopped at order {} >= {}, the smallest order that met the target "
+                                "so far: {}",
+                                result.history.empty() ? 0 : result.history.back().order,
+                                smallest_met_order, result.message)
+                          : result.message;
+    attempt.has_model = result.best.has_value();
+    attempt.order = attempt.has_model ? result.best->V.cols() : 0;
+    attempt.band_error = attempt.has_model ? result.best_error.sup_relative : 0.0;
+    attempt.met = result.met();
+    attempt.seconds = elapsed() - member_start;
+    attempt.reducer_seconds = timed.seconds();
+    attempt.iterations = static_cast<Index>(result.history.size());
+    if (attempt.met && (smallest_met_order == 0 || attempt.order < smallest_met_order)) {
+      smallest_met_order = attempt.order;
+    }
+    runs.reducer_seconds += timed.seconds();
+    runs.reducer_calls += timed.calls();
+    runs.reducer_counters += timed.counters();
+    runs.reducer_reuses += timed.reuses();
+    runs.attempts.push_back(attempt);
+    runs.results.push_back(std::move(result));
+  }
+
+  return runs;
+}
+
+StrategyResult conclude(MemberRuns& runs, bool portfolio, const StopPolicy& stop, int& winner) {
+  std::vector<PortfolioAttempt>& attempts = runs.attempts;
+  std::vector<StrategyResult>& results = runs.results;
+  winner = select_winner(attempts);
+  StrategyResult result;
+  if (winner >= 0) {
+    attempts[static_cast<std::size_t>(winner)].selected = true;
+    result = std::move(results[static_cast<std::size_t>(winner)]);
+  } else {
+    // No model at all: the first failure (plain run: the only attempt) says why.
+    result = results.empty() ? StrategyResult{} : std::move(results.front());
+  }
+  if (portfolio) {
+    std::size_t met = 0;
+    std::vector<std::string> failures;
+    for (const PortfolioAttempt& a : attempts) {
+      met += a.met ? 1 : 0;
+      if (a.termination == "failed") failures.push_back(a.label() + ": " + a.message);
+    }
+    if (winner >= 0) {
+      const PortfolioAttempt& w = attempts[static_cast<std::size_t>(winner)];
+      result.message = fmt::format("portfolio: {} of {} members met the target; {} reported: {}",
+                                   met, attempts.size(), w.label(), result.message);
+    } else {
+      result.termination = Termination::Failed;
+      result.message =
+          fmt::format("portfolio: no member produced a model ({})", fmt::join(failures, "; "));
+    }
+    // A stop request ends the whole run as interrupted, even when a member already met the
+    // target: the members after it did not run, so "smallest" is not established.
+    if ((stop.user_stop() || stop.out_of_time()) && winner >= 0) {
+      for (const PortfolioAttempt& a : attempts) {
+        if (a.termination == "not_run" || a.termination == "interrupted") {
+          result.termination = Termination::Interrupted;
+          result.message =
+              (stop.out_of_time() ? stop.time_limit_text() + "; " : std::string("interrupted; ")) +
+              result.message;
+          break;
+        }
+      }
+    }
+  }
+
+  return result;
+}
+
+}  // namespace driver
+
+std::vector<PortfolioMember> default_portfolio(const Model& model, const Registry& registry) {
+  const bool second_order = kind_of(model) == ModelKind::SecondOrder;
+  auto symmetric = [](const SparseMatrix& A) { return relative_asymmetry(A) <= 1e-14; };
+  bool modal_suits = second_order;
+  if (const auto* d = std::get_if<DescriptorModel>(&model))
+    modal_suits = symmetric(d->E) && symmetric(d->A);
+  struct Candidate {
+    const char* reducer;
+    const char* strategy;
+    bool suits;
+  };
+  const Candidate candidates[] = {{"krylov", "greedy_points", true},
+                                  {"balanced", "grow_order", true},
+                                  {"modal", "grow_order", modal_suits}};
+  std::vector<PortfolioMember> members;
+  for (const Candidate& c : candidates) {
+    const auto& entries = registry.entries();
+    const auto it = std::find_if(entries.begin(), entries.end(),
+                                 [&](const Registry::Entry& e) { return e.info.name == c.reducer; });
+    if (it == entries.end() || !c.suits) continue;
+    if (second_order ? !it->info.second_order : !it->info.descriptor) continue;
+    PortfolioMember m;
+    m.reducer_name = c.reducer;
+    m.reducer_params = ParameterMap(std::string("reducer '") + c.reducer + "'");
+    m.strategy_name = c.strategy;
+    m.strategy_params = ParameterMap(std::string("strategy '") + c.strategy + "'");
+    if (m.strategy_name == "greedy_points") m.strategy_params.set("moments", 2LL);
+    members.push_back(std::move(m));
+  }
+  if (members.empty()) {
+    throw ConfigError(
+        "strategy 'portfolio' without members: none of the bundled reducers krylov, balanced, "
+        "modal is loaded for this model; give strategy.members");
+  }
+  return members;
+}
+
+}  // namespace ecmor

@@ -1,0 +1,70 @@
+#pragma once
+// portfolio.hpp: the members of a run (a plain run is a portfolio of one), created before any
+// heavy work, run one after another against one solver, cache and estimator, and the choice of
+// the reported one.
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "ecmor/band_error.hpp"
+#include "ecmor/frequency_response.hpp"
+#include "ecmor/recent_factorizations.hpp"
+#include "ecmor/registry.hpp"
+#include "ecmor/rigid_body.hpp"
+#include "ecmor/strategies/driver.hpp"
+#include "stop_policy.hpp"
+
+namespace ecmor::driver {
+
+/// A member ready to run: created (and its parameters validated) before any heavy work.
+struct PreparedMember {
+  PortfolioMember member;
+  std::shared_ptr<Reducer> reducer;
+  std::unique_ptr<Strategy> strategy;
+  ReducerInfo info;
+};
+
+/// The members of `config` (its reducer and strategy when it has no portfolio), created.
+/// \throws ConfigError for bad parameters of any member, or a strategy that moves expansion
+///         points with a reducer that does not use them.
+std::vector<PreparedMember> prepare_members(const RunConfig& config, Registry& registry);
+
+/// What every member runs against.
+struct MemberEnvironment {
+  const RunConfig& config;
+  const Model& model;
+  RecentFactorizations& solver;
+  ResponseCache& cache;
+  BandErrorEstimator& estimator;
+  const RigidBodyModes& rigid;
+  std::chrono::steady_clock::time_point start;
+  StopPolicy& stop;
+  RunObserver* observer;
+  /// Appends one record to the history (collective under MPI; throws IoError).
+  std::function<void(const IterationRecord&)> record;
+  /// Records written so far, over all members.
+  std::function<Index()> recorded;
+};
+
+/// One attempt and one result per member, and the reducers' totals over all members.
+struct MemberRuns {
+  std::vector<PortfolioAttempt> attempts;
+  std::vector<StrategyResult> results;
+  double reducer_seconds = 0.0;
+  Index reducer_calls = 0;
+  SolverCounters reducer_counters;
+  std::int64_t reducer_reuses = 0;
+};
+
+/// Runs the members one after another. A plain run's error propagates; a portfolio member's
+/// failure is recorded and the next member runs. A grow_order-like member (order_only_grows) is
+/// pruned once its order reaches the smallest that met the target without meeting it.
+MemberRuns run_members(std::vector<PreparedMember>& members, const MemberEnvironment& env);
+
+/// The run's result: the winner's (smallest order meeting the target, ties to the faster; else
+/// the smallest band error), with the portfolio's message; `winner` is its index, -1 for none.
+StrategyResult conclude(MemberRuns& runs, bool portfolio, const StopPolicy& stop, int& winner);
+
+}  // namespace ecmor::driver
