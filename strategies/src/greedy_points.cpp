@@ -130,6 +130,7 @@ void GreedyPointsOptions::validate() const { check(*this, nullptr); }
 
 using strategy_support::Candidate;
 using strategy_support::sci;
+using strategy_support::Stagnation;
 
 StrategyResult GreedyPoints::run(StrategyContext& ctx) {
   // Configuration problems are the caller's to fix: they throw before any work is done.
@@ -200,7 +201,7 @@ StrategyResult GreedyPoints::run(StrategyContext& ctx) {
     }
     Candidate c =
         run.assess(std::move(first), "initial", {{"points", static_cast<double>(points.size())}});
-    std::vector<double> best_trace;  // best error after each assessed model
+    Stagnation stagnation(m_options.stagnation_window, m_options.stagnation_ratio);
     // Frequencies where a new point or moment spoiled the model (a spurious pole on the band):
     // such a step is not taken; growth backs off to the model before it and aims elsewhere.
     std::vector<double> blocked;
@@ -212,18 +213,13 @@ StrategyResult GreedyPoints::run(StrategyContext& ctx) {
                               sci(run.best_error()) + ", tolerance " + sci(ctx.tolerance));
       }
       if (c.passed) break;
-      best_trace.push_back(run.best_error());
-      const Index w = m_options.stagnation_window;
-      if (w > 0 && static_cast<Index>(best_trace.size()) > w) {
-        const double then = best_trace[best_trace.size() - 1 - static_cast<std::size_t>(w)];
-        if (!(best_trace.back() < m_options.stagnation_ratio * then)) {
-          return run.finish(Termination::Stagnated,
-                            "band error stagnated at " + sci(best_trace.back()) +
-                                " over the last " + std::to_string(w) + " additions (was " +
-                                sci(then) + "; order " + std::to_string(c.order()) + ", " +
-                                std::to_string(points.size()) + " points); tolerance " +
-                                sci(ctx.tolerance));
-        }
+      if (stagnation.record(run.best_error())) {
+        return run.finish(Termination::Stagnated,
+                          "band error stagnated at " + sci(stagnation.last()) + " over the last " +
+                              std::to_string(stagnation.window()) + " additions (was " +
+                              sci(stagnation.before()) + "; order " + std::to_string(c.order()) +
+                              ", " + std::to_string(points.size()) + " points); tolerance " +
+                              sci(ctx.tolerance));
       }
       if (run.iterations() >= max_iterations) {
         return run.finish(Termination::IterationLimit,

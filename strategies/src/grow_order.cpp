@@ -34,6 +34,7 @@ void GrowOrderOptions::validate() const {
 
 using strategy_support::Candidate;
 using strategy_support::sci;
+using strategy_support::Stagnation;
 
 StrategyResult GrowOrder::run(StrategyContext& ctx) {
   strategy_support::StrategyRun run(ctx);
@@ -52,7 +53,7 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
     Index order = std::min(m_options.initial_order, max_order);
     Index last_fail = 0;          // largest order known to fail
     Index previous_delivered = -1;
-    std::vector<double> best_trace;  // best error after each growth step
+    Stagnation stagnation(m_options.stagnation_window, m_options.stagnation_ratio);
     while (true) {
       if (run.iterations() >= m_options.max_iterations) {
         return finish(Termination::IterationLimit,
@@ -89,17 +90,12 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
                                                             std::to_string(c.result.V.cols()));
       if (c.passed) break;
       last_fail = std::max(last_fail, delivered);
-      best_trace.push_back(run.best_error());
       previous_delivered = delivered;
-      const Index w = m_options.stagnation_window;
-      if (w > 0 && static_cast<Index>(best_trace.size()) > w) {
-        const double then = best_trace[best_trace.size() - 1 - static_cast<std::size_t>(w)];
-        if (best_trace.back() > m_options.stagnation_ratio * then) {
-          return finish(Termination::Stagnated,
-                        "band error stagnated at " + sci(best_trace.back()) + " over the last " +
-                            std::to_string(w) + " growth steps (order " +
-                            std::to_string(delivered) + "); tolerance " + sci(ctx.tolerance));
-        }
+      if (stagnation.record(run.best_error())) {
+        return finish(Termination::Stagnated,
+                      "band error stagnated at " + sci(stagnation.last()) + " over the last " +
+                          std::to_string(stagnation.window()) + " growth steps (order " +
+                          std::to_string(delivered) + "); tolerance " + sci(ctx.tolerance));
       }
       if (delivered >= max_order) {
         if (reducer.max_order() <= m_options.max_order) {

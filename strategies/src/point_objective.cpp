@@ -12,6 +12,7 @@ namespace ecmor::point_search {
 
 using strategy_support::Candidate;
 using strategy_support::sci;
+using strategy_support::Stagnation;
 
 namespace {
 
@@ -353,7 +354,7 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
         o.linear_spacing ? linear_spaced(objective.lower(), objective.upper(), o.initial_points)
                          : log_spaced(objective.lower(), objective.upper(), o.initial_points);
     Index assessments = 0;
-    std::vector<double> trace;  // best assessed error after each assessment
+    Stagnation stagnation(o.stagnation_window, o.stagnation_ratio);
     auto tail = [&] { return run.shortfall(); };
     // The order budget holds for every assessed model, not only for the predicted growth: the
     // reducer may deliver more columns than p points imply at the start or at an optimum (fewer
@@ -410,7 +411,7 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
                      {{"points", static_cast<double>(x.size())},
                       {"samples", static_cast<double>(objective.samples().size())}});
       ++assessments;
-      trace.push_back(run.best_error());
+      stagnation.record(run.best_error());  // the first record never stagnates
       objective.add_peaks(c.error, peak_count, o.max_added_samples);
       if (c.passed) return converged(" (start points)");
       if (run.stopped()) return finish(Termination::Interrupted, "stopped by request at the start");
@@ -460,16 +461,11 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
         return finish(Termination::Interrupted, "stopped by request after optimising " +
                                                     std::to_string(x.size()) + " points");
       }
-      trace.push_back(run.best_error());
-      const Index w = o.stagnation_window;
-      if (w > 0 && static_cast<Index>(trace.size()) > w) {
-        const double then = trace[trace.size() - 1 - static_cast<std::size_t>(w)];
-        if (!(trace.back() < o.stagnation_ratio * then)) {
-          return finish(Termination::Stagnated,
-                        "band error stagnated at " + sci(trace.back()) + " over the last " +
-                            std::to_string(w) + " assessed models (" + std::to_string(x.size()) +
-                            " points); tolerance " + sci(ctx.tolerance));
-        }
+      if (stagnation.record(run.best_error())) {
+        return finish(Termination::Stagnated,
+                      "band error stagnated at " + sci(stagnation.last()) + " over the last " +
+                          std::to_string(stagnation.window()) + " assessed models (" +
+                          std::to_string(x.size()) + " points); tolerance " + sci(ctx.tolerance));
       }
       // The full, refined evaluation found much more error than the sample set showed: the
       // optimiser was steered by samples that miss a peak. The peaks are samples now; optimise

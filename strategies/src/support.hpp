@@ -26,6 +26,30 @@ std::string sci(double v);
 ReducedStability judge_stability(const StrategyContext& context, const ReducedModel& model,
                                  Index unstable = -1);
 
+/// The stagnation rule of every strategy. After each step the strategy records its best band
+/// error so far; the run has stagnated when that error did not fall below `ratio` times its value
+/// `window` steps before. No progress (an equal value, inf after inf) stagnates, and so does a
+/// NaN, which is never progress. A window of 0 never stagnates.
+class Stagnation {
+ public:
+  Stagnation(Index window, double ratio) : m_window(window), m_ratio(ratio) {}
+  /// Records `best` and returns true when the run has stagnated.
+  bool record(double best) {
+    m_trace.push_back(best);
+    if (m_window <= 0 || static_cast<Index>(m_trace.size()) <= m_window) return false;
+    return !(best < m_ratio * before());
+  }
+  /// The best error `window` steps before the last record (for the message).
+  double before() const { return m_trace[m_trace.size() - 1 - static_cast<std::size_t>(m_window)]; }
+  double last() const { return m_trace.back(); }
+  Index window() const { return m_window; }
+
+ private:
+  Index m_window;
+  double m_ratio;
+  std::vector<double> m_trace;
+};
+
 /// One assessed reduced model.
 struct Candidate {
   ReducerResult result;

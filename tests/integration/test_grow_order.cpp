@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
@@ -273,6 +274,35 @@ TEST(GrowOrder, DetectsStagnation) {
   const StrategyResult r = fx.run(reducer, 1e-3, p);
   EXPECT_EQ(r.termination, Termination::Stagnated) << r.message;
   EXPECT_LT(r.history.size(), 10u);
+}
+
+// The one stagnation rule of grow_order, greedy_points and the point optimisers: progress means
+// the best error fell strictly below ratio x its value `window` records before.
+TEST(Stagnation, OnlyAStrictFallBelowTheRatioIsProgress) {
+  using ecmor::strategy_support::Stagnation;
+  Stagnation s(2, 0.5);
+  EXPECT_FALSE(s.record(1.0));
+  EXPECT_FALSE(s.record(0.8));  // fewer records than the window: no verdict yet
+  EXPECT_FALSE(s.record(0.49));  // below 0.5 x 1.0
+  EXPECT_TRUE(s.record(0.4));   // not below 0.5 x 0.8
+  EXPECT_DOUBLE_EQ(s.before(), 0.8);
+  EXPECT_DOUBLE_EQ(s.last(), 0.4);
+
+  Stagnation equal(1, 1.0);  // ratio 1: any fall is progress, none is not
+  EXPECT_FALSE(equal.record(0.3));
+  EXPECT_FALSE(equal.record(0.2999));
+  EXPECT_TRUE(equal.record(0.2999));
+
+  const double inf = std::numeric_limits<double>::infinity();
+  Stagnation poles(1, 0.99);  // every model so far has a pole on the band
+  EXPECT_FALSE(poles.record(inf));
+  EXPECT_TRUE(poles.record(inf));
+  Stagnation nan(1, 0.99);
+  EXPECT_FALSE(nan.record(1.0));
+  EXPECT_TRUE(nan.record(std::numeric_limits<double>::quiet_NaN()));
+
+  Stagnation off(0, 0.99);  // window 0: never
+  for (int k = 0; k < 5; ++k) EXPECT_FALSE(off.record(1.0));
 }
 
 TEST(GrowOrder, InvalidParametersAreNamed) {
