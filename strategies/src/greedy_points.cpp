@@ -173,12 +173,8 @@ StrategyResult GreedyPoints::run(StrategyContext& ctx) {
   const bool reducer_caps = reducer.max_order() <= m_options.max_order;
   const Index max_iterations = m_options.max_iterations;
 
-  // Exactly these points, no cap on the order (ReductionRequest semantics for explicit points).
   auto reduce = [&](const std::vector<ExpansionPoint>& pts) {
-    ReducerResult r = reducer.reduce(ReductionRequest{0, pts});
-    // The history must show the points; a reducer that leaves them out used the requested ones.
-    if (r.points.empty()) r.points = pts;
-    return r;
+    return strategy_support::reduce_at(reducer, pts);
   };
   auto shortfall = [&]() { return run.shortfall(); };
   auto over_budget = [&](Index delivered, const std::string& what) {

@@ -131,7 +131,7 @@ std::vector<ExpansionPoint> PointObjective::points_of(const std::vector<double>&
 }
 
 ReducerResult PointObjective::reduce(const std::vector<double>& x) const {
-  return m_run.context().reducer->reduce(ReductionRequest{0, points_of(x)});
+  return strategy_support::reduce_at(*m_run.context().reducer, points_of(x));
 }
 
 PointObjective::Levels PointObjective::evaluate(const std::vector<double>& x) {
@@ -380,9 +380,7 @@ StrategyResult run_point_search(StrategyContext& ctx, const PointSearchOptions& 
         pruned = strategy_support::prune_points(
             run, first.result.points.empty() ? objective.points_of(x) : first.result.points, first,
             std::numeric_limits<Index>::max(), [&](const std::vector<ExpansionPoint>& pts) {
-              ReducerResult r = run.context().reducer->reduce(ReductionRequest{0, pts});
-              if (r.points.empty()) r.points = pts;
-              return r;
+              return strategy_support::reduce_at(*run.context().reducer, pts);
             });
       }
       const Candidate& c = *run.smallest_pass();

@@ -18,6 +18,12 @@ std::string sci(double v) {
   return os.str();
 }
 
+ReducerResult reduce_at(Reducer& reducer, const std::vector<ExpansionPoint>& points) {
+  ReducerResult r = reducer.reduce(ReductionRequest{0, points});
+  if (r.points.empty()) r.points = points;
+  return r;
+}
+
 ReducedStability judge_stability(const StrategyContext& context, const ReducedModel& model,
                                  Index unstable) {
   static const RigidBodyModes kNoRigidModes{};

@@ -50,6 +50,11 @@ class Stagnation {
   std::vector<double> m_trace;
 };
 
+/// The reduced model at exactly these points, with no cap on the order (ReductionRequest's
+/// semantics for explicit points). The result always lists its points: a reducer that leaves
+/// them out used the requested ones, and the history must show them.
+ReducerResult reduce_at(Reducer& reducer, const std::vector<ExpansionPoint>& points);
+
 /// One assessed reduced model.
 struct Candidate {
   ReducerResult result;
