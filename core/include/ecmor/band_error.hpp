@@ -32,19 +32,12 @@
 #include <string>
 #include <vector>
 
+#include "ecmor/band.hpp"
 #include "ecmor/export.hpp"
 #include "ecmor/frequency_response.hpp"
 #include "ecmor/model.hpp"
 
 namespace ecmor {
-
-/// A frequency band in Hz.
-struct ECMOR_API Band {
-  double f_min_hz = 0.0;
-  double f_max_hz = 0.0;
-  /// \throws ConfigError unless 0 < f_min_hz < f_max_hz and both finite.
-  void validate() const;
-};
 
 enum class ErrorNorm { Spectral, Frobenius };
 ECMOR_API std::string to_string(ErrorNorm norm);

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/band_error.hpp"
+#include "ecmor/band.hpp"
 #include "ecmor/export.hpp"
 #include "ecmor/model.hpp"
 #include "ecmor/parameters.hpp"

@@ -1,0 +1,19 @@
+#pragma once
+/// \file band.hpp
+/// The frequency band of a reduction: what the tolerance is measured over, and what every reducer
+/// is told (ReductionContext::band). Its own header so that the plugin interface (reducer.hpp)
+/// does not pull in the error engine (band_error.hpp).
+
+#include "ecmor/export.hpp"
+
+namespace ecmor {
+
+/// A frequency band in Hz.
+struct ECMOR_API Band {
+  double f_min_hz = 0.0;
+  double f_max_hz = 0.0;
+  /// \throws ConfigError unless 0 < f_min_hz < f_max_hz and both finite.
+  void validate() const;
+};
+
+}  // namespace ecmor
