@@ -36,6 +36,7 @@
 
 #include "ecmor/error.hpp"
 #include "ecmor/frequency_response.hpp"
+#include "ecmor/matrix_market.hpp"
 #include "ecmor/reduced_response.hpp"
 #include "ecmor/registry.hpp"
 #include "ecmor/shifted_solver.hpp"
@@ -163,6 +164,30 @@ class Reporter {
 
 std::vector<double> band_frequencies_hz(Index count) {
   return ecmor::log_grid(kOmegaMin / ecmor::kTwoPi, kOmegaMax / ecmor::kTwoPi, count);
+}
+
+/// Reading a Matrix Market file: K written to a temporary file and read back (the read rate
+/// that test_matrix_market once asserted as wall time).
+void bench_matrix_market(const ecmor::Model& model, Index N, Reporter& out) {
+  const auto& K = std::get<ecmor::SecondOrderModel>(model).K;
+  const std::filesystem::path path = std::filesystem::temp_directory_path() /
+                                     fmt::format("ecmor_bench_core_K_{}.mtx", ::getpid());
+  ecmor::write_matrix_market(path, K, "bench_core: K of the triple chain");
+  const double mb = static_cast<double>(std::filesystem::file_size(path)) / 1e6;
+  Stopwatch watch;
+  const ecmor::SparseMatrix read = ecmor::read_matrix_market_sparse(path);
+  const double seconds = watch.wall();
+  std::filesystem::remove(path);
+  if (read.nonZeros() != K.nonZeros())
+    throw ecmor::NumericalError(fmt::format("bench: read {} nonzeros of K, wrote {}",
+                                            read.nonZeros(), K.nonZeros()));
+  out.add({.n = N,
+           .stage = "read Matrix Market",
+           .detail = fmt::format("K: {:.1f} MB, nnz {}", mb, K.nonZeros()),
+           .seconds = seconds,
+           .cpu_seconds = watch.cpu(),
+           .rate = mb / seconds,
+           .rate_unit = "MB/s"});
 }
 
 /// Analysis, one real (CHOLMOD) and one complex (UMFPACK) factorisation, and solves.
@@ -503,6 +528,7 @@ void run_size(Index N, const Options& opt) {
                                  std::get<ecmor::SecondOrderModel>(model).K.nonZeros()),
            .seconds = watch.wall(),
            .cpu_seconds = watch.cpu()});
+  bench_matrix_market(model, N, out);
   bench_factorizations(model, N, out);
   bench_band_response(model, N, opt, out);
   bench_symbolic_reuse(model, N, opt, out);

@@ -5,7 +5,6 @@
 #include <unistd.h>
 
 #include <atomic>
-#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -238,21 +237,15 @@ TEST(MatrixMarketRead, SubnormalAndUnderflowingValues) {
   EXPECT_EQ(A(1, 0), 0.0);  // underflows to (negative) zero: accepted
 }
 
-TEST(MatrixMarketRead, SharedModelFileIsReadQuickly) {
+// A real 4.7 MB file, read whole (its read rate is a benchmark: bench_core "read Matrix Market").
+TEST(MatrixMarketRead, SharedModelFileIsReadWhole) {
   const fs::path p = fs::path(ECMOR_TEST_SOURCE_DIR) / "../shared/models/rail_20209/A.mtx";
   ASSERT_TRUE(fs::exists(p)) << p;
-  const auto t0 = std::chrono::steady_clock::now();
   const SparseMatrix A = read_matrix_market_sparse(p);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_EQ(A.rows(), 20209);
   EXPECT_EQ(A.cols(), 20209);
   EXPECT_EQ(A.nonZeros(), 139233);
-#ifdef NDEBUG
-  EXPECT_LT(seconds, 1.0) << "parsing a 4.7 MB file took " << seconds << " s";
-#else
-  EXPECT_LT(seconds, 10.0) << "parsing a 4.7 MB file took " << seconds << " s";
-#endif
+  EXPECT_EQ(A.coeff(0, 0), -4.4356049786006052e-06);  // the file's first entry, bit for bit
 }
 
 // ---------------------------------------------------------------------------------------------
