@@ -280,7 +280,7 @@ TEST(TransferFunction, ReducedSingularThrows) {
 }
 
 TEST(FrequencyResponse, ParallelEqualsSerial) {
-  if (!has_model("triplechain_saak09_n451")) GTEST_SKIP() << "shared models not found";
+  ASSERT_TRUE(has_model("triplechain_saak09_n451")) << "shared model not found in " << models_dir();
   Model model = read_model("triplechain_saak09_n451");
   auto solver = make_shifted_solver(model);
   const auto f = log_grid(1e-4, 10.0, 40);
@@ -322,7 +322,7 @@ TEST(FrequencyResponse, ExceptionInsideParallelRegionIsRethrown) {
 
 TEST(FrequencyResponse, ReducedFullOrderReductionReproducesFull) {
   for (const std::string name : {"lf10", "build_so", "cdplayer", "build"}) {
-    if (!has_model(name)) GTEST_SKIP() << "shared models not found";
+    ASSERT_TRUE(has_model(name)) << "shared model " << name << " not found in " << models_dir();
     Model model = read_model(name);
     auto solver = make_shifted_solver(model);
     const Index p = std::visit([](const auto& sys) { return sys.C.rows(); }, model);
@@ -463,7 +463,7 @@ class SharedReference : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(SharedReference, MatchesIndependentResponse) {
   const std::string name = GetParam();
-  if (!has_model(name)) GTEST_SKIP() << "shared model " << name << " not found";
+  ASSERT_TRUE(has_model(name)) << "shared model " << name << " not found in " << models_dir();
   Model model = read_model(name);
   const Index p = std::visit([](const auto& s) { return s.C.rows(); }, model);
   const Index m = std::visit([](const auto& s) { return s.B.cols(); }, model);
@@ -509,71 +509,5 @@ INSTANTIATE_TEST_SUITE_P(Models, SharedReference,
 // Not here: beam (rcond of P(s) 4e-9: 9e-10 from the reference, 7e-10 from a dense full-pivoting
 // LU, 5 s), mna1 (rcond 5e-12 at 2.8e12 rad/s: 7e-8 from the reference, 5e-8 from dense LU), peec
 // (unstable; its reference is not one), mna5 (no reference file).
-
-// ---------------------------------------------------------------------------------------------
-// Ad-hoc timings (printed, never asserted). Only with ECMOR_TIMING=1: rail_20209 takes a while.
-
-double seconds(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-TEST(Timing, FactorizationsAndBandResponse) {
-  const char* env = std::getenv("ECMOR_TIMING");
-  if (!env || std::string(env) != "1") GTEST_SKIP() << "set ECMOR_TIMING=1 to run";
-  for (const std::string name : {"triplechain_mess_n1501", "rail_20209"}) {
-    if (!has_model(name)) continue;
-    auto t0 = std::chrono::steady_clock::now();
-    Model model = read_model(name);
-    const double t_read = seconds(t0);
-    auto solver = make_shifted_solver(model);
-    const Complex s = s_from_hz(1.0);
-    t0 = std::chrono::steady_clock::now();
-    auto P = solver->factorize(s);  // includes the (first) symbolic analysis
-    const double t_first = seconds(t0);
-    const auto c1 = solver->counters();
-    t0 = std::chrono::steady_clock::now();
-    auto P2 = solver->factorize(s * 1.1);
-    const double t_fact = seconds(t0);
-    t0 = std::chrono::steady_clock::now();
-    ComplexMatrix H = transfer_function(model, *P2, s * 1.1);
-    const double t_solve = seconds(t0);
-    const auto c2 = solver->counters();
-    std::printf(
-        "[ timing ] %s: read %.3f s; symbolic %.4f s; first numeric %.4f s; "
-        "numeric %.4f s; %ld solves %.4f s\n",
-        name.c_str(), t_read, c1.analysis_seconds, c1.factorization_seconds, t_fact,
-        static_cast<long>(c2.solves), t_solve);
-    (void)t_first;
-    // Real SPD shift (CHOLMOD) for comparison.
-    t0 = std::chrono::steady_clock::now();
-    auto R = solver->factorize(Complex(1.0, 0.0));
-    const double t_chol_first = seconds(t0);
-    t0 = std::chrono::steady_clock::now();
-    auto R2 = solver->factorize(Complex(2.0, 0.0));
-    const double t_chol = seconds(t0);
-    std::printf("[ timing ] %s: real shift %s first (with analysis) %.4f s, next %.4f s\n",
-                name.c_str(), R2->method().c_str(), t_chol_first, t_chol);
-    if (name == "rail_20209") {
-      const Reference ref = read_reference(name, 6, 7);
-      std::vector<double> f;
-      for (double w : ref.omega) f.push_back(w / kTwoPi);
-      for (int threads : {1, 2}) {
-        auto fresh = make_shifted_solver(model);
-        t0 = std::chrono::steady_clock::now();
-        const auto Hs = frequency_response(model, *fresh, f, threads);
-        const double t = seconds(t0);
-        const auto c = fresh->counters();
-        double worst = 0.0;
-        for (std::size_t i = 0; i < f.size(); ++i) worst = std::max(worst, rel(Hs[i], ref.H[i]));
-        std::printf(
-            "[ timing ] rail_20209 200-frequency response, %d thread(s): %.3f s "
-            "(symbolic %.3f s, numeric %.3f s cpu-sum, solves %ld in %.3f s cpu-sum); "
-            "worst rel err %.2e\n",
-            threads, t, c.analysis_seconds, c.factorization_seconds, static_cast<long>(c.solves),
-            c.solve_seconds, worst);
-      }
-    }
-  }
-}
 
 }  // namespace
