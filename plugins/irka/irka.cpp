@@ -268,7 +268,7 @@ class IrkaReducer final : public Reducer {
   /// negative definite for a symmetric definite model, so every iterate is stable with real
   /// poles; but with B != C' its model of order r matches H(s) b at r shifts where two-sided
   /// matches H(s) b, c' H(s) and c' H'(s) b, and it needs larger orders for the same band error
-  /// (measured, README: rail_1357 62 against 34, rail_5177 68 against 52; with both B b and C' c
+  /// (measured, README: rail_1357 60 against 34, rail_5177 68 against 52; with both B b and C' c
   /// in V at ceil(r/2) shifts 96 on rail_1357, its shifts never settled), so two-sided stays the
   /// default even for those models.
   void choose_projection(const Model& model) {
