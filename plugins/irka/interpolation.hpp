@@ -4,6 +4,7 @@
 // convergence, cycling and stagnation tests use. Private to the irka plugin (see README.md).
 #include <fmt/format.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
@@ -70,6 +71,34 @@ inline PoleResidues pole_residues(const Matrix& E, const Matrix& A, const Matrix
   }
   out.c = C.cast<Complex>() * X;
   out.b = xlu.solve(G.cast<Complex>()).transpose();
+  return out;
+}
+
+/// Pole-residue form of a symmetric definite reduced model (E SPD, A symmetric, as a one-sided
+/// projection W = V of a symmetric definite model gives): A x = lambda E x by the symmetric
+/// generalised eigensolver, so the poles are real and the eigenvectors E-orthonormal (X' E X = I,
+/// X^-1 = X' E): b_i = B' x_i, c_i = C x_i. The symmetric parts of E and A are used (rounding).
+/// \throws NumericalError when E is not numerically positive definite.
+inline PoleResidues symmetric_pole_residues(const Matrix& E, const Matrix& A, const Matrix& B,
+                                            const Matrix& C) {
+  PoleResidues out;
+  if (A.rows() == 0) return out;
+  const Matrix Es = 0.5 * (E + E.transpose()), As = 0.5 * (A + A.transpose());
+  const Eigen::LLT<Matrix> llt(Es);
+  if (llt.info() != Eigen::Success) {
+    throw NumericalError(
+        "the reduced E = V' E V of a one-sided projection is not numerically positive definite: "
+        "the basis V is (nearly) rank deficient");
+  }
+  const Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> eig(As, Es);
+  if (eig.info() != Eigen::Success) {
+    throw NumericalError("the symmetric generalised eigenvalues of the reduced model failed");
+  }
+  const Matrix& X = eig.eigenvectors();
+  out.poles = eig.eigenvalues().cast<Complex>();
+  out.b = (B.transpose() * X).cast<Complex>();
+  out.c = (C * X).cast<Complex>();
+  out.eigenvector_rcond = Eigen::PartialPivLU<Matrix>(X).rcond();
   return out;
 }
 

@@ -289,6 +289,107 @@ TEST(Irka, SecondOrderIterateVariantReturnsAStableSecondOrderModel) {
   EXPECT_EQ(res.diagnostics.at("unstable_poles"), 0.0);
 }
 
+// ---- symmetric models: one-sided projection ---------------------------------------------------
+
+/// A symmetric definite heat model like rail's (seeded, N = 300): E the P1 mass matrix and -A the
+/// stiffness matrix of -(k u')' + u on (0, 1) with k between 0.01 and 1, 3 inputs and 2 outputs
+/// from unrelated random vectors (B != C', so two-sided IRKA is Petrov-Galerkin).
+DescriptorModel symmetric_heat_model() {
+  const Index n = 300;
+  const double h = 1.0 / static_cast<double>(n + 1);
+  std::vector<Eigen::Triplet<double>> e, a;
+  for (Index i = 0; i < n; ++i) {
+    const double x = (static_cast<double>(i) + 1.0) * h;
+    const double k = 0.01 + 0.99 * x * x;
+    e.emplace_back(i, i, 4.0 * h / 6.0);
+    a.emplace_back(i, i, -(2.0 * k / h + 4.0 * h / 6.0));
+    if (i + 1 < n) {
+      for (const auto& [r, c] : {std::pair{i, i + 1}, std::pair{i + 1, i}}) {
+        e.emplace_back(r, c, h / 6.0);
+        a.emplace_back(r, c, k / h - h / 6.0);
+      }
+    }
+  }
+  DescriptorModel m;
+  m.E.resize(n, n);
+  m.A.resize(n, n);
+  m.E.setFromTriplets(e.begin(), e.end());
+  m.A.setFromTriplets(a.begin(), a.end());
+  std::srand(29);
+  m.B = Matrix::Random(n, 3);
+  m.C = Matrix::Random(2, n);
+  return m;
+}
+
+TEST(Irka, SymmetricModelIsReducedOneSidedToAStableSymmetricPencil) {
+  // E SPD, A symmetric negative definite, projection one_sided: W = V, so Er = V'EV is SPD and
+  // Ar = V'AV symmetric negative definite: every pole real and negative, none reflected, at every
+  // order of a grown sequence (warm starts included). Two-sided on the same model reflects poles.
+  auto f = make(symmetric_heat_model(),
+                params({{"projection", std::string("one_sided")}, {"max_iterations", 100LL}}),
+                band_of(1e-3, 10.0));
+  for (const Index r : {3, 6, 10}) {
+    SCOPED_TRACE("r = " + std::to_string(r));
+    const ReducerResult res = f->reducer->reduce(ReductionRequest{r, {}});
+    std::cout << "[ irka ] symmetric heat, one-sided: " << res.note << "\n";
+    EXPECT_EQ(res.diagnostics.at("irka_one_sided"), 1.0);
+    EXPECT_EQ(res.diagnostics.at("irka_reflected_poles"), 0.0);
+    EXPECT_EQ(res.diagnostics.at("unstable_poles"), 0.0);
+    ASSERT_TRUE(std::holds_alternative<ReducedDescriptorModel>(res.model));
+    const auto& red = std::get<ReducedDescriptorModel>(res.model);
+    ASSERT_EQ(red.E.rows(), r);
+    EXPECT_LT((red.E - red.E.transpose()).norm(), 1e-12 * red.E.norm());
+    EXPECT_LT((red.A - red.A.transpose()).norm(), 1e-12 * red.A.norm());
+    EXPECT_GT(Eigen::SelfAdjointEigenSolver<Matrix>(red.E).eigenvalues().minCoeff(), 0.0);
+    EXPECT_LT(Eigen::SelfAdjointEigenSolver<Matrix>(red.A).eigenvalues().maxCoeff(), 0.0);
+    EXPECT_TRUE(res.W.isApprox(res.V));
+  }
+  auto two = make(symmetric_heat_model(), params({{"max_iterations", 100LL}}), band_of(1e-3, 10.0));
+  Index reflected = 0;
+  for (const Index r : {3, 6, 10}) {
+    const ReducerResult res = two->reducer->reduce(ReductionRequest{r, {}});
+    EXPECT_EQ(res.diagnostics.at("irka_one_sided"), 0.0);
+    reflected += static_cast<Index>(res.diagnostics.at("irka_reflected_poles"));
+  }
+  EXPECT_GT(reflected, 0);
+}
+
+TEST(Irka, SymmetricModelDefaultsCostFewerFactorisations) {
+  // On a symmetric definite model the defaults become model_tolerance 1e-3, no restarts and warm
+  // starts from a larger order: over the orders a grow_order run asks for (growing, then
+  // shrinking) they need fewer factorisations than the general defaults (model_tolerance 0,
+  // restarts 2, warm starts from below) given explicitly. Counted in factorisations, not seconds.
+  auto count = [](const ParameterMap& p) {
+    auto f = make(symmetric_heat_model(), p, band_of(1e-3, 10.0));
+    for (const Index r : {2, 3, 5, 8, 12, 10, 9}) {
+      const ReducerResult res = f->reducer->reduce(ReductionRequest{r, {}});
+      EXPECT_EQ(res.diagnostics.at("unstable_poles"), 0.0) << res.note;
+    }
+    return f->solver->counters().factorizations;
+  };
+  const Index symmetric = count(params({}));
+  const Index general = count(params({{"model_tolerance", 0.0}, {"restarts", 2LL}}));
+  std::cout << fmt::format(
+      "[ irka ] symmetric heat, orders 2..12..9: {} factorisations with the symmetric defaults, "
+      "{} with the general ones\n",
+      symmetric, general);
+  EXPECT_LT(symmetric, general);
+}
+
+TEST(Irka, RepeatedDataReusesThePreviousVectors) {
+  // A warm start at an order run before begins with that order's final data, whose vectors the
+  // last build computed: its first iteration needs no factorisation.
+  auto f =
+      make(load_model(shared("cdplayer")), params({{"tolerance", 1e-4}}), band_of(0.0159, 159.0));
+  const ReducerResult first = f->reducer->reduce(ReductionRequest{6, {}});
+  ASSERT_EQ(first.diagnostics.at("irka_converged"), 1.0) << first.note;
+  const Index before = f->solver->counters().factorizations;
+  const ReducerResult again = f->reducer->reduce(ReductionRequest{6, {}});
+  const Index used = f->solver->counters().factorizations - before;
+  EXPECT_EQ(again.diagnostics.at("irka_reused_solves"), 3.0) << again.note;  // 3 pairs
+  EXPECT_LE(used, 3 * (static_cast<Index>(again.diagnostics.at("irka_iterations")) - 1));
+}
+
 // ---- safeguards -------------------------------------------------------------------------------
 
 TEST(Irka, IterationBudgetEndsWithANamedReasonAndTheBestIterate) {
@@ -432,9 +533,12 @@ TEST(Irka, ExpansionPointsAndWrongStructureAreRefused) {
   });
   EXPECT_NE(msg.find("needs a second-order model"), std::string::npos) << msg;
   msg = message_of<ConfigError>([&] {
-    registry().create("irka", params({{"projection", std::string("one_sided")}}));
+    make(load_model(shared("build")), params({{"projection", std::string("one_sided")}}),
+         band_of(0.1, 10.0));
   });
-  EXPECT_NE(msg.find("projection: applies to structure: second_order only"), std::string::npos)
+  EXPECT_NE(msg.find("projection = one_sided with structure first_order needs a descriptor model "
+                     "with E symmetric positive definite and A symmetric negative definite"),
+            std::string::npos)
       << msg;
   msg = message_of<ConfigError>([&] { registry().create("irka", params({{"tolerance", 0.5}})); });
   EXPECT_NE(msg.find("tolerance"), std::string::npos) << msg;
