@@ -313,7 +313,17 @@ TEST(PluginBoundary, NonFiniteResultIsANumericalError) {
   EXPECT_THROW(check_reducer_result(b->model, {3, {}}, r, "toy"), NumericalError);
   ReducerResult s = b->reducer->reduce({3, {}});
   std::get<ReducedSecondOrderModel>(s.model).K(0, 0) = INFINITY;
-  EXPECT_THROW(check_reducer_result(b->model, {3, {}}, s, "toy"), NumericalError);
+  try {
+    check_reducer_result(b->model, {3, {}}, s, "toy");
+    ADD_FAILURE() << "an Inf in Kr was accepted";
+  } catch (const NumericalError& e) {
+    EXPECT_NE(std::string(e.what()).find("Kr has a NaN or Inf entry"), std::string::npos)
+        << e.what();
+  }
+  // A wrong shape with finite entries is the plugin's bug, whatever its message says.
+  ReducerResult t = b->reducer->reduce({3, {}});
+  std::get<ReducedSecondOrderModel>(t.model).D = Matrix::Zero(2, 2);
+  EXPECT_THROW(check_reducer_result(b->model, {3, {}}, t, "toy"), PluginError);
 }
 
 }  // namespace
