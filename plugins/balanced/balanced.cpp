@@ -215,7 +215,7 @@ class BalancedReducer final : public Reducer {
     const double tail = s.size() > r ? s.tail(s.size() - r).sum() : 0.0;
     if (bound) result.diagnostics["error_bound"] = 2.0 * tail;
     const Index unstable = unstable_count(poles(result.model));
-    result.diagnostics["unstable_poles"] = static_cast<double>(unstable);
+    result.diagnostics[kUnstablePolesDiagnostic] = static_cast<double>(unstable);
     result.diagnostics["balanced_seconds"] =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
 

@@ -237,7 +237,7 @@ class IrkaReducer final : public Reducer {
       prefix = "frequency-limited, " + prefix;
     }
     const Index unstable = unstable_count(out.built.poles.poles);
-    result.diagnostics["unstable_poles"] = static_cast<double>(unstable);
+    result.diagnostics[kUnstablePolesDiagnostic] = static_cast<double>(unstable);
     if (m_one_sided && !second_order_variant()) {
       prefix = "one-sided (W = V, symmetric model), " + prefix;
     }

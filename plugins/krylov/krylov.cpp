@@ -747,13 +747,13 @@ class KrylovReducer final : public Reducer {
     // Stability: reported, never hidden or repaired.
     try {
       const Index unstable = unstable_poles(result.model, certified);
-      d["unstable_poles"] = static_cast<double>(unstable);
+      d[kUnstablePolesDiagnostic] = static_cast<double>(unstable);
       if (unstable > 0) {
         note += fmt::format("; {} projection lost stability: {} pole{} with Re >= 0",
                             two ? "two-sided" : "one-sided", unstable, unstable == 1 ? "" : "s");
       }
     } catch (const Error& e) {
-      d["unstable_poles"] = std::numeric_limits<double>::quiet_NaN();
+      d[kUnstablePolesDiagnostic] = std::numeric_limits<double>::quiet_NaN();
       note += std::string("; poles not computed: ") + e.what();
     }
     d["stability_certified"] = m_last_certified ? 1.0 : 0.0;

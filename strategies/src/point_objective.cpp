@@ -152,7 +152,7 @@ PointObjective::Levels PointObjective::evaluate(const std::vector<double>& x) {
   if (out.failure.empty() && m_stable_only) {
     // The reducer's own count of poles with Re >= 0 when it reports one (krylov does, for every
     // model), else the rule computes the poles.
-    const auto it = reduced->diagnostics.find("unstable_poles");
+    const auto it = reduced->diagnostics.find(kUnstablePolesDiagnostic);
     const bool reported = it != reduced->diagnostics.end() && std::isfinite(it->second);
     const ReducedStability stability = strategy_support::judge_stability(
         m_run.context(), reduced->model, reported ? std::lround(it->second) : -1);

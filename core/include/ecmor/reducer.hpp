@@ -55,15 +55,18 @@ struct ReductionRequest {
   std::vector<ExpansionPoint> points;
 };
 
+/// The diagnostic key under which a reducer reports the number of reduced poles with Re >= 0
+/// (NaN: not computed); strategies use it, when present, instead of computing the poles again.
+inline constexpr const char* kUnstablePolesDiagnostic = "unstable_poles";
+
 /// What a reducer returns for a request.
 struct ReducerResult {
   ReducedModel model;   ///< the reduced model (usually project(full, V, W))
   Matrix V;             ///< N x n right basis
   Matrix W;             ///< N x n left basis (W = V for one-sided/Galerkin methods)
   std::vector<ExpansionPoint> points;  ///< points actually used (for the history), may be empty
-  /// Free-form numeric diagnostics for the history (e.g. "orthogonality_loss", "eigen_residual").
-  /// By convention "unstable_poles" is the number of reduced poles with Re >= 0 (NaN: not
-  /// computed); strategies use it, when present, instead of computing the poles again.
+  /// Free-form numeric diagnostics for the history (e.g. "orthogonality_loss", "eigen_residual");
+  /// kUnstablePolesDiagnostic is the one the strategies read.
   std::map<std::string, double> diagnostics;
   std::string note;     ///< one line for the history, e.g. "12 modes + 1 static correction"
 };
