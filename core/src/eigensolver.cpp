@@ -28,48 +28,53 @@ namespace {
 // interleaved in different threads would corrupt each other. One run at a time.
 std::mutex g_arpack_mutex;
 
+// The codes the four ARPACK routines (dsaupd, dseupd, dnaupd, dneupd) share, with their
+// meaning in all of them; the routine-specific ones are in each routine's table below.
+std::string arpack_common_info(int info) {
+  switch (info) {
+    case -1: return "N must be positive";
+    case -2: return "nev must be positive";
+    case -4: return "the maximum number of restarts must be positive";
+    case -5: return "invalid 'which'";
+    case -6: return "invalid 'bmat'";
+    case -7: return "workl too short";
+    case -9: return "the starting vector is zero";
+    case -10: return "invalid mode iparam(7)";
+    case -11: return "mode 1 with bmat = 'G' is incompatible";
+    case -12: return "iparam(1) must be 0 or 1";
+    default: return fmt::format("unknown ARPACK error (info = {})", info);
+  }
+}
+
 std::string saupd_info(int info, const int* iparam) {
   switch (info) {
     case 1:
       return fmt::format("maximum number of restarts reached: {} converged", iparam[4]);
     case 3:
       return "no shifts could be applied during an implicit restart (increase ncv)";
-    case -1: return "N must be positive";
-    case -2: return "nev must be positive";
     case -3: return "ncv must satisfy nev < ncv <= N";
-    case -4: return "the maximum number of restarts must be positive";
-    case -5: return "invalid 'which'";
-    case -6: return "invalid 'bmat'";
-    case -7: return "workl too short";
     case -8: return "the tridiagonal eigenvalue computation (LAPACK dsteqr) failed";
-    case -9: return "the starting vector is zero";
-    case -10: return "invalid mode iparam(7)";
-    case -11: return "mode 1 with bmat = 'G' is incompatible";
-    case -12: return "iparam(1) must be 0 or 1";
     case -13: return "nev and which = 'BE' are incompatible";
     case -9999:
       return fmt::format(
           "could not build a Lanczos factorization (size {} reached): the operator may not be "
           "symmetric in the M inner product (M indefinite or K, M unsymmetric?)",
           iparam[4]);
-    default: return "unknown ARPACK error";
+    default: return arpack_common_info(info);
   }
 }
 
 std::string seupd_info(int info) {
   switch (info) {
+    case -3: return "ncv must satisfy nev < ncv <= N";
+    case -8: return "the tridiagonal eigenvalue computation (LAPACK dsteqr) failed";
     case -14: return "dsaupd found no eigenvalue to sufficient accuracy";
     case -15: return "howmny must be 'A' or 'S'";
     case -16: return "howmny = 'S' is not implemented";
     case -17:
       return "dseupd counted a different number of converged Ritz values than dsaupd (the "
              "operator is probably not symmetric in the M inner product)";
-    case -8: return "the tridiagonal eigenvalue computation (LAPACK dsteqr) failed";
-    case -9: return "the starting vector is zero";
-    default: {
-      const int no_iparam[11] = {0};
-      return saupd_info(info, no_iparam);
-    }
+    default: return arpack_common_info(info);
   }
 }
 
@@ -79,32 +84,24 @@ std::string naupd_info(int info, const int* iparam) {
       return fmt::format("maximum number of restarts reached: {} converged", iparam[4]);
     case 3:
       return "no shifts could be applied during an implicit restart (increase ncv)";
-    case -1: return "N must be positive";
-    case -2: return "nev must be positive";
     case -3: return "ncv must satisfy nev + 2 <= ncv <= N";
-    case -4: return "the maximum number of restarts must be positive";
-    case -5: return "invalid 'which'";
-    case -6: return "invalid 'bmat'";
-    case -7: return "workl too short";
     case -8: return "the Hessenberg eigenvalue computation (LAPACK dlahqr) failed";
-    case -9: return "the starting vector is zero";
-    case -10: return "invalid mode iparam(7)";
-    case -11: return "mode 1 with bmat = 'G' is incompatible";
-    case -12: return "iparam(1) must be 0 or 1";
     case -9999:
       return fmt::format("could not build an Arnoldi factorization (size {} reached)", iparam[4]);
-    default: return "unknown ARPACK error";
+    default: return arpack_common_info(info);
   }
 }
 
 std::string neupd_info(int info) {
   switch (info) {
+    case -3: return "ncv must satisfy nev + 2 <= ncv <= N";
     case -8: return "the Schur form computation (LAPACK dlahqr) failed";
     case -9: return "the eigenvector computation (LAPACK dtrevc) failed";
+    case -13: return "howmny must be 'A' or 'P' when eigenvectors are asked for";
     case -14: return "dnaupd found no eigenvalue to sufficient accuracy";
     case -15:
       return "dneupd counted a different number of converged Ritz values than dnaupd";
-    default: return "unknown ARPACK error";
+    default: return arpack_common_info(info);
   }
 }
 
