@@ -11,7 +11,7 @@
 /// peaks of every assessed model; fixed during one Ipopt run). At the solution t = max_k L_k: the
 /// epigraph form turns the non-smooth minimax into a smooth program whose active constraints are
 /// the equal-ripple peaks of the error. Outer loop (assess, re-optimise once if the samples
-/// missed a peak, grow by a point at the peak frequency, budgets) as in point_objective.hpp.
+/// missed a peak, grow by a point at the peak frequency, budgets) as in point_search.hpp.
 ///
 /// Gradient method. dL_k/dx_i by finite differences of the levels in x (decades of f), one
 /// reduction + evaluate_on per perturbed coordinate:
@@ -63,6 +63,7 @@
 #include "ecmor/strategies/strategy.hpp"
 #include "optimize_points.hpp"
 #include "point_objective.hpp"
+#include "point_search.hpp"
 
 namespace ecmor {
 

@@ -60,6 +60,7 @@
 
 #include "ecmor/strategies/strategy.hpp"
 #include "point_objective.hpp"
+#include "point_search.hpp"
 
 namespace ecmor {
 
