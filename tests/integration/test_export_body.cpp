@@ -216,6 +216,14 @@ TEST_F(ExportBody, AFreeBodyHasOnlyElasticCoordinates) {
   EXPECT_EQ(test::mat_read_dense(mat, "T").rows(), order);
   EXPECT_EQ(test::mat_read_dense(mat, "frame_ids").rows(),
             static_cast<Index>(body.frame.size()));
+
+  // A run directory without its bases (neither V.mtx nor reduced_model.mat) is refused by name.
+  fs::remove(run_dir / "reduced_model.mat");
+  const test::CliResult bare = run({"export-body", run_dir.string()});
+  EXPECT_EQ(bare.exit_code, 1);
+  EXPECT_NE(bare.err.find("no projection bases: neither V.mtx nor reduced_model.mat"),
+            std::string::npos)
+      << bare.err;
 }
 
 }  // namespace
