@@ -34,12 +34,12 @@
 #include <thread>
 #include <vector>
 
-#include "ecmor/error.hpp"
-#include "ecmor/frequency_response.hpp"
-#include "ecmor/matrix_market.hpp"
-#include "ecmor/reduced_response.hpp"
-#include "ecmor/registry.hpp"
-#include "ecmor/shifted_solver.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/model/matrix_market.hpp"
+#include "ecmor/response/reduced_response.hpp"
+#include "ecmor/plugin/registry.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 #include "triple_chain.hpp"
 
 #ifndef ECMOR_BENCH_PLUGIN_DIR

@@ -18,8 +18,8 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/lowrank_adi.hpp"
-#include "ecmor/model_io.hpp"
+#include "ecmor/gramians/lowrank_adi.hpp"
+#include "ecmor/model/model_io.hpp"
 
 namespace {
 

@@ -25,7 +25,7 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/matrix_market.hpp"
+#include "ecmor/model/matrix_market.hpp"
 #include "lattice.hpp"
 #include "solid.hpp"
 #include "triple_chain.hpp"

@@ -23,11 +23,11 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/band_error.hpp"
-#include "ecmor/config.hpp"
-#include "ecmor/model.hpp"
-#include "ecmor/registry.hpp"
-#include "ecmor/shifted_solver.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/strategies/config.hpp"
+#include "ecmor/model/model.hpp"
+#include "ecmor/plugin/registry.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 
 namespace ecmor::bench {
 

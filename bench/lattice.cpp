@@ -5,7 +5,7 @@
 
 #include <vector>
 
-#include "ecmor/error.hpp"
+#include "ecmor/base/error.hpp"
 
 namespace ecmor::bench {
 

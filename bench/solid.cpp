@@ -9,7 +9,7 @@
 #include <limits>
 #include <string>
 
-#include "ecmor/error.hpp"
+#include "ecmor/base/error.hpp"
 
 namespace ecmor::bench {
 

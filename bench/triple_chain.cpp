@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/error.hpp"
+#include "ecmor/base/error.hpp"
 
 namespace ecmor::bench {
 

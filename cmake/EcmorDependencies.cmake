@@ -20,7 +20,7 @@ if(ECMOR_BUILD_BENCH)
   find_package(benchmark 1.7 REQUIRED)
 endif()
 
-# Optional: the distributed PETSc backend (issue 9; core/src/petsc_solver.cpp). Debian 12's
+# Optional: the distributed PETSc backend (issue 9; core/src/linalg/petsc_solver.cpp). Debian 12's
 # libpetsc-complex-dev: PETSc 3.18 with complex scalars and MUMPS, over Open MPI.
 set(ECMOR_WITH_PETSC AUTO CACHE STRING "PETSc/MUMPS backend over MPI: AUTO (when found), ON, OFF")
 set_property(CACHE ECMOR_WITH_PETSC PROPERTY STRINGS AUTO ON OFF)

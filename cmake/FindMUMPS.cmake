@@ -1,5 +1,5 @@
 # FindMUMPS: the sequential MUMPS of Debian's libmumps-seq-dev, complex double arithmetic (zmumps)
-# with its stub MPI. Defines MUMPS::zmumps_seq (headers only: core/src/mumps_ldlt.cpp opens the
+# with its stub MPI. Defines MUMPS::zmumps_seq (headers only: core/src/linalg/mumps_ldlt.cpp opens the
 # library at run time, see there) and MUMPS_ZMUMPS_SONAME, the name it is opened by.
 include(FindPackageHandleStandardArgs)
 find_path(MUMPS_INCLUDE_DIR NAMES zmumps_c.h)

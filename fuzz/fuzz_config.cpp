@@ -1,5 +1,5 @@
-// libFuzzer target: the YAML run-configuration loader (core/src/config.cpp) and the parameter
-// map it fills (core/src/parameters.cpp), on arbitrary text.
+// libFuzzer target: the YAML run-configuration loader (strategies/src/config.cpp) and the parameter
+// map it fills (core/src/base/parameters.cpp), on arbitrary text.
 //
 // parse_run_config is the in-memory entry point of load_run_config (which only reads the file
 // and calls it). Besides the sanitizers, the harness aborts, i.e. reports a crash, when
@@ -17,9 +17,9 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "ecmor/config.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/parameters.hpp"
+#include "ecmor/strategies/config.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/base/parameters.hpp"
 
 using namespace ecmor;
 

@@ -1,4 +1,4 @@
-// libFuzzer target: the Matrix Market reader (core/src/matrix_market.cpp) on arbitrary bytes.
+// libFuzzer target: the Matrix Market reader (core/src/model/matrix_market.cpp) on arbitrary bytes.
 //
 // The input is written to a file (the reader's public API takes paths) and read three ways:
 // header only (stream reader), as a sparse matrix and as a dense matrix (buffer reader). Besides
@@ -26,8 +26,8 @@
 #include <optional>
 #include <string>
 
-#include "ecmor/error.hpp"
-#include "ecmor/matrix_market.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/model/matrix_market.hpp"
 
 namespace fs = std::filesystem;
 using namespace ecmor;

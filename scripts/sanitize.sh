@@ -14,7 +14,7 @@ generator=()
 if command -v ninja >/dev/null 2>&1; then generator=(-G Ninja); fi
 if [ ! -f "$build_dir/CMakeCache.txt" ]; then
   # clang-14 at -O1 with line tables: the sanitized build of every target takes about 5x less
-  # compile time than GCC at -O2 -g (measured on core/src/band_error.cpp: 36 s against 165 s),
+  # compile time than GCC at -O2 -g (measured on core/src/measures/band_error.cpp: 36 s against 165 s),
   # and -O1 is what AddressSanitizer recommends. scripts/setup.sh installs clang-14 and libomp.
   cmake -S . -B "$build_dir" "${generator[@]}" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 \

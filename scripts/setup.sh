@@ -35,7 +35,7 @@ packages=(
   libfmt-dev
   libcli11-dev
   nlohmann-json3-dev
-  libmatio-dev       # MATLAB .mat models and outputs (core/src/mat_file.cpp)
+  libmatio-dev       # MATLAB .mat models and outputs (core/src/model/mat_file.cpp)
   gnuplot-nox
 )
 if [ "$profile" != runtime ]; then

@@ -49,7 +49,7 @@ cmake --install "$build_dir" --prefix "$prefix" >"$work/install.log" 2>&1 ||
 
 for file in bin/ecmor lib/cmake/ecmor/ecmorConfig.cmake lib/cmake/ecmor/ecmorConfigVersion.cmake \
             lib/cmake/ecmor/ecmorTargets.cmake lib/cmake/ecmor/EcmorPlugin.cmake \
-            include/ecmor/plugin.hpp include/ecmor/export.hpp include/ecmor/version.hpp; do
+            include/ecmor/plugin/plugin.hpp include/ecmor/export.hpp include/ecmor/version.hpp; do
   [ -e "$prefix/$file" ] || die "the install has no $file"
 done
 ls "$prefix"/lib/libecmor_core.so* >/dev/null 2>&1 || die "the install has no lib/libecmor_core.so"

@@ -16,11 +16,11 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "ecmor/atomic_file.hpp"
-#include "ecmor/config.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/registry.hpp"
+#include "ecmor/base/atomic_file.hpp"
+#include "ecmor/strategies/config.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/plugin/registry.hpp"
 #include "ecmor/strategies/driver.hpp"
 #include "signals.hpp"
 #include "pareto.hpp"

@@ -13,10 +13,10 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "ecmor/atomic_file.hpp"
-#include "ecmor/config.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/registry.hpp"
+#include "ecmor/base/atomic_file.hpp"
+#include "ecmor/strategies/config.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/plugin/registry.hpp"
 #include "ecmor/strategies/driver.hpp"
 #include "signals.hpp"
 

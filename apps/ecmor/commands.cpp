@@ -8,14 +8,14 @@
 #include <functional>
 #include <iostream>
 
-#include "ecmor/atomic_file.hpp"
-#include "ecmor/config.hpp"
-#include "ecmor/eigensolver.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/parallel.hpp"
-#include "ecmor/registry.hpp"
-#include "ecmor/rigid_body.hpp"
+#include "ecmor/base/atomic_file.hpp"
+#include "ecmor/strategies/config.hpp"
+#include "ecmor/linalg/eigensolver.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/linalg/parallel.hpp"
+#include "ecmor/plugin/registry.hpp"
+#include "ecmor/linalg/rigid_body.hpp"
 #include "ecmor/strategies/driver.hpp"
 #include "signals.hpp"
 #include "plot.hpp"

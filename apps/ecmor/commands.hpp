@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/types.hpp"
+#include "ecmor/base/types.hpp"
 
 namespace ecmor {
 class Registry;

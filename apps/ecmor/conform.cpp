@@ -1,4 +1,4 @@
-// `ecmor conform`: the reducer conformance suite (ecmor/conformance.hpp) from the command line, so
+// `ecmor conform`: the reducer conformance suite (ecmor/plugin/conformance.hpp) from the command line, so
 // that a plugin built out of tree can be tested with nothing but the installed ecmor and CTest.
 #include <fmt/core.h>
 #include <fmt/format.h>
@@ -10,11 +10,11 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "ecmor/atomic_file.hpp"
-#include "ecmor/conformance.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/registry.hpp"
+#include "ecmor/base/atomic_file.hpp"
+#include "ecmor/plugin/conformance.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/plugin/registry.hpp"
 
 namespace ecmor::app {
 namespace {

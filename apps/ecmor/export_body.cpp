@@ -10,11 +10,11 @@
 #include <set>
 
 #include "commands.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/flexible_body.hpp"
-#include "ecmor/matrix_market.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/rigid_body.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/body/flexible_body.hpp"
+#include "ecmor/model/matrix_market.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/linalg/rigid_body.hpp"
 
 namespace ecmor::app {
 namespace {

@@ -3,7 +3,7 @@
 #include <fmt/format.h>
 
 #include "commands.hpp"
-#include "ecmor/calculix.hpp"
+#include "ecmor/body/calculix.hpp"
 
 namespace ecmor::app {
 

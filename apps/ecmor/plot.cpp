@@ -12,12 +12,12 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "ecmor/atomic_file.hpp"
-#include "ecmor/band_error.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/reduced_response.hpp"
-#include "ecmor/subprocess.hpp"
-#include "ecmor/types.hpp"
+#include "ecmor/base/atomic_file.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/response/reduced_response.hpp"
+#include "ecmor/base/subprocess.hpp"
+#include "ecmor/base/types.hpp"
 
 namespace fs = std::filesystem;
 

@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/error.hpp"
-#include "ecmor/types.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/base/types.hpp"
 
 namespace ecmor::app {
 

@@ -12,11 +12,11 @@
 #include <string>
 
 #include "commands.hpp"
-#include "ecmor/atomic_file.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/shifted_solver.hpp"
-#include "ecmor/time_domain.hpp"
+#include "ecmor/base/atomic_file.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/response/time_domain.hpp"
 #include "plot.hpp"
 
 namespace ecmor::app {

@@ -15,12 +15,12 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/dense_kernels.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/first_order_view.hpp"
-#include "ecmor/frequency_response.hpp"
-#include "ecmor/plugin.hpp"
-#include "ecmor/projection.hpp"
+#include "ecmor/linalg/dense_kernels.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/linalg/first_order_view.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/plugin/plugin.hpp"
+#include "ecmor/model/projection.hpp"
 #include "gramian_factors.hpp"
 #include "lowrank_factors.hpp"
 

@@ -56,12 +56,13 @@
 #include <unsupported/Eigen/MatrixFunctions>
 #include <variant>
 
-#include "ecmor/band_error.hpp"
-#include "ecmor/dense_kernels.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/lyapunov.hpp"
-#include "ecmor/lyapunov_factor.hpp"
-#include "ecmor/model.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/linalg/dense_kernels.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/gramians/lyapunov.hpp"
+#include "ecmor/model/dense_model.hpp"
+#include "ecmor/gramians/lyapunov_factor.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor::balanced {
 

@@ -1,7 +1,7 @@
 #pragma once
 /// \file lowrank_factors.hpp
 /// The low-rank route to the Gramian factors of the balanced reducer (balanced.cpp): both factors
-/// by ecmor's low-rank ADI (ecmor/lowrank_adi.hpp) through the model's FirstOrderView, so a
+/// by ecmor's low-rank ADI (ecmor/gramians/lowrank_adi.hpp) through the model's FirstOrderView, so a
 /// second-order model is solved with P(s) = s^2 M + s D + K of size N and no 2N matrix is formed.
 /// The result fills the same GramianFactors as the dense route (gramian_factors.hpp), so the
 /// truncation code does not know which route ran:
@@ -12,11 +12,11 @@
 #include <chrono>
 #include <string>
 
-#include "ecmor/error.hpp"
-#include "ecmor/first_order_view.hpp"
-#include "ecmor/lowrank_adi.hpp"
-#include "ecmor/quadrature.hpp"
-#include "ecmor/rigid_body.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/linalg/first_order_view.hpp"
+#include "ecmor/gramians/lowrank_adi.hpp"
+#include "ecmor/gramians/quadrature.hpp"
+#include "ecmor/linalg/rigid_body.hpp"
 #include "gramian_factors.hpp"
 
 namespace ecmor::balanced {
@@ -121,7 +121,7 @@ inline GramianFactors lowrank_gramian_factors(FirstOrderView& view, const AdiOpt
 }
 
 /// The frequency-limited Gramian factors on `band` by low-rank ADI with the band's indefinite
-/// right-hand sides (lowrank_band_gramians, ecmor/lowrank_adi.hpp): L_B and L_C by adaptive
+/// right-hand sides (lowrank_band_gramians, ecmor/gramians/lowrank_adi.hpp): L_B and L_C by adaptive
 /// quadrature (one factorisation of P(i w) per node), then both ADI runs. A quadrature or ADI run
 /// that misses its tolerance is reported in `summary`, as for the plain Gramians.
 /// \throws as lowrank_gramian_factors, plus NumericalError for a pole on the imaginary axis in the

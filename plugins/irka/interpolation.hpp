@@ -12,8 +12,8 @@
 #include <limits>
 #include <vector>
 
-#include "ecmor/error.hpp"
-#include "ecmor/model.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor::irka {
 

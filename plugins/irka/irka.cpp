@@ -19,15 +19,16 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/eigensolver.hpp"
-#include "ecmor/first_order_view.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/frequency_response.hpp"
-#include "ecmor/interrupt.hpp"
-#include "ecmor/lyapunov.hpp"
-#include "ecmor/plugin.hpp"
-#include "ecmor/projection.hpp"
-#include "ecmor/quadrature.hpp"
+#include "ecmor/linalg/eigensolver.hpp"
+#include "ecmor/linalg/first_order_view.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/base/interrupt.hpp"
+#include "ecmor/gramians/lyapunov.hpp"
+#include "ecmor/model/dense_model.hpp"
+#include "ecmor/plugin/plugin.hpp"
+#include "ecmor/model/projection.hpp"
+#include "ecmor/gramians/quadrature.hpp"
 #include "interpolation.hpp"
 
 namespace ecmor::irka {

@@ -23,8 +23,8 @@
 #include <variant>
 #include <vector>
 
-#include "ecmor/error.hpp"
-#include "ecmor/model.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor::krylov {
 

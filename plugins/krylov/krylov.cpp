@@ -13,10 +13,10 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/error.hpp"
-#include "ecmor/frequency_response.hpp"
-#include "ecmor/plugin.hpp"
-#include "ecmor/projection.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/plugin/plugin.hpp"
+#include "ecmor/model/projection.hpp"
 #include "incremental_projection.hpp"
 #include "second_order_view.hpp"
 #include "toar.hpp"

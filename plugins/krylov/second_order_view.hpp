@@ -22,9 +22,9 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/error.hpp"
-#include "ecmor/model.hpp"
-#include "ecmor/shifted_solver.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/model/model.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 
 namespace ecmor::krylov {
 

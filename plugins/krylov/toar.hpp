@@ -22,8 +22,8 @@
 #include <type_traits>
 #include <vector>
 
-#include "ecmor/error.hpp"
-#include "ecmor/shifted_solver.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 
 namespace ecmor::krylov {
 

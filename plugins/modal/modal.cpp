@@ -13,12 +13,12 @@
 #include <tuple>
 #include <vector>
 
-#include "ecmor/band_error.hpp"
-#include "ecmor/eigensolver.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/plugin.hpp"
-#include "ecmor/projection.hpp"
-#include "ecmor/rigid_body.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/linalg/eigensolver.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/plugin/plugin.hpp"
+#include "ecmor/model/projection.hpp"
+#include "ecmor/linalg/rigid_body.hpp"
 
 namespace ecmor::modal {
 namespace {

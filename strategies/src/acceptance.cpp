@@ -5,12 +5,13 @@
 #include <cmath>
 #include <iomanip>
 
-#include "ecmor/atomic_file.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/hinf_norm.hpp"
-#include "ecmor/lyapunov.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/parallel.hpp"
+#include "ecmor/base/atomic_file.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/measures/hinf_norm.hpp"
+#include "ecmor/gramians/lyapunov.hpp"
+#include "ecmor/model/dense_model.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/linalg/parallel.hpp"
 #include "ecmor/version.hpp"
 
 namespace ecmor::driver {

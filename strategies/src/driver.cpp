@@ -9,12 +9,12 @@
 #include <optional>
 
 #include "acceptance.hpp"
-#include "ecmor/atomic_file.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/interrupt.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/parallel.hpp"
-#include "ecmor/recent_factorizations.hpp"
+#include "ecmor/base/atomic_file.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/base/interrupt.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/linalg/parallel.hpp"
+#include "ecmor/linalg/recent_factorizations.hpp"
 #include "portfolio.hpp"
 #include "stop_policy.hpp"
 

@@ -5,7 +5,7 @@
 #include <limits>
 #include <sstream>
 
-#include "ecmor/error.hpp"
+#include "ecmor/base/error.hpp"
 #include "prune_points.hpp"
 #include "support.hpp"
 

@@ -6,8 +6,8 @@
 #include <cmath>
 #include <sstream>
 
-#include "ecmor/error.hpp"
-#include "ecmor/frequency_response.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/response/frequency_response.hpp"
 
 namespace ecmor {
 

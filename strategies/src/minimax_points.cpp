@@ -7,7 +7,7 @@
 #include <cmath>
 #include <optional>
 
-#include "ecmor/error.hpp"
+#include "ecmor/base/error.hpp"
 #include "support.hpp"
 
 namespace ecmor {

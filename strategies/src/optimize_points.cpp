@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "ecmor/error.hpp"
+#include "ecmor/base/error.hpp"
 #include "support.hpp"
 
 namespace ecmor {

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "ecmor/error.hpp"
+#include "ecmor/base/error.hpp"
 
 namespace ecmor::point_search {
 

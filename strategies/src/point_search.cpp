@@ -4,8 +4,8 @@
 #include <cmath>
 #include <limits>
 
-#include "ecmor/error.hpp"
-#include "ecmor/interrupt.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/base/interrupt.hpp"
 #include "prune_points.hpp"
 
 namespace ecmor::point_search {

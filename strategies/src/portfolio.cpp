@@ -5,9 +5,9 @@
 #include <algorithm>
 #include <limits>
 
-#include "ecmor/error.hpp"
-#include "ecmor/interrupt.hpp"
-#include "ecmor/parallel.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/base/interrupt.hpp"
+#include "ecmor/linalg/parallel.hpp"
 
 namespace ecmor {
 namespace driver {

@@ -7,8 +7,8 @@
 #include <optional>
 #include <sstream>
 
-#include "ecmor/error.hpp"
-#include "ecmor/interrupt.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/base/interrupt.hpp"
 
 namespace ecmor::strategy_support {
 

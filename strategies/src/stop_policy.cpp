@@ -2,7 +2,7 @@
 
 #include <fmt/format.h>
 
-#include "ecmor/parallel.hpp"
+#include "ecmor/linalg/parallel.hpp"
 #include "ecmor/strategies/driver.hpp"
 
 namespace ecmor::driver {

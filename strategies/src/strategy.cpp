@@ -1,6 +1,6 @@
 #include "ecmor/strategies/strategy.hpp"
 
-#include "ecmor/error.hpp"
+#include "ecmor/base/error.hpp"
 #include "greedy_points.hpp"
 #include "grow_order.hpp"
 #include "minimax_points.hpp"

@@ -6,8 +6,8 @@
 #include <limits>
 #include <sstream>
 
-#include "ecmor/error.hpp"
-#include "ecmor/frequency_response.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/response/frequency_response.hpp"
 
 namespace ecmor::strategy_support {
 

@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/error.hpp"
-#include "ecmor/interrupt.hpp"
-#include "ecmor/stability.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/base/interrupt.hpp"
+#include "ecmor/measures/stability.hpp"
 #include "ecmor/strategies/strategy.hpp"
 
 namespace ecmor::strategy_support {

@@ -7,7 +7,7 @@
 #include <cstring>
 #include <variant>
 
-#include "ecmor/model.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor::test {
 

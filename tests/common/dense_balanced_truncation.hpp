@@ -11,8 +11,9 @@
 #include <Eigen/SVD>
 #include <stdexcept>
 
-#include "ecmor/lyapunov.hpp"
-#include "ecmor/model.hpp"
+#include "ecmor/gramians/lyapunov.hpp"
+#include "ecmor/model/dense_model.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor::test {
 

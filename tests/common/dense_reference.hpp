@@ -8,8 +8,8 @@
 #include <variant>
 #include <vector>
 
-#include "ecmor/band_error.hpp"
-#include "ecmor/model.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor::test {
 

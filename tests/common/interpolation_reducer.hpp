@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/error.hpp"
-#include "ecmor/projection.hpp"
-#include "ecmor/reducer.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/model/projection.hpp"
+#include "ecmor/plugin/reducer.hpp"
 
 namespace ecmor::test {
 

@@ -15,8 +15,8 @@
 #include <variant>
 #include <vector>
 
-#include "ecmor/model.hpp"
-#include "ecmor/types.hpp"
+#include "ecmor/model/model.hpp"
+#include "ecmor/base/types.hpp"
 
 namespace ecmor::test {
 

@@ -8,7 +8,7 @@
 #include <memory>
 #include <string>
 
-#include "ecmor/registry.hpp"
+#include "ecmor/plugin/registry.hpp"
 
 namespace ecmor::test {
 

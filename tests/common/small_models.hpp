@@ -4,7 +4,7 @@
 #include <cmath>
 #include <vector>
 
-#include "ecmor/model.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor::test {
 

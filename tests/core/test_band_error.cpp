@@ -3,9 +3,9 @@
 
 #include <cmath>
 
-#include "ecmor/band_error.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/shifted_solver.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 
 namespace ecmor {
 namespace {

@@ -8,11 +8,11 @@
 
 #include "common/reject_case.hpp"
 #include "common/test_support.hpp"
-#include "ecmor/calculix.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/fe_geometry.hpp"
-#include "ecmor/matrix_market.hpp"
-#include "ecmor/model_io.hpp"
+#include "ecmor/body/calculix.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/body/fe_geometry.hpp"
+#include "ecmor/model/matrix_market.hpp"
+#include "ecmor/model/model_io.hpp"
 
 namespace ecmor {
 namespace {

@@ -8,8 +8,8 @@
 #include <sstream>
 
 #include "common/test_support.hpp"
-#include "ecmor/config.hpp"
-#include "ecmor/error.hpp"
+#include "ecmor/strategies/config.hpp"
+#include "ecmor/base/error.hpp"
 
 namespace fs = std::filesystem;
 using namespace ecmor;
@@ -228,7 +228,7 @@ TEST(RunConfig, CheckSectionAndHinfDenseStates) {
 
 TEST(RunConfig, ExampleInTheHeaderParses) {
   // Read the example from config.hpp itself, so the documentation cannot drift from the parser.
-  std::ifstream header(fs::path(ECMOR_TEST_SOURCE_DIR) / "core/include/ecmor/config.hpp");
+  std::ifstream header(fs::path(ECMOR_TEST_SOURCE_DIR) / "strategies/include/ecmor/strategies/config.hpp");
   ASSERT_TRUE(header) << "cannot open config.hpp";
   std::string line, yaml;
   bool in_example = false;

@@ -8,8 +8,8 @@
 #include <limits>
 #include <string>
 
-#include "ecmor/dense_kernels.hpp"
-#include "ecmor/error.hpp"
+#include "ecmor/linalg/dense_kernels.hpp"
+#include "ecmor/base/error.hpp"
 
 namespace ecmor {
 namespace {

@@ -11,9 +11,9 @@
 
 #include <Eigen/Eigenvalues>
 
-#include "ecmor/eigensolver.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/interrupt.hpp"
+#include "ecmor/linalg/eigensolver.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/base/interrupt.hpp"
 
 namespace ecmor {
 namespace {

@@ -16,9 +16,9 @@
 #include <vector>
 
 #include "../../bench/solid.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/flexible_body.hpp"
-#include "ecmor/rigid_body.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/body/flexible_body.hpp"
+#include "ecmor/linalg/rigid_body.hpp"
 
 namespace {
 

@@ -18,13 +18,14 @@
 #include "common/dense_balanced_truncation.hpp"
 #include "common/small_models.hpp"
 #include "common/test_support.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/frequency_response.hpp"
-#include "ecmor/h2_norm.hpp"
-#include "ecmor/lyapunov.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/projection.hpp"
-#include "ecmor/reduced_response.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/measures/h2_norm.hpp"
+#include "ecmor/gramians/lyapunov.hpp"
+#include "ecmor/model/dense_model.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/model/projection.hpp"
+#include "ecmor/response/reduced_response.hpp"
 
 namespace ecmor {
 namespace {

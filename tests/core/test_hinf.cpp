@@ -19,10 +19,11 @@
 #include "common/dense_balanced_truncation.hpp"
 #include "common/small_models.hpp"
 #include "common/test_support.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/hinf_norm.hpp"
-#include "ecmor/lyapunov.hpp"
-#include "ecmor/model_io.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/measures/hinf_norm.hpp"
+#include "ecmor/gramians/lyapunov.hpp"
+#include "ecmor/model/dense_model.hpp"
+#include "ecmor/model/model_io.hpp"
 
 namespace ecmor {
 namespace {

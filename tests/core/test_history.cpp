@@ -9,8 +9,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "ecmor/error.hpp"
-#include "ecmor/history.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/strategies/history.hpp"
 
 namespace fs = std::filesystem;
 using namespace ecmor;

@@ -32,10 +32,11 @@
 #include <vector>
 
 #include "common/test_support.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/lowrank_adi.hpp"
-#include "ecmor/lyapunov.hpp"
-#include "ecmor/model_io.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/gramians/lowrank_adi.hpp"
+#include "ecmor/gramians/lyapunov.hpp"
+#include "ecmor/model/dense_model.hpp"
+#include "ecmor/model/model_io.hpp"
 
 namespace ecmor {
 namespace {

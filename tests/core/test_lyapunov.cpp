@@ -12,8 +12,8 @@
 #include <regex>
 
 #include "common/test_support.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/lyapunov.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/gramians/lyapunov.hpp"
 
 namespace ecmor {
 namespace {

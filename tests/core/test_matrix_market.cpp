@@ -16,9 +16,9 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/atomic_file.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/matrix_market.hpp"
+#include "ecmor/base/atomic_file.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/model/matrix_market.hpp"
 
 namespace fs = std::filesystem;
 using namespace ecmor;

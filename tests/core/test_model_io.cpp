@@ -17,10 +17,10 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/error.hpp"
-#include "ecmor/matrix_market.hpp"
-#include "ecmor/model.hpp"
-#include "ecmor/model_io.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/model/matrix_market.hpp"
+#include "ecmor/model/model.hpp"
+#include "ecmor/model/model_io.hpp"
 
 namespace fs = std::filesystem;
 using namespace ecmor;

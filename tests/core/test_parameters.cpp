@@ -6,8 +6,8 @@
 #include <limits>
 
 #include "common/test_support.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/parameters.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/base/parameters.hpp"
 
 using namespace ecmor;
 

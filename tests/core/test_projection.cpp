@@ -3,10 +3,10 @@
 
 #include <random>
 
-#include "ecmor/error.hpp"
-#include "ecmor/frequency_response.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/projection.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/model/projection.hpp"
 
 namespace ecmor {
 namespace {

@@ -8,12 +8,13 @@
 #include <filesystem>
 #include <iostream>
 
-#include "ecmor/error.hpp"
-#include "ecmor/h2_norm.hpp"
-#include "ecmor/lyapunov.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/quadrature.hpp"
-#include "ecmor/shifted_solver.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/measures/h2_norm.hpp"
+#include "ecmor/gramians/lyapunov.hpp"
+#include "ecmor/model/dense_model.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/gramians/quadrature.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 
 namespace ecmor {
 namespace {

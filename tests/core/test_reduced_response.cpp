@@ -13,12 +13,12 @@
 #include <vector>
 
 #include "common/test_support.hpp"
-#include "ecmor/band_error.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/frequency_response.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/projection.hpp"
-#include "ecmor/reduced_response.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/model/projection.hpp"
+#include "ecmor/response/reduced_response.hpp"
 
 namespace ecmor {
 namespace {

@@ -21,12 +21,12 @@
 #include "../../bench/solid.hpp"
 #include "../../bench/triple_chain.hpp"
 #include "common/small_models.hpp"
-#include "ecmor/eigensolver.hpp"
-#include "ecmor/frequency_response.hpp"
-#include "ecmor/projection.hpp"
-#include "ecmor/rigid_body.hpp"
-#include "ecmor/shifted_solver.hpp"
-#include "ecmor/stability.hpp"
+#include "ecmor/linalg/eigensolver.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/model/projection.hpp"
+#include "ecmor/linalg/rigid_body.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/measures/stability.hpp"
 
 namespace ecmor {
 namespace {

@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/model.hpp"
-#include "ecmor/model_io.hpp"
+#include "ecmor/model/model.hpp"
+#include "ecmor/model/model_io.hpp"
 
 namespace ecmor {
 namespace {

@@ -10,11 +10,11 @@
 #include <utility>
 #include <vector>
 
-#include "ecmor/error.hpp"
-#include "ecmor/first_order_view.hpp"
-#include "ecmor/frequency_response.hpp"
-#include "ecmor/recent_factorizations.hpp"
-#include "ecmor/shifted_solver.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/linalg/first_order_view.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/linalg/recent_factorizations.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 
 namespace {
 

@@ -11,9 +11,9 @@
 #include <string>
 
 #include "../../bench/solid.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/flexible_body.hpp"
-#include "ecmor/sid.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/body/flexible_body.hpp"
+#include "ecmor/body/sid.hpp"
 
 namespace {
 

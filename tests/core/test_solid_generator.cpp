@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "../../bench/solid.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/model.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace {
 

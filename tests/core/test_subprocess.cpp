@@ -7,8 +7,8 @@
 #include <string>
 
 #include "common/test_support.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/subprocess.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/base/subprocess.hpp"
 
 namespace ecmor {
 namespace {

@@ -14,10 +14,10 @@
 #include <vector>
 
 #include "common/test_support.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/projection.hpp"
-#include "ecmor/time_domain.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/model/projection.hpp"
+#include "ecmor/response/time_domain.hpp"
 
 namespace ecmor {
 namespace {

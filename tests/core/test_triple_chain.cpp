@@ -10,8 +10,8 @@
 #include <variant>
 
 #include "../../bench/triple_chain.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/model_io.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/model/model_io.hpp"
 
 namespace {
 

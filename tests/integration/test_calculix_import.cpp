@@ -18,12 +18,12 @@
 #include <tuple>
 
 #include "common/test_support.hpp"
-#include "ecmor/calculix.hpp"
-#include "ecmor/eigensolver.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/fe_geometry.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/shifted_solver.hpp"
+#include "ecmor/body/calculix.hpp"
+#include "ecmor/linalg/eigensolver.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/body/fe_geometry.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 
 namespace ecmor {
 namespace {

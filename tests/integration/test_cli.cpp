@@ -25,9 +25,9 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/frequency_response.hpp"
-#include "ecmor/matrix_market.hpp"
-#include "ecmor/model_io.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/model/matrix_market.hpp"
+#include "ecmor/model/model_io.hpp"
 
 namespace fs = std::filesystem;
 

@@ -18,10 +18,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "ecmor/band_error.hpp"
-#include "ecmor/config.hpp"
-#include "ecmor/frequency_response.hpp"
-#include "ecmor/model_io.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/strategies/config.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/model/model_io.hpp"
 
 namespace fs = std::filesystem;
 

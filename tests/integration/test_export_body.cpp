@@ -19,10 +19,10 @@
 #include "../../bench/solid.hpp"
 #include "common/mat_test_file.hpp"
 #include "common/run_ecmor.hpp"
-#include "ecmor/fe_geometry.hpp"
-#include "ecmor/matrix_market.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/sid.hpp"
+#include "ecmor/body/fe_geometry.hpp"
+#include "ecmor/model/matrix_market.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/body/sid.hpp"
 
 namespace fs = std::filesystem;
 

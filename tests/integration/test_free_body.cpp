@@ -22,13 +22,13 @@
 
 #include "../../bench/solid.hpp"
 #include "common/test_support.hpp"
-#include "ecmor/band_error.hpp"
-#include "ecmor/config.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/frequency_response.hpp"
-#include "ecmor/matrix_market.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/shifted_solver.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/strategies/config.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/model/matrix_market.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 #include "ecmor/strategies/driver.hpp"
 
 namespace fs = std::filesystem;

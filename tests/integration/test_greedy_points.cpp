@@ -19,9 +19,9 @@
 #include "common/dense_reference.hpp"
 #include "common/interpolation_reducer.hpp"
 #include "common/test_support.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/frequency_response.hpp"
-#include "ecmor/registry.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/plugin/registry.hpp"
 #include "ecmor/strategies/strategy.hpp"
 
 namespace ecmor {

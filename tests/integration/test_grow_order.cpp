@@ -9,10 +9,10 @@
 #include <cmath>
 #include <limits>
 
-#include "ecmor/error.hpp"
-#include "ecmor/frequency_response.hpp"
-#include "ecmor/interrupt.hpp"
-#include "ecmor/projection.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/base/interrupt.hpp"
+#include "ecmor/model/projection.hpp"
 #include "ecmor/strategies/strategy.hpp"
 #include "support.hpp"
 

@@ -17,10 +17,10 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/eigensolver.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/parallel.hpp"
-#include "ecmor/shifted_solver.hpp"
+#include "ecmor/linalg/eigensolver.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/linalg/parallel.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 
 namespace fs = std::filesystem;
 

@@ -11,8 +11,8 @@
 #include <string>
 
 #include "common/test_support.hpp"
-#include "ecmor/config.hpp"
-#include "ecmor/error.hpp"
+#include "ecmor/strategies/config.hpp"
+#include "ecmor/base/error.hpp"
 #include "ecmor/strategies/driver.hpp"
 
 namespace fs = std::filesystem;

@@ -23,14 +23,15 @@
 #include "balanced/gramian_factors.hpp"
 #include "common/plugin_registry.hpp"
 #include "common/test_support.hpp"
-#include "ecmor/band_error.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/frequency_response.hpp"
-#include "ecmor/lyapunov.hpp"
-#include "ecmor/lyapunov_factor.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/registry.hpp"
-#include "ecmor/shifted_solver.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/gramians/lyapunov.hpp"
+#include "ecmor/model/dense_model.hpp"
+#include "ecmor/gramians/lyapunov_factor.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/plugin/registry.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 
 namespace ecmor {
 namespace {

@@ -21,11 +21,11 @@
 #include "balanced/lowrank_factors.hpp"
 #include "common/plugin_registry.hpp"
 #include "common/test_support.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/reduced_response.hpp"
-#include "ecmor/registry.hpp"
-#include "ecmor/shifted_solver.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/response/reduced_response.hpp"
+#include "ecmor/plugin/registry.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 
 namespace ecmor {
 namespace {

@@ -11,11 +11,11 @@
 #include <string>
 
 #include "common/plugin_registry.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/h2_norm.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/registry.hpp"
-#include "ecmor/shifted_solver.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/measures/h2_norm.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/plugin/registry.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 
 namespace ecmor {
 namespace {

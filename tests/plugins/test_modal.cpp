@@ -16,10 +16,10 @@
 
 #include "common/dense_reference.hpp"
 #include "common/plugin_registry.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/registry.hpp"
-#include "ecmor/shifted_solver.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/plugin/registry.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 
 namespace ecmor {
 namespace {

@@ -9,9 +9,9 @@
 #include <fstream>
 
 #include "common/test_support.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/plugin.hpp"
-#include "ecmor/registry.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/plugin/plugin.hpp"
+#include "ecmor/plugin/registry.hpp"
 #include "ecmor/version.hpp"
 
 namespace fs = std::filesystem;

@@ -20,12 +20,12 @@
 #include <vector>
 
 #include "common/test_support.hpp"
-#include "ecmor/config.hpp"
-#include "ecmor/error.hpp"
-#include "ecmor/frequency_response.hpp"
-#include "ecmor/matrix_market.hpp"
-#include "ecmor/model_io.hpp"
-#include "ecmor/registry.hpp"
+#include "ecmor/strategies/config.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/model/matrix_market.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/plugin/registry.hpp"
 #include "ecmor/strategies/driver.hpp"
 
 namespace fs = std::filesystem;

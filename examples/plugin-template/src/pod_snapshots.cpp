@@ -19,9 +19,9 @@
 #include <variant>
 #include <vector>
 
-#include "ecmor/error.hpp"
-#include "ecmor/plugin.hpp"
-#include "ecmor/projection.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/plugin/plugin.hpp"
+#include "ecmor/model/projection.hpp"
 
 namespace pod_snapshots {
 namespace {

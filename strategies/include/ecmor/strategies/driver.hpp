@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/stability.hpp"
-#include "ecmor/config.hpp"
-#include "ecmor/registry.hpp"
+#include "ecmor/measures/stability.hpp"
+#include "ecmor/strategies/config.hpp"
+#include "ecmor/plugin/registry.hpp"
 #include "ecmor/strategies/strategy.hpp"
 
 namespace ecmor {

@@ -11,11 +11,11 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/band_error.hpp"
-#include "ecmor/history.hpp"
-#include "ecmor/parameters.hpp"
-#include "ecmor/reducer.hpp"
-#include "ecmor/rigid_body.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/strategies/history.hpp"
+#include "ecmor/base/parameters.hpp"
+#include "ecmor/plugin/reducer.hpp"
+#include "ecmor/linalg/rigid_body.hpp"
 
 namespace ecmor {
 

@@ -1,0 +1,40 @@
+#pragma once
+// dense_lapack.hpp: dense steps that Eigen does with unblocked code, by LAPACK: the real Schur
+// form F = U T U' (dgees), the eigenvalues of a pencil (dggev) and the column-pivoted QR
+// (dgeqp3 / zgeqp3). Private to core (lyapunov.cpp, lyapunov_factor.cpp, hinf_norm.cpp).
+//
+// Why not Eigen::RealSchur: Eigen's Hessenberg reduction and double-shift QR are unblocked and
+// single-threaded; at n = 3 002 (the first-order form of triplechain_mess_n1501) they took most of
+// an eight-minute dense balanced truncation, 76 % of it applying 3 x 3 reflectors. LAPACK's dgees
+// reduces to Hessenberg form with blocked (level-3) reflectors and runs the small-bulge multishift
+// QR with aggressive early deflation, both through the optimised BLAS (docs/benchmarks.md).
+#include <vector>
+
+#include "ecmor/base/types.hpp"
+
+namespace ecmor::detail {
+
+/// F = U T U' with T quasi-upper triangular (1 x 1 and 2 x 2 diagonal blocks, the 2 x 2 ones for
+/// complex conjugate pairs, in LAPACK's standard form) and U orthogonal. False when the QR
+/// iteration did not converge (T and U are then unspecified).
+bool real_schur(const Matrix& F, Matrix& T, Matrix& U);
+
+/// The generalized eigenvalues alpha_i / beta_i of the pencil (A, B) by LAPACK's dggev (QZ after
+/// permuting to isolate eigenvalues; more robust than Eigen's RealQZ, which failed to converge on
+/// a 172 x 172 Hamiltonian error pencil of build_so that dggev solves). alpha complex, beta real
+/// and >= 0 (beta = 0: an infinite eigenvalue). False when the QZ iteration failed.
+bool generalized_eigenvalues(const Matrix& A, const Matrix& B, ComplexVector& alpha, Vector& beta);
+
+/// Rotates each 2 x 2 block of a real Schur form F = U T U' to upper triangular form (complex T
+/// and U, F = U T U^H): the first row of the rotation is the normalised eigenvector
+/// [lambda - t_kk; t_k,k-1] of the block.
+void triangularize_blocks(ComplexMatrix& T, ComplexMatrix& U);
+
+/// A P = Q K by LAPACK's column-pivoted QR (dgeqp3 / zgeqp3, level-3 blocked where the pivoting
+/// allows; Eigen's ColPivHouseholderQR is unblocked): on return the upper triangle of A holds K
+/// (|K_jj| non-increasing), below it the Householder vectors; column j of A P is column perm[j]
+/// of the input (0-based). False when LAPACK reports an argument error.
+bool column_pivoted_qr(Matrix& A, std::vector<int>& perm);
+bool column_pivoted_qr(ComplexMatrix& A, std::vector<int>& perm);
+
+}  // namespace ecmor::detail

@@ -1,0 +1,646 @@
+#include "ecmor/measures/band_error.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <numeric>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "ecmor/base/error.hpp"
+#include "ecmor/base/parameters.hpp"
+#include "ecmor/linalg/parallel.hpp"
+#include "ecmor/response/reduced_response.hpp"
+#include "measures/band_error_estimate.hpp"
+#include "measures/band_error_sampling.hpp"
+
+namespace ecmor {
+
+void Band::validate() const {
+  auto fmt = [](double v) {
+    std::ostringstream os;
+    os << v;
+    return os.str();
+  };
+  if (!std::isfinite(f_min_hz) || !(f_min_hz > 0.0)) {
+    throw ConfigError("band.f_min_hz = " + fmt(f_min_hz) +
+                      ": must be a finite frequency > 0 Hz (the band is sampled in log scale; use "
+                      "e.g. 1e-3 * f_max_hz for a band starting near 0)");
+  }
+  if (!std::isfinite(f_max_hz) || !(f_max_hz > f_min_hz)) {
+    throw ConfigError("band.f_max_hz = " + fmt(f_max_hz) + ": must be finite and > band.f_min_hz = " +
+                      fmt(f_min_hz));
+  }
+}
+
+std::string to_string(ErrorNorm norm) {
+  return norm == ErrorNorm::Spectral ? "spectral" : "frobenius";
+}
+
+ErrorNorm parse_error_norm(const std::string& name) {
+  if (name == "spectral") return ErrorNorm::Spectral;
+  if (name == "frobenius") return ErrorNorm::Frobenius;
+  throw ConfigError("unknown error norm '" + name + "'" +
+                    suggestion(name, {"spectral", "frobenius"}));
+}
+
+std::string to_string(ErrorVerify verify) {
+  switch (verify) {
+    case ErrorVerify::Dense: return "dense";
+    case ErrorVerify::Estimate: return "estimate";
+    case ErrorVerify::Auto: break;
+  }
+  return "auto";
+}
+
+ErrorVerify parse_error_verify(const std::string& name) {
+  if (name == "dense") return ErrorVerify::Dense;
+  if (name == "estimate") return ErrorVerify::Estimate;
+  if (name == "auto") return ErrorVerify::Auto;
+  throw ConfigError("unknown error.verify '" + name + "'" +
+                    suggestion(name, {"dense", "estimate", "auto"}));
+}
+
+double matrix_norm(const ComplexMatrix& A, ErrorNorm norm) {
+  if (A.size() == 0) return 0.0;
+  if (norm == ErrorNorm::Frobenius || A.rows() == 1 || A.cols() == 1) {
+    // For a single row or column the spectral norm is the Euclidean norm.
+    return A.norm();
+  }
+  Eigen::JacobiSVD<ComplexMatrix> svd(A);
+  return svd.singularValues()(0);
+}
+
+void BandErrorOptions::validate() const {
+  auto bad = [](const std::string& field, const std::string& value, const std::string& rule) {
+    throw ConfigError("BandErrorOptions::" + field + " = " + value + ": " + rule);
+  };
+  if (grid_points < 2) bad("grid_points", std::to_string(grid_points), "must be >= 2");
+  if (grid_points > 1000000) bad("grid_points", std::to_string(grid_points), "must be <= 1e6");
+  if (max_pole_samples < 0) bad("max_pole_samples", std::to_string(max_pole_samples), "must be >= 0");
+  if (refine_peaks < 0) bad("refine_peaks", std::to_string(refine_peaks), "must be >= 0");
+  if (refine_evaluations < 0 || refine_evaluations > 200) {
+    bad("refine_evaluations", std::to_string(refine_evaluations), "must be in [0, 200]");
+  }
+  if (!(zero_threshold >= 0.0) || !(zero_threshold < 1.0)) {
+    bad("zero_threshold", std::to_string(zero_threshold), "must be in [0, 1)");
+  }
+  if (dense_max_states < 0) bad("dense_max_states", std::to_string(dense_max_states), "must be >= 0");
+  if (estimate_points < 2 || estimate_points > 1000000)
+    bad("estimate_points", std::to_string(estimate_points), "must be in [2, 1e6]");
+  if (reference_points < 2 || reference_points > 10000)
+    bad("reference_points", std::to_string(reference_points), "must be in [2, 10000]");
+  if (check_peaks < 1) bad("check_peaks", std::to_string(check_peaks), "must be >= 1");
+  if (random_checks < 0) bad("random_checks", std::to_string(random_checks), "must be >= 0");
+  if (check_rounds < 1) bad("check_rounds", std::to_string(check_rounds), "must be >= 1");
+  if (probe_solves < 0) bad("probe_solves", std::to_string(probe_solves), "must be >= 0");
+}
+
+std::string BandError::sampling() const {
+  std::ostringstream os;
+  os << grid_samples << " grid";
+  if (pole_samples > 0) os << " + " << pole_samples << " pole";
+  if (refinement_samples > 0) os << " + " << refinement_samples << " refinement";
+  if (!undefined_f_hz.empty()) os << "; H vanishes at " << undefined_f_hz.size() << " samples";
+  if (reference_order > 0) {
+    os << "; estimate (reference order " << reference_order << "), " << checked_samples
+       << " checked by full solves";
+    if (new_full_solves > 0) os << " (" << new_full_solves << " new)";
+  }
+  return os.str();
+}
+
+bool BandError::within(double tolerance) const {
+  return sup_relative <= tolerance && !(estimate_sup > tolerance);
+}
+
+namespace {
+
+// Error measures at one frequency.
+struct Sample {
+  double f_hz = 0.0;
+  double abs2 = 0.0;    // ||H - Hr||_2
+  double absF = 0.0;    // ||H - Hr||_F
+  double ref2 = 0.0;    // ||H||_2
+  double refF = 0.0;    // ||H||_F
+  bool singular = false;  // Hr has a pole exactly here
+  bool exact = true;      // H is the full model's own (not a reference model's estimate)
+  ComplexMatrix H;        // the reference side (empty where the full model is singular)
+};
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Samples the error at the given frequencies (the reference side from `source`, the reduced
+// model's and the error norms in parallel with `threads`).
+std::vector<Sample> sample(const detail::ReferenceSource& source,
+                           detail::CandidateResponse& candidate, const std::vector<double>& f_hz,
+                           int threads_wanted) {
+  std::vector<Sample> out(f_hz.size());
+  if (f_hz.empty()) return out;
+  detail::ReferenceValues ref;
+  std::vector<bool> full_singular(f_hz.size(), false);
+  try {
+    ref = source(f_hz);
+  } catch (const NumericalError&) {
+    // Some frequency is (numerically) a pole of the full model on the imaginary axis (an undamped
+    // mode): evaluate one by one and mark those samples, instead of failing the whole batch.
+    ref.H.assign(f_hz.size(), ComplexMatrix());
+    ref.exact.assign(f_hz.size(), 1);
+    for (std::size_t k = 0; k < f_hz.size(); ++k) {
+      try {
+        detail::ReferenceValues one = source({f_hz[k]});
+        ref.H[k] = std::move(one.H[0]);
+        ref.exact[k] = one.exact[0];
+      } catch (const NumericalError&) {
+        full_singular[k] = true;
+      }
+    }
+  }
+  // The candidate's values computed before in this evaluation are reused; the others are computed
+  // below (in parallel) and kept afterwards (serially: the cache is not thread-safe).
+  const ReducedResponse& reduced = candidate.response();
+  std::vector<std::optional<ComplexMatrix>> known(f_hz.size());
+  std::vector<char> was_known(f_hz.size(), 0);
+  for (std::size_t k = 0; k < f_hz.size(); ++k) {
+    if (const auto* v = candidate.find(f_hz[k])) {
+      known[k] = *v;
+      was_known[k] = 1;
+    }
+  }
+  auto evaluate = [&](std::size_t k) {
+    Sample& s = out[k];
+    s.f_hz = f_hz[k];
+    s.exact = ref.exact[k] != 0;
+    if (full_singular[k]) {
+      // |H| is unbounded here: the relative error is undefined (reported as such).
+      s.ref2 = s.refF = kInf;
+      s.abs2 = s.absF = kNaN;
+      return;
+    }
+    s.H = std::move(ref.H[k]);
+    s.ref2 = matrix_norm(s.H, ErrorNorm::Spectral);
+    s.refF = s.H.norm();
+    try {
+      if (!was_known[k]) {
+        try {
+          known[k] = reduced(s_from_hz(f_hz[k]));
+        } catch (const NumericalError&) {
+          known[k].reset();  // a pole of the reduced model: kept as such
+        }
+      }
+      if (!known[k]) throw NumericalError("reduced model: a pole");
+      const ComplexMatrix E = s.H - *known[k];
+      if (!E.allFinite()) throw NumericalError("non-finite reduced response");
+      s.abs2 = matrix_norm(E, ErrorNorm::Spectral);
+      s.absF = E.norm();
+    } catch (const NumericalError&) {
+      // f is (numerically) a pole of the reduced model on the imaginary axis: the error is
+      // unbounded there, which is what the supremum must report.
+      s.singular = true;
+      s.abs2 = s.absF = kInf;
+    }
+  };
+  // The reduced evaluations are independent across frequencies, like the full model's: the same
+  // threads share them (each sample is computed by one thread with the same code, so the result
+  // does not depend on the thread count, bitwise). A parallel region costs more (thread wake-up,
+  // then spinning at the barrier) than a few reduced evaluations: measured on cdplayer in estimate
+  // mode, where the refinement samples a handful of frequencies per round, 65 % of the run was
+  // OpenMP spinning with regions for as few as 4 samples. Below 32 samples the loop is serial.
+  const auto count = static_cast<Index>(f_hz.size());
+  const int threads =
+      count < 32 ? 1
+                 : static_cast<int>(std::min<Index>(
+                       threads_wanted > 0 ? threads_wanted : omp_get_max_threads(), count / 2));
+  auto keep_new = [&] {
+    for (std::size_t k = 0; k < f_hz.size(); ++k)
+      if (!was_known[k]) candidate.keep(f_hz[k], std::move(known[k]));
+  };
+  if (threads <= 1) {
+    for (std::size_t k = 0; k < f_hz.size(); ++k) evaluate(k);
+    keep_new();
+    return out;
+  }
+  // Anything but the NumericalError handled per sample (say, bad_alloc) must not leave the
+  // parallel region: the first one is kept and rethrown after it.
+  std::exception_ptr error;
+#pragma omp parallel for schedule(dynamic, 4) num_threads(threads)
+  for (Index k = 0; k < count; ++k) {
+    try {
+      evaluate(static_cast<std::size_t>(k));
+    } catch (...) {
+#pragma omp critical(ecmor_band_error_sample)
+      {
+        if (!error) error = std::current_exception();
+      }
+    }
+  }
+  if (error) std::rethrow_exception(error);
+  keep_new();
+  return out;
+}
+
+double relative_of(const Sample& s, ErrorNorm norm, double zero_level2, double zero_levelF) {
+  if (norm == ErrorNorm::Spectral) {
+    return (s.ref2 <= zero_level2 || std::isinf(s.ref2)) ? kNaN : s.abs2 / s.ref2;
+  }
+  return (s.refF <= zero_levelF || std::isinf(s.refF)) ? kNaN : s.absF / s.refF;
+}
+
+}  // namespace
+
+namespace detail {
+
+std::vector<std::pair<double, double>> pole_frequencies(const ComplexVector& p, const Band& band,
+                                                        Index max) {
+  std::vector<std::pair<double, double>> candidates;  // (damping ratio, f)
+  for (Index i = 0; i < p.size(); ++i) {
+    const double im = p(i).imag();
+    if (!(im > 0.0) || !std::isfinite(im)) continue;
+    const double fp = im / kTwoPi;
+    if (fp < band.f_min_hz || fp > band.f_max_hz) continue;
+    const double zeta = std::abs(p(i).real()) / std::abs(p(i));
+    // A (numerically) undamped pole: Hr, and near it H, are singular to working precision at
+    // Im(p); a sample there measures round-off, not the error. The grid and the refinement
+    // still see the resonance.
+    if (zeta < 1e-8) continue;
+    candidates.emplace_back(zeta, fp);
+  }
+  std::sort(candidates.begin(), candidates.end());
+  if (static_cast<Index>(candidates.size()) > max) candidates.resize(static_cast<std::size_t>(max));
+  return candidates;
+}
+
+Index unstable_count(const ComplexVector& p) {
+  Index unstable = 0;
+  for (Index i = 0; i < p.size(); ++i) unstable += p(i).real() < 0.0 ? 0 : 1;
+  return unstable;
+}
+
+const ComplexVector& CandidateResponse::poles() {
+  if (!m_poles) m_poles = ecmor::poles(m_model);
+  return *m_poles;
+}
+
+BandError assemble_band_error(CandidateResponse& candidate, std::vector<double> f_hz,
+                              const ReferenceSource& source, const SamplingPlan& plan,
+                              const BandErrorOptions& options, const Band& band, double scale2,
+                              double scaleF, int threads) {
+  std::sort(f_hz.begin(), f_hz.end());
+  f_hz.erase(std::unique(f_hz.begin(), f_hz.end()), f_hz.end());
+  const ReducedModel& reduced = candidate.model();
+  std::vector<Sample> samples = sample(source, candidate, f_hz, threads);
+  const ErrorNorm norm = options.norm;
+  const Index grid = plan.grid, pole_count = plan.poles;
+  const BandErrorOptions& m_options = options;
+
+  const double zero2 = options.zero_threshold * scale2;
+  const double zeroF = options.zero_threshold * scaleF;
+
+  Index refinement_count = 0;
+  if (plan.refine && m_options.refine_peaks > 0 && m_options.refine_evaluations > 0 &&
+      samples.size() >= 3) {
+    // Local maxima of the relative error on the sorted samples, largest first.
+    auto rel = [&](const Sample& s) {
+      const double r = relative_of(s, norm, zero2, zeroF);
+      return std::isnan(r) ? -1.0 : r;
+    };
+    std::vector<std::size_t> peaks;
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      const double r = rel(samples[i]);
+      if (r < 0.0 || std::isinf(r)) continue;
+      const bool left_ok = (i == 0) || rel(samples[i - 1]) <= r;
+      const bool right_ok = (i + 1 == samples.size()) || rel(samples[i + 1]) < r;
+      if (left_ok && right_ok) peaks.push_back(i);
+    }
+    std::sort(peaks.begin(), peaks.end(),
+              [&](std::size_t a, std::size_t b) { return rel(samples[a]) > rel(samples[b]); });
+    if (static_cast<Index>(peaks.size()) > m_options.refine_peaks) {
+      peaks.resize(static_cast<std::size_t>(m_options.refine_peaks));
+    }
+    // Golden-section search for the maximum in log f, all peaks advanced together so that each
+    // round's new full-model frequencies are evaluated in one parallel batch.
+    struct Bracket {
+      double a, c, b;  // log f; c is the best point so far
+      Sample best;
+      Index stalled = 0;  // consecutive steps without a relative gain above 1e-4
+    };
+    std::vector<Bracket> brackets;
+    for (std::size_t i : peaks) {
+      const double c = std::log(samples[i].f_hz);
+      const double a = i == 0 ? c : std::log(samples[i - 1].f_hz);
+      const double b = i + 1 == samples.size() ? c : std::log(samples[i + 1].f_hz);
+      if (b - a > 0.0) brackets.push_back({a, c, b, samples[i], 0});
+    }
+    constexpr double kGolden = 0.3819660112501051;  // 2 - golden ratio
+    std::vector<Sample> added;
+    for (Index round = 0; round < m_options.refine_evaluations && !brackets.empty(); ++round) {
+      std::vector<double> trial(brackets.size());
+      for (std::size_t j = 0; j < brackets.size(); ++j) {
+        Bracket& br = brackets[j];
+        // Probe the larger side of c.
+        trial[j] = (br.b - br.c > br.c - br.a) ? br.c + kGolden * (br.b - br.c)
+                                               : br.c - kGolden * (br.c - br.a);
+      }
+      std::vector<double> trial_f(trial.size());
+      std::transform(trial.begin(), trial.end(), trial_f.begin(), [](double x) { return std::exp(x); });
+      const std::vector<Sample> got = sample(source, candidate, trial_f, threads);
+      std::vector<Bracket> next;
+      for (std::size_t j = 0; j < brackets.size(); ++j) {
+        Bracket br = brackets[j];
+        const double x = trial[j];
+        added.push_back(got[j]);
+        ++refinement_count;
+        const double before = rel(br.best);
+        br.stalled = rel(got[j]) > before * (1.0 + 1e-4) ? 0 : br.stalled + 1;
+        if (rel(got[j]) > before) {
+          // New best: the old centre becomes a bracket end.
+          if (x > br.c) br.a = br.c; else br.b = br.c;
+          br.c = x;
+          br.best = got[j];
+        } else {
+          if (x > br.c) br.b = x; else br.a = x;
+        }
+        // A peak is done when the bracket is below 1e-9 relative in f (far below any resonance
+        // width) or its value has stopped rising for 6 steps; one still rising near a zero of H
+        // or an undamped pole goes on to the budget, so that a sharp peak is not under-reported.
+        if (br.b - br.a > 1e-9 && br.stalled < 6) next.push_back(br);
+      }
+      brackets = std::move(next);
+    }
+    samples.insert(samples.end(), added.begin(), added.end());
+    std::sort(samples.begin(), samples.end(),
+              [](const Sample& x, const Sample& y) { return x.f_hz < y.f_hz; });
+  }
+  if (plan.dense_peaks && !samples.empty()) {
+    // The re-check must not rest on the fast path alone: re-evaluate the largest errors with a
+    // dense LU of P_r(s) (transfer_function), an independent computation of Hr.
+    std::vector<std::size_t> order(samples.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    auto rel = [&](std::size_t i) {
+      const double r = relative_of(samples[i], norm, zero2, zeroF);
+      return std::isnan(r) ? -1.0 : r;
+    };
+    const std::size_t top = std::min<std::size_t>(samples.size(), 10);
+    std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(top), order.end(),
+                      [&](std::size_t a, std::size_t b) { return rel(a) > rel(b); });
+    for (std::size_t j = 0; j < top; ++j) {
+      Sample& s = samples[order[j]];
+      if (s.singular || std::isinf(s.ref2) || s.H.size() == 0) continue;
+      try {
+        const ComplexMatrix E = s.H - transfer_function(reduced, s_from_hz(s.f_hz));
+        s.abs2 = std::max(s.abs2, matrix_norm(E, ErrorNorm::Spectral));
+        s.absF = std::max(s.absF, E.norm());
+      } catch (const NumericalError&) {
+        s.singular = true;
+        s.abs2 = s.absF = kInf;
+      }
+    }
+  }
+
+  BandError out;
+  out.norm = norm;
+  out.grid_samples = grid;
+  out.pole_samples = pole_count;
+  out.refinement_samples = refinement_count;
+  const std::size_t n = samples.size();
+  out.f_hz.resize(n);
+  out.relative.resize(n);
+  out.relative_spectral.resize(n);
+  out.relative_frobenius.resize(n);
+  out.absolute.resize(n);
+  out.reference.resize(n);
+  out.exact.resize(n);
+  double sup = -1.0, hinf = -1.0, h2sq = 0.0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const Sample& s = samples[k];
+    out.f_hz[k] = s.f_hz;
+    out.relative_spectral[k] = relative_of(s, ErrorNorm::Spectral, zero2, zeroF);
+    out.relative_frobenius[k] = relative_of(s, ErrorNorm::Frobenius, zero2, zeroF);
+    out.relative[k] = norm == ErrorNorm::Spectral ? out.relative_spectral[k] : out.relative_frobenius[k];
+    out.absolute[k] = s.abs2;
+    out.reference[k] = s.ref2;
+    out.exact[k] = s.exact ? 1 : 0;
+    out.reduced_singular = out.reduced_singular || s.singular;
+    if (std::isnan(out.relative[k])) {
+      out.undefined_f_hz.push_back(s.f_hz);
+    } else if (out.relative[k] > sup) {
+      sup = out.relative[k];
+      out.f_peak_hz = s.f_hz;
+    }
+    if (!std::isnan(s.abs2) && s.abs2 > hinf) {
+      hinf = s.abs2;
+      out.f_hinf_hz = s.f_hz;
+    }
+    if (k > 0) {
+      // Trapezoidal rule in f of ||E||_F^2.
+      const double a = samples[k - 1].absF, b = s.absF;
+      if (!std::isnan(a) && !std::isnan(b)) {
+        h2sq += 0.5 * (a * a + b * b) * (s.f_hz - samples[k - 1].f_hz);
+      }
+    }
+  }
+  if (sup < 0.0) {
+    throw NumericalError("band error: H vanishes at every sampled frequency of the band [" +
+                         std::to_string(band.f_min_hz) + ", " + std::to_string(band.f_max_hz) +
+                         "] Hz: the relative error is undefined");
+  }
+  out.sup_relative = sup;
+  out.hinf_absolute = hinf;
+  // Both signs of omega: the band H2 norm squared is twice the integral over positive f.
+  out.h2_absolute = std::sqrt(2.0 * h2sq);
+  return out;
+}
+
+}  // namespace detail
+
+BandErrorEstimator::BandErrorEstimator(ResponseCache& full, Band band, BandErrorOptions options)
+    : m_full(full), m_band(band), m_options(options) {
+  m_band.validate();
+  m_options.validate();
+  m_grid = log_grid(m_band.f_min_hz, m_band.f_max_hz, m_options.grid_points);
+  const bool estimate =
+      m_options.verify == ErrorVerify::Estimate ||
+      (m_options.verify == ErrorVerify::Auto && size_of(full.model()) > m_options.dense_max_states);
+  if (estimate) {
+    m_engine = std::make_unique<detail::EstimateEngine>(m_full, m_band, m_options);
+    return;
+  }
+  start_dense();
+}
+
+void BandErrorEstimator::start_dense() {
+  m_scale2 = 0.0;
+  m_scaleF = 0.0;
+  for (const ComplexMatrix& H : m_full.evaluate(m_grid)) {
+    m_scale2 = std::max(m_scale2, matrix_norm(H, ErrorNorm::Spectral));
+    m_scaleF = std::max(m_scaleF, H.norm());
+  }
+}
+
+double BandErrorEstimator::cost_per_full_solve() const {
+  if (m_full.size() == 0 || !(m_full.flops() > 0.0)) return 0.0;
+  // A sparse factorisation costs more than its flops: per column, a pivot search and memory
+  // management that the flop counts leave out (perf on triplechain_saak09_n451, dense mode:
+  // UMFPACK's assembly, pivot search, kernel set-up and page faults). Measured on the shipped
+  // chains (N = 451..1 501), a full solve took 0.7-2.2 us per unknown beyond its flops, while the
+  // reference model's dense kernels ran at 2-14 GFlop/s: about 10 000 flops of reference work
+  // per unknown. On 3-D solids the flops dominate by orders of magnitude.
+  constexpr double kFlopsPerUnknown = 1.0e4;
+  return m_full.flops() / static_cast<double>(m_full.size()) +
+         kFlopsPerUnknown * static_cast<double>(size_of(m_full.model()));
+}
+
+void BandErrorEstimator::consider_switch(Index verify_factor) {
+  ++m_evaluations;
+  if (!m_engine || m_options.verify != ErrorVerify::Auto) return;
+  // Ski rental. Per evaluation the estimate pays its reference model (its reduced forms, poles
+  // and values: the overhead) and the dense mode would pay full solves at the candidate's pole
+  // and refinement samples; the dense mode also pays its grid and a re-check grid once. The
+  // estimate's excess over the dense mode's per-evaluation cost accumulates as "rent"; when it
+  // reaches the one-off "purchase" the run switches. That costs at most about twice the better
+  // of the two choices made in hindsight, whatever the length of the run. A full solve of a large
+  // model costs seconds and its reference milliseconds: such runs never switch; small models of
+  // high order, whose reference costs more than their full solves, do.
+  //
+  // Both sides are counted in floating-point operations, not timed: the solver's own counts for
+  // the full solves (with a per-unknown overhead, cost_per_full_solve), the operation counts of
+  // the dense kernels for the reference. Times would
+  // make the choice, and with it the run's samples and counts, depend on what else the machine
+  // is doing (measured: the same portfolio run switched on a loaded CI machine and not on an idle
+  // one). A backend that reports no counts never switches.
+  const double per_solve = cost_per_full_solve();
+  if (!(per_solve > 0.0)) return;
+  const double dense_samples =
+      static_cast<double>(m_options.grid_points + verify_factor * (m_options.grid_points - 1) + 2);
+  const double buy = dense_samples * per_solve;
+  // Collective: under MPI every rank must take the same mode (the full solves are collective).
+  if (!any_process(m_rent_flops > buy)) return;
+  use_dense(fmt::format(
+      "estimate, then dense from evaluation {}: the reference model had cost {:.3g} flops more "
+      "than the dense mode's full solves at the same samples, over the {:.3g} predicted for its "
+      "grids ({:.0f} full solves at {:.3g} flops)",
+      m_evaluations, m_rent_flops, buy, dense_samples, per_solve));
+}
+
+void BandErrorEstimator::use_dense(std::string reason) {
+  if (!m_engine) return;
+  m_switch_note = std::move(reason);
+  m_full.keep_solutions(false);
+  (void)m_full.take_solutions();  // the reference model's food; without it, memory
+  m_engine.reset();
+  start_dense();
+}
+
+BandError BandErrorEstimator::rented(BandError e, double overhead_before) {
+  const double dense = static_cast<double>(e.pole_samples + e.refinement_samples);
+  m_rent_flops += (m_engine->overhead_flops() - overhead_before) - dense * cost_per_full_solve();
+  return e;
+}
+
+BandErrorEstimator::~BandErrorEstimator() = default;
+
+void BandErrorEstimator::offer_basis(const Matrix& basis) {
+  if (m_engine) m_engine->offer_basis(basis);
+}
+
+Index BandErrorEstimator::reference_order() const {
+  return m_engine ? m_engine->reference().order() : 0;
+}
+
+detail::ReferenceSource BandErrorEstimator::full_source() {
+  return [this](const std::vector<double>& f) {
+    detail::ReferenceValues v;
+    v.H = m_full.evaluate(f);
+    v.exact.assign(f.size(), 1);
+    return v;
+  };
+}
+
+BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<double> f_hz,
+                                       Index grid, Index pole_count, bool refine,
+                                       bool dense_peaks) {
+  const Index before = m_full.size();
+  detail::CandidateResponse candidate(reduced);
+  BandError out = detail::assemble_band_error(
+      candidate, std::move(f_hz), full_source(),
+      detail::SamplingPlan{grid, pole_count, refine, dense_peaks}, m_options, m_band, m_scale2,
+      m_scaleF, m_full.threads());
+  out.checked_samples = static_cast<Index>(out.f_hz.size());
+  out.new_full_solves = m_full.size() - before;
+  return out;
+}
+
+BandError BandErrorEstimator::evaluate(const ReducedModel& reduced) {
+  consider_switch(4);
+  if (m_engine) {
+    const double overhead = m_engine->overhead_flops();
+    return rented(m_engine->evaluate(reduced), overhead);
+  }
+  std::vector<double> f = m_grid;
+  Index pole_count = 0;
+  Index unstable = -1;
+  if (m_options.pole_samples && m_options.max_pole_samples > 0) {
+    // Resonances of lightly damped structures are narrower than any affordable grid spacing; the
+    // reduced poles locate them (and the full model's nearby ones) at no full-model cost.
+    const ComplexVector p = poles(reduced);
+    unstable = detail::unstable_count(p);
+    // Successive reduced models of one run (a grown model, a pruned one, an optimiser's next
+    // trial) approximate the same resonances, but their poles agree only to the accuracy of the
+    // approximation, often 1e-4 relative: sampled exactly at Im(p), every model would cost its own
+    // full-model factorisations. So a pole sample reuses a frequency already in the response cache
+    // when one lies within zeta / 32 (relative) of Im(p), a small fraction of the resonance's
+    // relative width 2 zeta: there |H| near an isolated resonance is within 0.05 % of its value at
+    // Im(p) (1 / sqrt(1 + (1/32)^2)), and the refinement of the error's local maxima runs on top.
+    // Otherwise the sample is taken exactly at Im(p) (and cached for the next model).
+    for (const auto& [zeta, f_pole] : detail::pole_frequencies(p, m_band, m_options.max_pole_samples)) {
+      double fp = f_pole;
+      if (const auto near = m_full.nearest_cached(fp, zeta / 32.0)) fp = *near;
+      f.push_back(fp);
+      ++pole_count;
+    }
+  }
+  BandError out = assemble(reduced, std::move(f), static_cast<Index>(m_grid.size()), pole_count,
+                           true, false);
+  out.unstable_poles = unstable;
+  return out;
+}
+
+BandError BandErrorEstimator::evaluate_on(const ReducedModel& reduced,
+                                          const std::vector<double>& f_hz) {
+  consider_switch(4);
+  if (m_engine) {
+    const double overhead = m_engine->overhead_flops();
+    return rented(m_engine->evaluate_on(reduced, f_hz), overhead);
+  }
+  return assemble(reduced, f_hz, static_cast<Index>(f_hz.size()), 0, false, false);
+}
+
+BandError BandErrorEstimator::verify(const ReducedModel& reduced, Index factor) {
+  if (factor < 1) throw ConfigError("verify factor = " + std::to_string(factor) + ": must be >= 1");
+  consider_switch(factor);
+  if (m_engine) {
+    const double overhead = m_engine->overhead_flops();
+    return rented(m_engine->verify(reduced), overhead);
+  }
+  // Midpoints (in log f) of a grid `factor` times finer than the estimator's: with
+  // M = factor (G - 1) intervals, (k + 1/2)/M = j/(G - 1) would need an odd number to equal an even
+  // one, so no point coincides with the estimator's grid. The band edges are added: the supremum
+  // may sit there.
+  const Index G = m_options.grid_points;
+  const Index M = factor * (G - 1);
+  const double x0 = std::log(m_band.f_min_hz), x1 = std::log(m_band.f_max_hz);
+  std::vector<double> f;
+  f.reserve(static_cast<std::size_t>(M + 2));
+  f.push_back(m_band.f_min_hz);
+  for (Index k = 0; k < M; ++k) {
+    f.push_back(std::exp(x0 + (static_cast<double>(k) + 0.5) * (x1 - x0) / static_cast<double>(M)));
+  }
+  f.push_back(m_band.f_max_hz);
+  return assemble(reduced, std::move(f), M + 2, 0, true, true);
+}
+
+}  // namespace ecmor

@@ -1,0 +1,107 @@
+#pragma once
+/// \file config.hpp
+/// The YAML run configuration, validated: unknown keys are errors that suggest the nearest valid
+/// key; wrong types and ranges name the key and its line. Example:
+///
+///   model:    {dir: ../shared/models/triplechain_saak09_n451}   # or {file: m.mat}
+///   band:     {f_min_hz: 1.0e-5, f_max_hz: 10.0}
+///   target:   {tolerance: 1.0e-3, norm: spectral}        # spectral (Eq. 22) | frobenius (Eq. 23)
+///   reducer:  {name: modal, static_correction: true}     # plus reducer-specific parameters
+///   strategy: {name: grow_order, max_order: 200}         # plus strategy-specific parameters
+///   error:    {grid_points: 200, refine_peaks: 5}        # optional: the error estimator
+///   solver:   {threads: 0}                               # optional
+///   output:   {dir: out/tc451, format: mtx}            # format: mtx (default) | mat | both
+///   plugins:  [path/to/libmy_plugin.so, path/to/dir]     # optional: extra plugins
+///   check:    {max_order: 48, max_seconds: 600}          # optional: budgets for `ecmor check`
+///
+/// A portfolio run tries several reducer/strategy pairs on the same model, one after another, and
+/// keeps the smallest passing model (no top-level `reducer` section then). Without `members` it
+/// tries the bundled reducers suited to the model (driver.hpp, default_portfolio):
+///
+///   strategy:
+///     name: portfolio
+///     prune: true                                        # optional (default true)
+///     members:
+///       - reducer:  {name: modal}
+///       - reducer:  {name: krylov, points: [0.0]}
+///         strategy: {name: greedy_points, max_order: 80}  # default: grow_order
+///
+/// Relative paths (model.dir, model.file, output.dir, plugins) are resolved against the current
+/// working directory, like paths given on a command line.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/base/parameters.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
+
+namespace ecmor {
+
+/// One reducer/strategy pair of a portfolio run (strategy.members[k]).
+struct PortfolioMember {
+  std::string reducer_name;
+  ParameterMap reducer_params{"reducer"};
+  std::string strategy_name = "grow_order";
+  ParameterMap strategy_params{"strategy"};
+  /// "reducer/strategy", for tables and messages.
+  std::string label() const { return reducer_name + "/" + strategy_name; }
+};
+
+struct RunConfig {
+  std::filesystem::path source;      ///< the YAML file
+  /// model.dir (a model directory) or model.file with model.variables (a .mat file).
+  ModelSource model;
+  Band band;
+  double tolerance = 1e-3;           ///< on sup_f of the relative error, (0, 1e3]
+  ErrorNorm norm = ErrorNorm::Spectral;
+  std::string reducer_name;
+  ParameterMap reducer_params{"reducer"};
+  std::string strategy_name = "grow_order";
+  ParameterMap strategy_params{"strategy"};
+  /// Wall-clock budget of the run in seconds (YAML strategy.time_limit_s; 0: none). When it is
+  /// used up the strategy is asked to stop, as for an interrupt: the run ends "interrupted" with
+  /// the best model so far, and the message says that the time limit ended it.
+  double time_limit_s = 0.0;
+  BandErrorOptions error;            ///< norm is copied from target.norm
+  Index verify_factor = 4;           ///< independent re-check grid is this many times denser
+  /// The reported model's error H-infinity norm is computed by the dense level-set method (all
+  /// frequencies, certified) when the full model has at most this many first-order states, else
+  /// sampled on the band (YAML error.hinf_dense_states; 0: always sampled). Each level-set
+  /// iteration solves a Hamiltonian eigenproblem of size 2 (states + order): about 5 s at 500.
+  Index hinf_dense_states = 250;
+  /// The full model's own stability (stability.hpp) is decided from its dense eigenvalues when it
+  /// has at most this many first-order states (YAML error.stability_dense_states; 0: never dense),
+  /// else from the inertia of K and D (second order) or not at all. About 1 s at 1000.
+  Index stability_dense_states = 1000;
+  SolverOptions solver;
+  int threads = 0;                   ///< 0: OpenMP default
+  std::filesystem::path output_dir;
+  OutputFormat output_format = OutputFormat::Mtx;  ///< output.format: mtx (default), mat, both
+  std::vector<std::filesystem::path> plugins;
+  /// `strategy: {name: portfolio, members: [...]}`: reducer_name and strategy_name are then both
+  /// "portfolio" and the members carry the real ones. Empty for a portfolio without `members`
+  /// until the driver, knowing the model, fills in default_portfolio().
+  std::vector<PortfolioMember> portfolio;
+  bool is_portfolio() const { return strategy_name == "portfolio"; }
+  /// Portfolio only: stop a grow_order member once its order reaches the smallest order that met
+  /// the target so far without meeting it (it can then no longer win).
+  bool portfolio_prune = true;
+  /// Regression budgets checked by `ecmor check` (YAML `check: {max_order, max_seconds}`; 0: none).
+  /// `ecmor reduce` ignores them.
+  Index check_max_order = 0;
+  double check_max_seconds = 0.0;
+};
+
+/// Parses and validates a run configuration.
+/// \throws ConfigError "run.yaml:4: unknown key 'tolerence' in 'target' (did you mean 'tolerance'?)",
+///         "run.yaml:3: band.f_min_hz = -1: must be > 0", missing required keys, YAML syntax errors
+///         with their line.
+RunConfig load_run_config(const std::filesystem::path& path);
+
+/// Same from a string (for tests); `name` is used in messages.
+RunConfig parse_run_config(const std::string& yaml, const std::string& name);
+
+}  // namespace ecmor

@@ -1,0 +1,68 @@
+#pragma once
+/// \file history.hpp
+/// The convergence history: one record per iteration of a strategy, always kept in full, written
+/// as history.csv and history.jsonl (each rewritten atomically after every iteration, so an
+/// interrupted run keeps everything up to its last iteration).
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "ecmor/plugin/reducer.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
+
+namespace ecmor {
+
+struct IterationRecord {
+  Index iteration = 0;         ///< 1-based
+  std::string phase;           ///< strategy phase, e.g. "grow", "shrink", "verify"
+  Index order = 0;             ///< reduced order n
+  std::vector<ExpansionPoint> points;  ///< expansion points used (may be empty)
+  double band_error = 0.0;     ///< sup of the relative band error (target's norm)
+  double f_peak_hz = 0.0;      ///< where it peaks
+  bool meets_tolerance = false;
+  bool stable = true;          ///< all reduced poles in the open left half plane
+  double seconds = 0.0;        ///< wall time since the start of the run
+  double step_seconds = 0.0;   ///< wall time of this iteration
+  SolverCounters counters;     ///< cumulative solver counters at the end of the iteration
+  Index full_evaluations = 0;  ///< cumulative full-model frequencies evaluated
+  std::string sampling;        ///< how the band was sampled
+  std::string note;            ///< reducer's note
+  std::map<std::string, double> diagnostics;
+};
+
+/// Writes the history files into a directory.
+class HistoryWriter {
+ public:
+  /// Creates `dir` if needed. Nothing is written until the first record.
+  explicit HistoryWriter(std::filesystem::path dir);
+  /// Appends a record and rewrites history.csv and history.jsonl atomically.
+  void append(const IterationRecord& record);
+  const std::vector<IterationRecord>& records() const { return m_records; }
+
+ private:
+  std::filesystem::path m_dir;
+  std::vector<IterationRecord> m_records;
+};
+
+/// Calls f(name, value) for every solver counter, in a fixed order: the one list of counter
+/// names used by history.jsonl and summary.json. Values are Index (counts) or double (seconds).
+template <class F>
+void for_each_counter(const SolverCounters& c, F&& f) {
+  f("symbolic_analyses", c.symbolic_analyses);
+  f("factorizations", c.factorizations);
+  f("cholesky_factorizations", c.cholesky_factorizations);
+  f("lu_factorizations", c.lu_factorizations);
+  f("complex_factorizations", c.complex_factorizations);
+  f("failed_cholesky", c.failed_cholesky);
+  f("solves", c.solves);
+  f("analysis_seconds", c.analysis_seconds);
+  f("factorization_seconds", c.factorization_seconds);
+  f("solve_seconds", c.solve_seconds);
+}
+
+/// Expansion points formatted for tables: "i*12.5Hz, 3.0rad/s" style, "-" when empty.
+std::string format_points(const std::vector<ExpansionPoint>& points);
+
+}  // namespace ecmor

@@ -1,0 +1,647 @@
+// config.cpp: the YAML run configuration. Everything the user can get wrong is reported with the
+// file, the line and the key, because a run that starts with a silently misread setting wastes
+// hours (a misspelt `tolerence` would otherwise leave the default tolerance in force).
+#include "ecmor/strategies/config.hpp"
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <optional>
+#include <sstream>
+
+#include "ecmor/base/error.hpp"
+
+namespace ecmor {
+
+namespace {
+
+const std::vector<std::string> kSections = {"model",    "band",    "target", "reducer",
+                                            "strategy", "error",   "solver", "backend",
+                                            "output",   "plugins", "check"};
+
+std::string node_kind(const YAML::Node& node) {
+  switch (node.Type()) {
+    case YAML::NodeType::Map:
+      return "a mapping";
+    case YAML::NodeType::Sequence:
+      return "a list";
+    case YAML::NodeType::Scalar:
+      return "a scalar";
+    case YAML::NodeType::Null:
+      return "nothing";
+    default:
+      return "an undefined node";
+  }
+}
+
+/// A scalar read as YAML 1.2 core types, in the order the header documents.
+ParameterValue::Storage classify_scalar(const YAML::Node& node) {
+  const std::string& text = node.Scalar();
+  // Quoted scalars ("123", 'true') carry the non-specific tag "!": the user asked for a string.
+  if (node.Tag() == "!") return text;
+  if (text == "true" || text == "True" || text == "TRUE" || text == "yes" || text == "Yes" ||
+      text == "YES")
+    return true;
+  if (text == "false" || text == "False" || text == "FALSE" || text == "no" || text == "No" ||
+      text == "NO")
+    return false;
+  // from_chars rejects a leading '+', which YAML allows.
+  std::string_view digits = text;
+  if (digits.size() > 1 && digits[0] == '+' && digits[1] != '-' && digits[1] != '+')
+    digits.remove_prefix(1);
+  const char* first = digits.data();
+  const char* last = digits.data() + digits.size();
+  long long integer = 0;
+  auto [iend, ierr] = std::from_chars(first, last, integer);
+  if (ierr == std::errc() && iend == last && !digits.empty()) return integer;
+  double real = 0.0;
+  auto [dend, derr] = std::from_chars(first, last, real);
+  if (derr == std::errc() && dend == last && !digits.empty()) return real;
+  // YAML's own spellings of the special floats.
+  if (text == ".inf" || text == ".Inf" || text == ".INF" || text == "+.inf" || text == "+.Inf" ||
+      text == "+.INF")
+    return std::numeric_limits<double>::infinity();
+  if (text == "-.inf" || text == "-.Inf" || text == "-.INF")
+    return -std::numeric_limits<double>::infinity();
+  if (text == ".nan" || text == ".NaN" || text == ".NAN")
+    return std::numeric_limits<double>::quiet_NaN();
+  return text;
+}
+
+class Parser {
+ public:
+  explicit Parser(std::string name) : m_name(std::move(name)) {}
+
+  RunConfig parse(const std::string& yaml);
+
+ private:
+  std::string at(const YAML::Mark& mark) const {
+    return mark.is_null() ? m_name : fmt::format("{}:{}", m_name, mark.line + 1);
+  }
+  std::string at(const YAML::Node& node) const {
+    return node.IsDefined() ? at(node.Mark()) : m_name;
+  }
+  // yaml-cpp marks an empty value at the next token (often the next line), so messages about
+  // empty values name the line of their key instead.
+  std::string key_location(const YAML::Node& parent, const std::string& key) const {
+    for (auto it = parent.begin(); it != parent.end(); ++it)
+      if (it->first.IsScalar() && it->first.Scalar() == key) return at(it->first);
+    return at(parent);
+  }
+  [[noreturn]] void fail(const std::string& where, const std::string& what) const {
+    throw ConfigError(where + ": " + what);
+  }
+
+  /// The section as a mapping (a missing or empty section reads as an empty mapping), with every
+  /// key checked against `known`.
+  YAML::Node section(const YAML::Node& root, const std::string& name,
+                     const std::vector<std::string>& known, bool open = false);
+  void check_keys(const YAML::Node& map, const std::string& where_name,
+                  const std::vector<std::string>& known);
+
+  /// Scalar accessors; `sec` is the section name for messages ("band.f_min_hz").
+  std::optional<std::pair<ParameterValue::Storage, YAML::Node>> scalar(const YAML::Node& map,
+                                                                       const std::string& sec,
+                                                                       const std::string& key,
+                                                                       bool required);
+  std::optional<double> number(const YAML::Node& map, const std::string& sec,
+                               const std::string& key, bool required);
+  std::optional<long long> integer(const YAML::Node& map, const std::string& sec,
+                                   const std::string& key, long long min);
+  std::optional<bool> boolean(const YAML::Node& map, const std::string& sec,
+                              const std::string& key);
+  std::optional<std::string> text(const YAML::Node& map, const std::string& sec,
+                                  const std::string& key, bool required);
+  std::filesystem::path path_value(const YAML::Node& map, const std::string& sec,
+                                   const std::string& key);
+  /// A text value that must be one of the names in `options` (each with the value it stands
+  /// for); the error lists the names and suggests the nearest.
+  template <class T>
+  std::optional<T> choice(const YAML::Node& map, const std::string& sec, const std::string& key,
+                          const std::vector<std::pair<std::string, T>>& options) {
+    const auto v = text(map, sec, key, false);
+    if (!v) return std::nullopt;
+    std::vector<std::string> names;
+    for (const auto& [name, value] : options) {
+      if (*v == name) return value;
+      names.push_back(name);
+    }
+    const std::string near = nearest(*v, names);
+    fail(at(map[key]),
+         fmt::format("{}.{} = '{}': must be one of {}{}", sec, key, *v, fmt::join(names, ", "),
+                     near.empty() ? std::string() : " (did you mean '" + near + "'?)"));
+  }
+
+  /// Every key but `name` becomes a parameter of the reducer/strategy.
+  void collect_parameters(const YAML::Node& map, const std::string& sec, ParameterMap& params);
+  /// strategy: {name: portfolio, prune: ..., members: [{reducer: {...}, strategy: {...}}, ...]}.
+  void parse_portfolio(const YAML::Node& strategy, RunConfig& config);
+  ParameterValue parameter(const YAML::Node& key, const YAML::Node& value,
+                           const std::string& full_key);
+
+  std::string m_name;
+  YAML::Node m_root;
+};
+
+void Parser::check_keys(const YAML::Node& map, const std::string& where_name,
+                        const std::vector<std::string>& known) {
+  std::map<std::string, int> seen;
+  std::vector<std::string> problems;
+  for (auto it = map.begin(); it != map.end(); ++it) {
+    const YAML::Node key = it->first;
+    if (!key.IsScalar()) fail(at(key), "keys in " + where_name + " must be plain names");
+    const std::string& k = key.Scalar();
+    // yaml-cpp keeps duplicate keys and operator[] returns the first: the second would be ignored
+    // without a word, so it is an error.
+    if (auto [pos, inserted] = seen.emplace(k, key.Mark().line + 1); !inserted)
+      fail(at(key), fmt::format("duplicate key '{}' in {} (first given at line {})", k, where_name,
+                                pos->second));
+    if (!known.empty() && std::find(known.begin(), known.end(), k) == known.end())
+      problems.push_back(fmt::format("{}: unknown key '{}' in {}{}", at(key), k, where_name,
+                                     suggestion(k, known)));
+  }
+  if (!problems.empty()) throw ConfigError(fmt::format("{}", fmt::join(problems, "; ")));
+}
+
+YAML::Node Parser::section(const YAML::Node& root, const std::string& name,
+                           const std::vector<std::string>& known, bool open) {
+  const YAML::Node node = root[name];
+  if (!node.IsDefined()) return YAML::Node(YAML::NodeType::Map);
+  if (node.IsNull()) return node;  // `band:` with nothing after it: keeps its line for messages
+  if (!node.IsMap())
+    fail(at(node), fmt::format("'{}' must be a mapping of keys ({}), found {}", name,
+                               fmt::join(known, ", "), node_kind(node)));
+  // Open sections (reducer, strategy) accept any key; only duplicates are checked here.
+  check_keys(node, "'" + name + "'", open ? std::vector<std::string>{} : known);
+  return node;
+}
+
+std::optional<std::pair<ParameterValue::Storage, YAML::Node>> Parser::scalar(const YAML::Node& map,
+                                                                             const std::string& sec,
+                                                                             const std::string& key,
+                                                                             bool required) {
+  const YAML::Node node = map[key];
+  if (!node.IsDefined()) {
+    if (required)
+      fail(map.IsNull() ? key_location(m_root, sec) : at(map),
+           fmt::format("missing required key '{}.{}'", sec, key));
+    return std::nullopt;
+  }
+  if (node.IsNull()) fail(key_location(map, key), fmt::format("{}.{} has no value", sec, key));
+  if (!node.IsScalar())
+    fail(at(node),
+         fmt::format("{}.{} must be a single value, found {}", sec, key, node_kind(node)));
+  return std::make_pair(classify_scalar(node), node);
+}
+
+std::optional<double> Parser::number(const YAML::Node& map, const std::string& sec,
+                                     const std::string& key, bool required) {
+  auto v = scalar(map, sec, key, required);
+  if (!v) return std::nullopt;
+  double result = 0.0;
+  if (const double* d = std::get_if<double>(&v->first)) {
+    result = *d;
+  } else if (const long long* i = std::get_if<long long>(&v->first)) {
+    result = static_cast<double>(*i);
+  } else {
+    fail(at(v->second),
+         fmt::format("{}.{} = '{}': must be a number", sec, key, v->second.Scalar()));
+  }
+  if (!std::isfinite(result))
+    fail(at(v->second), fmt::format("{}.{} = {}: must be finite", sec, key, v->second.Scalar()));
+  return result;
+}
+
+std::optional<long long> Parser::integer(const YAML::Node& map, const std::string& sec,
+                                         const std::string& key, long long min) {
+  auto v = scalar(map, sec, key, false);
+  if (!v) return std::nullopt;
+  long long result = 0;
+  if (const long long* i = std::get_if<long long>(&v->first)) {
+    result = *i;
+  } else if (const double* d = std::get_if<double>(&v->first);
+             d != nullptr && std::isfinite(*d) && *d == std::trunc(*d) && std::abs(*d) < 9e18) {
+    result = static_cast<long long>(*d);  // 1e3 is an integer written as a float
+  } else {
+    fail(at(v->second),
+         fmt::format("{}.{} = {}: must be an integer", sec, key, v->second.Scalar()));
+  }
+  if (result < min)
+    fail(at(v->second), fmt::format("{}.{} = {}: must be >= {}", sec, key, result, min));
+  return result;
+}
+
+std::optional<bool> Parser::boolean(const YAML::Node& map, const std::string& sec,
+                                    const std::string& key) {
+  auto v = scalar(map, sec, key, false);
+  if (!v) return std::nullopt;
+  if (const bool* b = std::get_if<bool>(&v->first)) return *b;
+  fail(at(v->second),
+       fmt::format("{}.{} = {}: must be true or false", sec, key, v->second.Scalar()));
+}
+
+std::optional<std::string> Parser::text(const YAML::Node& map, const std::string& sec,
+                                        const std::string& key, bool required) {
+  auto v = scalar(map, sec, key, required);
+  if (!v) return std::nullopt;
+  // Names and paths are text whatever they look like (a directory may be called "2024").
+  const std::string& s = v->second.Scalar();
+  if (s.empty()) fail(at(v->second), fmt::format("{}.{} must not be empty", sec, key));
+  return s;
+}
+
+std::filesystem::path Parser::path_value(const YAML::Node& map, const std::string& sec,
+                                         const std::string& key) {
+  return std::filesystem::absolute(*text(map, sec, key, true)).lexically_normal();
+}
+
+ParameterValue Parser::parameter(const YAML::Node& key, const YAML::Node& value,
+                                 const std::string& full_key) {
+  ParameterValue out;
+  out.location = at(key);
+  if (value.IsNull()) fail(at(key), full_key + " has no value");
+  if (value.IsMap())
+    fail(at(value),
+         full_key + ": nested mappings are not supported (a parameter is a value or a list)");
+  if (value.IsScalar()) {
+    out.value = classify_scalar(value);
+    return out;
+  }
+  // A list: all numbers -> list of double, all strings -> list of string.
+  std::vector<double> numbers;
+  std::vector<std::string> strings;
+  for (const YAML::Node& item : value) {
+    if (!item.IsScalar())
+      fail(at(item), fmt::format("{}: list items must be single values, found {}", full_key,
+                                 node_kind(item)));
+    auto v = classify_scalar(item);
+    if (const double* d = std::get_if<double>(&v)) {
+      numbers.push_back(*d);
+    } else if (const long long* i = std::get_if<long long>(&v)) {
+      numbers.push_back(static_cast<double>(*i));
+    } else if (const std::string* s = std::get_if<std::string>(&v)) {
+      strings.push_back(*s);
+    } else {
+      fail(at(item), fmt::format("{}: lists of true/false are not supported", full_key));
+    }
+    if (!numbers.empty() && !strings.empty())
+      fail(at(item),
+           fmt::format("{}: list mixes numbers and text ('{}')", full_key, item.Scalar()));
+  }
+  if (!strings.empty())
+    out.value = std::move(strings);
+  else
+    out.value = std::move(numbers);
+  return out;
+}
+
+void Parser::collect_parameters(const YAML::Node& map, const std::string& sec,
+                                ParameterMap& params) {
+  for (auto it = map.begin(); it != map.end(); ++it) {
+    const std::string& key = it->first.Scalar();
+    // `name`, and the driver's wall-clock budget in the strategy section, are not parameters.
+    if (key == "name" || (sec == "strategy" && key == "time_limit_s")) continue;
+    params.set(key, parameter(it->first, it->second, sec + "." + key));
+  }
+}
+
+void Parser::parse_portfolio(const YAML::Node& strategy, RunConfig& config) {
+  check_keys(strategy, "'strategy' (portfolio)", {"name", "members", "prune", "time_limit_s"});
+  if (auto v = boolean(strategy, "strategy", "prune")) config.portfolio_prune = *v;
+  const YAML::Node members = strategy["members"];
+  const std::string shape =
+      "a list of {reducer: {name: ..., <parameters>}, strategy: {name: ..., <parameters>}}";
+  if (!members.IsDefined()) return;  // the driver fills in the default members
+  if (!members.IsSequence() || members.size() == 0)
+    fail(members.IsNull() ? key_location(strategy, "members") : at(members),
+         fmt::format("strategy.members must be {}, found {}", shape,
+                     members.IsSequence() ? "an empty list" : node_kind(members)));
+  for (std::size_t k = 0; k < members.size(); ++k) {
+    const YAML::Node item = members[k];
+    const std::string where = fmt::format("strategy.members[{}]", k + 1);
+    if (!item.IsMap())
+      fail(at(item), fmt::format("{} must be a mapping with 'reducer' (and optionally "
+                                 "'strategy'), found {}",
+                                 where, node_kind(item)));
+    check_keys(item, where, {"reducer", "strategy"});
+    PortfolioMember member;
+    const YAML::Node reducer = item["reducer"];
+    if (!reducer.IsDefined())
+      fail(at(item), fmt::format("missing required key '{}.reducer'", where));
+    if (!reducer.IsMap())
+      fail(reducer.IsNull() ? key_location(item, "reducer") : at(reducer),
+           fmt::format("{}.reducer must be a mapping with 'name' and the reducer's parameters, "
+                       "found {}",
+                       where, node_kind(reducer)));
+    check_keys(reducer, "'" + where + ".reducer'", {});
+    member.reducer_name = *text(reducer, where + ".reducer", "name", true);
+    member.reducer_params =
+        ParameterMap(fmt::format("reducer '{}' ({})", member.reducer_name, where));
+    collect_parameters(reducer, where + ".reducer", member.reducer_params);
+    const YAML::Node inner = item["strategy"];
+    if (inner.IsDefined() && !inner.IsMap())
+      fail(inner.IsNull() ? key_location(item, "strategy") : at(inner),
+           fmt::format("{}.strategy must be a mapping with 'name' and the strategy's parameters, "
+                       "found {}",
+                       where, node_kind(inner)));
+    if (inner.IsDefined()) {
+      check_keys(inner, "'" + where + ".strategy'", {});
+      if (auto name = text(inner, where + ".strategy", "name", false)) member.strategy_name = *name;
+      if (member.strategy_name == "portfolio")
+        fail(at(inner["name"]), where + ".strategy: a portfolio member cannot be a portfolio");
+      if (inner["time_limit_s"].IsDefined())
+        fail(at(inner["time_limit_s"]),
+             where +
+                 ".strategy.time_limit_s: the time limit is the whole portfolio's; give it as "
+                 "strategy.time_limit_s");
+      member.strategy_params =
+          ParameterMap(fmt::format("strategy '{}' ({})", member.strategy_name, where));
+      collect_parameters(inner, where + ".strategy", member.strategy_params);
+    } else {
+      member.strategy_params =
+          ParameterMap(fmt::format("strategy '{}' ({})", member.strategy_name, where));
+    }
+    config.portfolio.push_back(std::move(member));
+  }
+}
+
+RunConfig Parser::parse(const std::string& yaml) {
+  try {
+    m_root = YAML::Load(yaml);
+  } catch (const YAML::ParserException& e) {
+    fail(at(e.mark), "YAML syntax error: " + e.msg);
+  } catch (const YAML::Exception& e) {
+    fail(at(e.mark), "cannot read YAML: " + e.msg);
+  }
+  if (!m_root.IsDefined() || m_root.IsNull())
+    fail(m_name,
+         fmt::format("the file is empty (expected the sections {})", fmt::join(kSections, ", ")));
+  if (!m_root.IsMap())
+    fail(at(m_root), fmt::format("expected a mapping of sections ({}), found {}",
+                                 fmt::join(kSections, ", "), node_kind(m_root)));
+  check_keys(m_root, "the configuration", kSections);
+  const YAML::Node strategy_node = m_root["strategy"];
+  // (A missing key reads as an invalid node, whose IsScalar() throws: test IsDefined() first.)
+  const bool portfolio = strategy_node.IsMap() && strategy_node["name"].IsDefined() &&
+                         strategy_node["name"].IsScalar() &&
+                         strategy_node["name"].Scalar() == "portfolio";
+  for (const char* required : {"model", "band", "target", "reducer", "output"}) {
+    if (portfolio && std::string(required) == "reducer") continue;
+    if (!m_root[required].IsDefined())
+      fail(at(m_root), fmt::format("missing required section '{}'", required));
+  }
+  if (portfolio && m_root["reducer"].IsDefined())
+    fail(key_location(m_root, "reducer"),
+         "with strategy 'portfolio' each member names its reducer (strategy.members[k].reducer); "
+         "remove the top-level 'reducer' section");
+
+  RunConfig config;
+
+  // model: {dir: D} (Matrix Market files) or {file: F.mat, variables: {M: Mass, ...}}.
+  const YAML::Node model = section(m_root, "model", {"dir", "file", "variables"});
+  const bool by_dir = model["dir"].IsDefined();
+  const bool by_file = model["file"].IsDefined();
+  if (by_dir && by_file)
+    fail(at(model["file"]),
+         "give model.dir (a model directory) or model.file (a .mat file), not both");
+  if (!by_dir && !by_file)
+    fail(model.IsNull() ? key_location(m_root, "model") : at(model),
+         "missing required key 'model.dir' (a model directory) or 'model.file' (a .mat file)");
+  if (by_dir) {
+    config.model.path = path_value(model, "model", "dir");
+    if (model["variables"].IsDefined())
+      fail(at(model["variables"]),
+           "model.variables renames the variables of a .mat file (model.file); the files of a "
+           "model directory have fixed names");
+  } else {
+    config.model.path = path_value(model, "model", "file");
+    if (!is_mat_file_name(config.model.path))
+      fail(at(model["file"]), fmt::format("model.file = '{}': must name a MATLAB file ending in "
+                                          ".mat (a model directory is model.dir)",
+                                          model["file"].Scalar()));
+    if (const YAML::Node vars = model["variables"]; vars.IsDefined()) {
+      if (!vars.IsMap())
+        fail(vars.IsNull() ? key_location(model, "variables") : at(vars),
+             fmt::format("model.variables must be a mapping from matrix to variable name, e.g. "
+                         "{{M: Mass, K: Stiff}}, found {}",
+                         node_kind(vars)));
+      check_keys(vars, "'model.variables'", model_variable_roles());
+      for (auto it = vars.begin(); it != vars.end(); ++it) {
+        const std::string role = it->first.Scalar();
+        config.model.variables[role] = *text(vars, "model.variables", role, true);
+      }
+    }
+  }
+
+  const YAML::Node band = section(m_root, "band", {"f_min_hz", "f_max_hz"});
+  config.band.f_min_hz = *number(band, "band", "f_min_hz", true);
+  config.band.f_max_hz = *number(band, "band", "f_max_hz", true);
+  // Band::validate is the lead's; these are the same rules with the line attached.
+  if (!(config.band.f_min_hz > 0.0))
+    fail(at(band["f_min_hz"]),
+         fmt::format("band.f_min_hz = {}: must be > 0 (the band is sampled in log scale, and "
+                     "f = 0 is a pole of H for a model with rigid-body modes, e.g. a "
+                     "free-floating body)",
+                     band["f_min_hz"].Scalar()));
+  if (!(config.band.f_max_hz > config.band.f_min_hz))
+    fail(at(band["f_max_hz"]), fmt::format("band.f_max_hz = {}: must be > band.f_min_hz = {}",
+                                           band["f_max_hz"].Scalar(), band["f_min_hz"].Scalar()));
+
+  const YAML::Node target = section(m_root, "target", {"tolerance", "norm"});
+  config.tolerance = *number(target, "target", "tolerance", true);
+  if (!(config.tolerance > 0.0 && config.tolerance <= 1e3))
+    fail(at(target["tolerance"]),
+         fmt::format("target.tolerance = {}: must be in (0, 1e3]", target["tolerance"].Scalar()));
+  // Parsed here rather than with parse_error_norm so the message carries the line.
+  if (auto norm = choice<ErrorNorm>(
+          target, "target", "norm",
+          {{"spectral", ErrorNorm::Spectral}, {"frobenius", ErrorNorm::Frobenius}}))
+    config.norm = *norm;
+
+  const YAML::Node strategy = section(m_root, "strategy", {"name"}, true);
+  if (portfolio) {
+    config.reducer_name = "portfolio";
+    config.strategy_name = "portfolio";
+    parse_portfolio(strategy, config);
+  } else {
+    const YAML::Node reducer = section(m_root, "reducer", {"name"}, true);
+    config.reducer_name = *text(reducer, "reducer", "name", true);
+    config.reducer_params = ParameterMap("reducer '" + config.reducer_name + "'");
+    collect_parameters(reducer, "reducer", config.reducer_params);
+    if (auto name = text(strategy, "strategy", "name", false)) config.strategy_name = *name;
+    config.strategy_params = ParameterMap("strategy '" + config.strategy_name + "'");
+    collect_parameters(strategy, "strategy", config.strategy_params);
+  }
+  if (auto v = number(strategy, "strategy", "time_limit_s", false)) {
+    if (!(*v > 0.0))
+      fail(at(strategy["time_limit_s"]),
+           fmt::format("strategy.time_limit_s = {}: must be > 0 (seconds of wall-clock time)",
+                       strategy["time_limit_s"].Scalar()));
+    config.time_limit_s = *v;
+  }
+
+  const YAML::Node error =
+      section(m_root, "error",
+              {"grid_points", "pole_samples", "max_pole_samples", "refine_peaks",
+               "refine_evaluations", "zero_threshold", "verify_factor", "hinf_dense_states",
+               "stability_dense_states", "verify", "dense_max_states", "estimate_points",
+               "reference_points", "check_peaks", "random_checks", "check_rounds", "probe_solves"});
+  BandErrorOptions& eo = config.error;
+  eo.norm = config.norm;
+  if (auto v = integer(error, "error", "grid_points", 2)) eo.grid_points = *v;
+  if (auto v = boolean(error, "error", "pole_samples")) eo.pole_samples = *v;
+  if (auto v = integer(error, "error", "max_pole_samples", 0)) eo.max_pole_samples = *v;
+  if (auto v = integer(error, "error", "refine_peaks", 0)) eo.refine_peaks = *v;
+  if (auto v = integer(error, "error", "refine_evaluations", 0)) eo.refine_evaluations = *v;
+  if (auto v = number(error, "error", "zero_threshold", false)) {
+    if (!(*v >= 0.0 && *v < 1.0))
+      fail(at(error["zero_threshold"]), fmt::format("error.zero_threshold = {}: must be in [0, 1)",
+                                                    error["zero_threshold"].Scalar()));
+    eo.zero_threshold = *v;
+  }
+  // Mapped here rather than by parse_error_verify (band_error.cpp): the config reader stays free
+  // of the error engine (the fuzz build links the readers alone).
+  if (auto verify = choice<ErrorVerify>(error, "error", "verify",
+                                        {{"dense", ErrorVerify::Dense},
+                                         {"estimate", ErrorVerify::Estimate},
+                                         {"auto", ErrorVerify::Auto}}))
+    eo.verify = *verify;
+  if (auto v = integer(error, "error", "dense_max_states", 0)) eo.dense_max_states = *v;
+  if (auto v = integer(error, "error", "estimate_points", 2)) eo.estimate_points = *v;
+  if (auto v = integer(error, "error", "reference_points", 2)) eo.reference_points = *v;
+  if (auto v = integer(error, "error", "check_peaks", 1)) eo.check_peaks = *v;
+  if (auto v = integer(error, "error", "random_checks", 0)) eo.random_checks = *v;
+  if (auto v = integer(error, "error", "check_rounds", 1)) eo.check_rounds = *v;
+  if (auto v = integer(error, "error", "probe_solves", 0)) eo.probe_solves = *v;
+  // The re-check grid must be denser than the estimator's to be a check at all.
+  if (auto v = integer(error, "error", "verify_factor", 2)) config.verify_factor = *v;
+  if (auto v = integer(error, "error", "hinf_dense_states", 0)) {
+    if (*v > 6000)
+      fail(at(error["hinf_dense_states"]),
+           fmt::format("error.hinf_dense_states = {}: must be <= 6000 (dense eigenproblems)", *v));
+    config.hinf_dense_states = *v;
+  }
+  if (auto v = integer(error, "error", "stability_dense_states", 0)) {
+    if (*v > 6000)
+      fail(at(error["stability_dense_states"]),
+           fmt::format("error.stability_dense_states = {}: must be <= 6000 (dense eigenproblems)",
+                       *v));
+    config.stability_dense_states = *v;
+  }
+
+  const YAML::Node solver = section(m_root, "solver",
+                                    {"threads", "use_cholesky", "symmetry_tol", "singular_rcond",
+                                     "ordering", "complex_symmetric", "ldlt_memory_fraction"});
+  if (auto v = integer(solver, "solver", "threads", 0)) {
+    if (*v > 1 << 16)
+      fail(at(solver["threads"]), fmt::format("solver.threads = {}: must be <= 65536", *v));
+    config.threads = static_cast<int>(*v);
+  }
+  if (auto v = boolean(solver, "solver", "use_cholesky")) config.solver.use_cholesky = *v;
+  for (const char* key : {"symmetry_tol", "singular_rcond"}) {
+    if (auto v = number(solver, "solver", key, false)) {
+      if (!(*v >= 0.0 && *v < 1.0))
+        fail(at(solver[key]),
+             fmt::format("solver.{} = {}: must be in [0, 1)", key, solver[key].Scalar()));
+      (std::string(key) == "symmetry_tol" ? config.solver.symmetry_tol
+                                          : config.solver.singular_rcond) = *v;
+    }
+  }
+
+  auto one_of = [&](const char* key, std::initializer_list<const char*> allowed,
+                    std::string& field) {
+    const auto v = text(solver, "solver", key, false);
+    if (!v) return;
+    std::string list;
+    for (const char* a : allowed) {
+      if (*v == a) {
+        field = *v;
+        return;
+      }
+      list += (list.empty() ? "'" : ", '") + std::string(a) + "'";
+    }
+    fail(at(solver[key]), fmt::format("solver.{} = '{}': must be one of {}", key, *v, list));
+  };
+  one_of("ordering", {"auto", "amd", "metis"}, config.solver.ordering);
+  one_of("complex_symmetric", {"auto", "ldlt", "lu"}, config.solver.complex_symmetric);
+  if (auto v = number(solver, "solver", "ldlt_memory_fraction", false)) {
+    if (!(*v >= 0.0 && *v <= 1.0))
+      fail(at(solver["ldlt_memory_fraction"]),
+           fmt::format("solver.ldlt_memory_fraction = {}: must be in [0, 1]",
+                       solver["ldlt_memory_fraction"].Scalar()));
+    config.solver.ldlt_memory_fraction = *v;
+  }
+
+  // backend: {name: suitesparse | petsc}: which shifted solver does the sparse work.
+  const YAML::Node backend = section(m_root, "backend", {"name"});
+  if (auto name = text(backend, "backend", "name", false)) {
+    if (*name != "suitesparse" && *name != "petsc")
+      fail(at(backend["name"]),
+           fmt::format("backend.name = '{}': must be 'suitesparse' (embedded: CHOLMOD, UMFPACK) "
+                       "or 'petsc' (distributed: PETSc with MUMPS over MPI)",
+                       *name));
+    config.solver.backend = *name;
+  }
+
+  const YAML::Node check = section(m_root, "check", {"max_order", "max_seconds"});
+  if (auto v = integer(check, "check", "max_order", 1)) config.check_max_order = *v;
+  if (auto v = number(check, "check", "max_seconds", false)) {
+    if (!(*v > 0.0))
+      fail(at(check["max_seconds"]),
+           fmt::format("check.max_seconds = {}: must be > 0", check["max_seconds"].Scalar()));
+    config.check_max_seconds = *v;
+  }
+
+  const YAML::Node output = section(m_root, "output", {"dir", "format"});
+  config.output_dir = path_value(output, "output", "dir");
+  if (auto format = choice<OutputFormat>(
+          output, "output", "format",
+          {{"mtx", OutputFormat::Mtx}, {"mat", OutputFormat::Mat}, {"both", OutputFormat::Both}}))
+    config.output_format = *format;
+
+  if (const YAML::Node plugins = m_root["plugins"]; plugins.IsDefined() && !plugins.IsNull()) {
+    auto add = [&](const YAML::Node& item) {
+      if (!item.IsScalar() || item.Scalar().empty())
+        fail(at(item), fmt::format("plugins: each entry must be a path, found {}",
+                                   item.IsScalar() ? "an empty string" : node_kind(item)));
+      config.plugins.push_back(std::filesystem::absolute(item.Scalar()).lexically_normal());
+    };
+    if (plugins.IsSequence()) {
+      for (const YAML::Node& item : plugins) add(item);
+    } else if (plugins.IsScalar()) {
+      add(plugins);  // a single path is a list of one
+    } else {
+      fail(at(plugins), "'plugins' must be a list of paths, found " + node_kind(plugins));
+    }
+  }
+  return config;
+}
+
+}  // namespace
+
+RunConfig parse_run_config(const std::string& yaml, const std::string& name) {
+  return Parser(name).parse(yaml);
+}
+
+RunConfig load_run_config(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec))
+    throw ConfigError(path.string() + ": configuration file not found");
+  if (std::filesystem::is_directory(path, ec))
+    throw ConfigError(path.string() + ": is a directory, not a configuration file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ConfigError(path.string() + ": cannot open the configuration file for reading");
+  std::ostringstream contents;
+  contents << in.rdbuf();
+  if (in.bad()) throw ConfigError(path.string() + ": error while reading the configuration file");
+  RunConfig config = parse_run_config(contents.str(), path.string());
+  config.source = std::filesystem::absolute(path).lexically_normal();
+  return config;
+}
+
+}  // namespace ecmor
