@@ -201,6 +201,9 @@ class IrkaReducer final : public Reducer {
     const auto started = std::chrono::steady_clock::now();
     m_reused = 0;
     m_surrogate_iterations = 0;
+    // warm_start: false promises a model of order r independent of the orders asked before; the
+    // surrogate carries their vectors, so it starts empty at every order then.
+    if (!m_options.warm_start) m_surrogate = Surrogate{};
     Outcome out;
     std::string prefix;
     if (second_order_variant() &&
