@@ -522,9 +522,9 @@ class IrkaReducer final : public Reducer {
   /// idea of running IRKA on a projected problem and expanding the projection space at its shifts
   /// is not ours (e.g. Lin and Simoncini, "A reduced-IRKA method for large-scale H2-optimal model
   /// order reduction", arXiv:2508.00242, 2025); the Galerkin projection onto both sides' vectors,
-  /// the prediction test and the stopping rule are our choices for symmetric models. W = V = U keeps
-  /// U'EU SPD and U'AU symmetric negative definite (stable, real poles), and because U holds both
-  /// (sE - A)^-1 B b and (sE - A)^-T C' c at each shift used, the surrogate interpolates G
+  /// the prediction test and the stopping rule are our choices for symmetric models. W = V = U
+  /// keeps U'EU SPD and U'AU symmetric negative definite (stable, real poles), and because U holds
+  /// both (sE - A)^-1 B b and (sE - A)^-T C' c at each shift used, the surrogate interpolates G
   /// tangentially, with the derivative, at every one of them (Hermite, as the two-sided
   /// projection does). New vectors are orthogonalised against U (twice) and dropped when less than
   /// kSurrogateDrop of their norm lies outside it.
@@ -639,8 +639,8 @@ class IrkaReducer final : public Reducer {
   /// reduced model changed by at most kSurrogateModelFraction x model_tolerance (`converged`), or
   /// kSurrogateIterations are used or a step breaks down; then the step from the iterate of
   /// smallest change (`data` itself when none built). Counts the iterations in
-  /// m_surrogate_iterations. `predicted` receives the surrogate's reduced model at the returned data: the model the true
-  /// build there should give (none when the surrogate cannot build it).
+  /// m_surrogate_iterations. `predicted` receives the surrogate's reduced model at the returned
+  /// data: the model the true build there should give (none when the surrogate cannot build it).
   Interpolation surrogate_fixed_point(Interpolation data, Index r, double alpha,
                                       std::optional<PoleResidues>& predicted, bool& converged) {
     const Interpolation proposed = surrogate_iterate(std::move(data), r, alpha, converged);
@@ -656,6 +656,7 @@ class IrkaReducer final : public Reducer {
     return proposed;
   }
 
+  /// The surrogate iteration of surrogate_fixed_point(), without the prediction.
   Interpolation surrogate_iterate(Interpolation data, Index r, double alpha, bool& converged) {
     converged = false;
     const PoleResidues& g = surrogate_poles();
@@ -1297,8 +1298,9 @@ class IrkaReducer final : public Reducer {
           best.band_objective = objective;
           best.converged = true;
           if (change <= m_options.tolerance) {
-            best.reason = fmt::format("converged (change of shifts and directions {:.2e} <= {:.1e})",
-                                      change, m_options.tolerance);
+            best.reason =
+                fmt::format("converged (change of shifts and directions {:.2e} <= {:.1e})", change,
+                            m_options.tolerance);
           } else if (model_change <= m_options.model_tolerance) {
             best.reason = fmt::format(
                 "converged (relative H2 change of the model {:.2e} <= {:.1e}; shifts and "
