@@ -34,12 +34,14 @@
 #include <string>
 #include <vector>
 
+#include "ecmor/options.hpp"
 #include "ecmor/strategies/strategy.hpp"
 #include "support.hpp"
 
 namespace ecmor::point_search {
 
-/// Options common to both point-optimising strategies (YAML keys equal the field names).
+/// Options common to both point-optimising strategies; the initialisers are the defaults, specs()
+/// the keys, ranges and documentation.
 struct PointSearchOptions {
   Index initial_points = 2;      ///< p at the start (log- or linearly spaced), >= 1
   bool linear_spacing = false;   ///< start points equally spaced in f instead of log f
@@ -58,10 +60,8 @@ struct PointSearchOptions {
   Index points_per_growth = 1;   ///< points added when an optimum misses, >= 1
   bool prune = true;             ///< after the first pass, drop the points and moments not needed
 
-  /// Reads (and so marks as known) the keys above. \throws ConfigError naming key and rule.
-  static PointSearchOptions from(const ParameterMap& params, const std::string& strategy);
-  /// Cross-field rules. \throws ConfigError naming the strategy, the keys and the rule.
-  void validate(const std::string& strategy) const;
+  /// Keys, ranges and documentation of the fields above (included by each point search).
+  static const OptionSpecs<PointSearchOptions>& specs();
 };
 
 /// The objective over log10 point frequencies on a fixed (growing between rounds) sample set.
