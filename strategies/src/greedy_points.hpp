@@ -56,21 +56,21 @@
 namespace ecmor {
 
 struct GreedyPointsOptions {
-  /// Starting expansion points in Hz (each finite, > 0, and inside the band: checked by run()).
-  /// Empty: the geometric band centre.
+  /// Starting expansion points in Hz (inside the band: checked by run()). Empty: the geometric
+  /// band centre.
   std::vector<double> initial_points_hz;
-  Index moments = 2;  ///< moments matched at each new point, >= 1
-  /// Two frequencies closer than this fraction of the band's width in log f count as one point,
-  /// in [0, 1). 0: only an exact coincidence does.
+  Index moments = 2;  ///< moments matched at each new point
+  /// Two frequencies closer than this fraction of the band's width in log f count as one point.
+  /// 0: only an exact coincidence does.
   double min_separation = 1e-3;
-  Index max_points = 40;           ///< point budget, >= 1 and >= initial_points_hz.size()
-  Index max_order = 400;           ///< reduced order budget, >= 1
-  Index max_iterations = 200;      ///< history-record budget (all phases), >= 1
-  Index stagnation_window = 6;     ///< additions over which the error must fall, >= 0 (0: never)
+  Index max_points = 40;           ///< point budget
+  Index max_order = 400;           ///< reduced order budget
+  Index max_iterations = 200;      ///< history-record budget (all phases)
+  Index stagnation_window = 6;     ///< additions over which the error must fall (0: never)
   double stagnation_ratio = 0.99;  ///< the best error must fall below ratio x its earlier value
   bool prune = true;               ///< after the first pass, drop points and moments not needed
 
-  /// Keys, ranges and documentation of the fields above.
+  /// Keys, ranges and documentation of the fields above (stated there, not here).
   static const OptionSpecs<GreedyPointsOptions>& specs();
   /// Reads every option from `params`. \throws ConfigError naming the key, value and rule.
   static GreedyPointsOptions from(const ParameterMap& params) { return specs().read(params); }
