@@ -17,6 +17,7 @@
 #include "ecmor/plugin/registry.hpp"
 #include "ecmor/linalg/rigid_body.hpp"
 #include "ecmor/strategies/driver.hpp"
+#include "ecmor/strategies/strategy.hpp"
 #include "signals.hpp"
 #include "plot.hpp"
 
@@ -227,6 +228,17 @@ int plot(const std::filesystem::path& run_dir, const std::string& format) {
   });
 }
 
+namespace {
+
+void print_parameters(const std::vector<ParameterDoc>& parameters) {
+  for (const auto& p : parameters) {
+    fmt::print("    {:<22} {:<8} default {:<10} {}\n", p.name, p.type, p.default_value,
+               p.description);
+  }
+}
+
+}  // namespace
+
 int plugins(const CommonOptions& common) {
   return guarded([&] {
     Registry registry;
@@ -244,10 +256,13 @@ int plugins(const CommonOptions& common) {
                  e.info.second_order && e.info.descriptor ? " + " : "",
                  e.info.descriptor ? "descriptor" : "", e.info.description,
                  e.library.empty() ? "(built in)" : e.library.string());
-      for (const auto& p : e.info.parameters) {
-        fmt::print("    {:<22} {:<8} default {:<10} {}\n", p.name, p.type, p.default_value,
-                   p.description);
-      }
+      print_parameters(e.info.parameters);
+      fmt::print("\n");
+    }
+    // The strategies are built in; their options come from the same kind of specs.
+    for (const auto& name : strategy_names()) {
+      fmt::print("strategy {}  (built in)\n", name);
+      print_parameters(strategy_parameters(name));
       fmt::print("\n");
     }
     return 0;

@@ -45,7 +45,7 @@ int main(int argc, char** argv) {
   plot->add_option("run_dir", run_dir, "output directory of an `ecmor reduce` run")->required();
   plot->add_option("--format", plot_format, "png, svg or both (default both)");
 
-  auto* plugins = cli.add_subcommand("plugins", "list the loaded reducers and their parameters");
+  auto* plugins = cli.add_subcommand("plugins", "list the loaded reducers and the strategies, with their parameters");
   add_common(plugins);
 
   ecmor::app::BenchOptions bench_options;

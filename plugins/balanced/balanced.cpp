@@ -19,6 +19,7 @@
 #include "ecmor/base/error.hpp"
 #include "ecmor/linalg/first_order_view.hpp"
 #include "ecmor/response/frequency_response.hpp"
+#include "ecmor/base/options.hpp"
 #include "ecmor/plugin/plugin.hpp"
 #include "ecmor/model/projection.hpp"
 #include "gramian_factors.hpp"
@@ -57,6 +58,8 @@ std::string to_string(Variant v) {
   return "?";
 }
 
+/// The reducer's settings; the initialisers are the defaults, option_specs() the keys, ranges
+/// and documentation.
 struct Options {
   Method method = Method::SquareRoot;
   Structure structure = Structure::FirstOrder;
@@ -66,8 +69,98 @@ struct Options {
   GramianRoute gramians = GramianRoute::Auto;
   AdiOptions adi;
   bool adi_require_convergence = false;
-  AdaptiveQuadratureOptions quadrature;  // band_limited on the low-rank route
+  // band_limited on the low-rank route; a larger node budget than the quadrature's own default
+  // (3000), since each node is one factorisation of a large model and L_B needs them on wide bands.
+  AdaptiveQuadratureOptions quadrature = [] {
+    AdaptiveQuadratureOptions q;
+    q.max_evaluations = 20000;
+    return q;
+  }();
 };
+
+const OptionSpecs<Options>& option_specs() {
+  auto low_rank = [](const Options& o) { return o.gramians != GramianRoute::Dense; };
+  const std::string low_rank_only =
+      "applies to low-rank Gramians only (gramians: auto or lowrank), not to gramians: dense";
+  auto band_low_rank = [](const Options& o) {
+    return o.band_limited && o.gramians != GramianRoute::Dense;
+  };
+  const std::string band_low_rank_only =
+      "applies to band_limited: true on the low-rank route only (the dense band Gramians use a "
+      "matrix function, no quadrature)";
+  static const OptionSpecs<Options> specs({
+      choice("method", &Options::method,
+             {{"square_root", Method::SquareRoot}, {"balancing_free", Method::BalancingFree}},
+             "square_root: V = Zc V_r S_r^-1/2, W = Zq U_r S_r^-1/2 (first order: Er = I); "
+             "balancing_free: orthonormal bases of the same subspaces (same transfer function, "
+             "better conditioned when s_r is small)"),
+      choice("structure", &Options::structure,
+             {{"first_order", Structure::FirstOrder}, {"second_order", Structure::SecondOrder}},
+             "first_order: BT of the (first-order realisation of the) model, returns E, A, B, C of "
+             "order r; second_order: returns Mr, Dr, Kr, Br, Cr of size r (second-order models "
+             "only)"),
+      choice("variant", &Options::variant,
+             {{"p", Variant::P}, {"v", Variant::V}, {"pv", Variant::PV}, {"vp", Variant::VP},
+              {"fv", Variant::FV}},
+             "which Gramian blocks are balanced (README): p (Pp, Qp), v (Pv, Qv), pv (Pp, Qv), "
+             "vp (Pv, Qp), fv (free velocity: Pp, one-sided W = V)")
+          .only_if([](const Options& o) { return o.structure == Structure::SecondOrder; },
+                   "applies to structure: second_order only (second-order models)"),
+      option("band_limited", &Options::band_limited,
+             "frequency-limited BT: Gramians restricted to the driver's band (Gawronski-Juang); "
+             "no a-priori error bound"),
+      option("hsv_tolerance", &Options::hsv_tolerance,
+             "caps the order: at most the number of Hankel singular values s_i > hsv_tolerance * "
+             "s_1 (max_order(); a larger requested order returns that many states); 0 = off")
+          .range(Range::closed_open(0, 1)),
+      choice("gramians", &Options::gramians,
+             {{"auto", GramianRoute::Auto},
+              {"dense", GramianRoute::Dense},
+              {"lowrank", GramianRoute::LowRank}},
+             "auto: dense up to 2000 first-order states, low-rank ADI above; dense: "
+             "Bartels-Stewart on the Schur form (gramian_factors.hpp); lowrank: low-rank ADI "
+             "factors through s^2 M + s D + K or s E - A (no 2N matrix)"),
+      option("adi_tolerance", &AdiOptions::tolerance,
+             "low-rank ADI: stop when ||R||_2 / ||B B'||_2 (C'C) <= this")
+          .range(Range::open(0, 1))
+          .nested(&Options::adi)
+          .only_if(low_rank, low_rank_only),
+      option("adi_max_iterations", &AdiOptions::max_iterations,
+             "low-rank ADI: iteration budget per Gramian (a complex pair counts as two)")
+          .range(Range::at_least(1))
+          .nested(&Options::adi)
+          .only_if(low_rank, low_rank_only),
+      choice("adi_shifts", &AdiOptions::shifts,
+             {{"projection", AdiShiftStrategy::Projection},
+              {"heuristic", AdiShiftStrategy::Heuristic}},
+             "low-rank ADI shifts: projection (self-generating, Benner-Kuerschner-Saak) or "
+             "heuristic (Penzl)")
+          .nested(&Options::adi)
+          .only_if(low_rank, low_rank_only),
+      option("adi_max_shifts", &AdiOptions::max_shifts, "low-rank ADI: shifts per generated set")
+          .range(Range::at_least(1))
+          .nested(&Options::adi)
+          .only_if(low_rank, low_rank_only),
+      option("adi_require_convergence", &Options::adi_require_convergence,
+             "true: an ADI run that reaches adi_max_iterations before adi_tolerance fails the "
+             "setup (NumericalError with the residuals); false: the approximate Gramians are "
+             "truncated, the note carries a warning, adi_converged = 0 and no a-priori bound is "
+             "reported")
+          .only_if(low_rank, low_rank_only),
+      option("band_quadrature_tolerance", &AdaptiveQuadratureOptions::relative_tolerance,
+             "relative tolerance of the adaptive quadrature of L_B = int (iwE - A)^-1 B dw and "
+             "L_C over the band")
+          .range(Range::open(0, 1))
+          .nested(&Options::quadrature)
+          .only_if(band_low_rank, band_low_rank_only),
+      option("band_quadrature_budget", &AdaptiveQuadratureOptions::max_evaluations,
+             "at most this many quadrature nodes (one factorisation each)")
+          .range(Range::at_least(15))
+          .nested(&Options::quadrature)
+          .only_if(band_low_rank, band_low_rank_only),
+  });
+  return specs;
+}
 
 /// The SVD Zl' Zr = U diag(s) V' of one pair of factors, with the numerical rank of s.
 struct Balancing {
@@ -447,109 +540,12 @@ ReducerInfo balanced_info() {
   info.second_order = true;
   info.descriptor = true;
   info.uses_expansion_points = false;
-  info.parameters = {
-      {"method", "string", "square_root",
-       "square_root: V = Zc V_r S_r^-1/2, W = Zq U_r S_r^-1/2 (first order: Er = I); "
-       "balancing_free: orthonormal bases of the same subspaces (same transfer function, better "
-       "conditioned when s_r is small)"},
-      {"structure", "string", "first_order",
-       "first_order: BT of the (first-order realisation of the) model, returns E, A, B, C of "
-       "order r; second_order: returns Mr, Dr, Kr, Br, Cr of size r (second-order models only)"},
-      {"variant", "string", "pv",
-       "structure: second_order only: which Gramian blocks are balanced (README): p (Pp, Qp), "
-       "v (Pv, Qv), pv (Pp, Qv), vp (Pv, Qp), fv (free velocity: Pp, one-sided W = V)"},
-      {"band_limited", "bool", "false",
-       "frequency-limited BT: Gramians restricted to the driver's band (Gawronski-Juang); no "
-       "a-priori error bound"},
-      {"hsv_tolerance", "double", "0",
-       "caps the order: at most the number of Hankel singular values s_i > hsv_tolerance * s_1 "
-       "(max_order(); a larger requested order returns that many states); 0 = off; in [0, 1)"},
-      {"gramians", "string", "auto",
-       "auto: dense up to 2000 first-order states, low-rank ADI above; dense: Bartels-Stewart on "
-       "the Schur form (gramian_factors.hpp); lowrank: low-rank ADI factors through "
-       "s^2 M + s D + K or s E - A (no 2N matrix)"},
-      {"adi_tolerance", "double", "1e-10",
-       "low-rank ADI: stop when ||R||_2 / ||B B'||_2 (C'C) <= this; in (0, 1)"},
-      {"adi_max_iterations", "int", "300",
-       "low-rank ADI: iteration budget per Gramian (a complex pair counts as two)"},
-      {"adi_shifts", "string", "projection",
-       "low-rank ADI shifts: projection (self-generating, Benner-Kuerschner-Saak) or heuristic "
-       "(Penzl)"},
-      {"adi_max_shifts", "int", "25", "low-rank ADI: shifts per generated set"},
-      {"adi_require_convergence", "bool", "false",
-       "true: an ADI run that reaches adi_max_iterations before adi_tolerance fails the setup "
-       "(NumericalError with the residuals); false: the approximate Gramians are truncated, the "
-       "note carries a warning, adi_converged = 0 and no a-priori bound is reported"},
-      {"band_quadrature_tolerance", "double", "1e-8",
-       "band_limited on the low-rank route: relative tolerance of the adaptive quadrature of "
-       "L_B = int (iwE - A)^-1 B dw and L_C over the band; in (0, 1)"},
-      {"band_quadrature_budget", "int", "20000",
-       "band_limited on the low-rank route: at most this many quadrature nodes (one "
-       "factorisation each); >= 15"},
-  };
+  info.parameters = option_specs().docs();
   return info;
 }
 
 std::unique_ptr<Reducer> create_balanced(const ParameterMap& params) {
-  Options o;
-  o.method = params.get_string("method", "square_root", {"square_root", "balancing_free"}) ==
-                     "balancing_free"
-                 ? Method::BalancingFree
-                 : Method::SquareRoot;
-  o.structure = params.get_string("structure", "first_order", {"first_order", "second_order"}) ==
-                        "second_order"
-                    ? Structure::SecondOrder
-                    : Structure::FirstOrder;
-  const std::string variant = params.get_string("variant", "pv", {"p", "v", "pv", "vp", "fv"});
-  o.variant = variant == "p"    ? Variant::P
-              : variant == "v"  ? Variant::V
-              : variant == "vp" ? Variant::VP
-              : variant == "fv" ? Variant::FV
-                                : Variant::PV;
-  if (params.has("variant") && o.structure != Structure::SecondOrder) {
-    const std::string where = params.location("variant");
-    throw ConfigError(fmt::format(
-        "{}{}: variant = {}: applies to structure: second_order only (second-order models)",
-        where.empty() ? "" : where + ": ", params.owner(), variant));
-  }
-  o.band_limited = params.get_bool("band_limited", o.band_limited);
-  o.hsv_tolerance = params.get_double("hsv_tolerance", o.hsv_tolerance, 0.0, 0.999999);
-  const std::string route = params.get_string("gramians", "auto", {"auto", "dense", "lowrank"});
-  o.gramians = route == "dense"     ? GramianRoute::Dense
-               : route == "lowrank" ? GramianRoute::LowRank
-                                    : GramianRoute::Auto;
-  for (const char* key : {"adi_tolerance", "adi_max_iterations", "adi_shifts", "adi_max_shifts",
-                          "adi_require_convergence"}) {
-    if (params.has(key) && o.gramians == GramianRoute::Dense) {
-      const std::string where = params.location(key);
-      throw ConfigError(fmt::format("{}{}: {}: applies to low-rank Gramians only (gramians: auto "
-                                    "or lowrank), not to gramians: dense",
-                                    where.empty() ? "" : where + ": ", params.owner(), key));
-    }
-  }
-  o.adi.tolerance = params.get_double("adi_tolerance", o.adi.tolerance, 1e-300, 0.999999);
-  o.adi.max_iterations = static_cast<Index>(
-      params.get_int("adi_max_iterations", static_cast<long long>(o.adi.max_iterations), 1));
-  o.adi.shifts = parse_adi_shift_strategy(
-      params.get_string("adi_shifts", "projection", {"projection", "heuristic"}));
-  o.adi.max_shifts = static_cast<Index>(
-      params.get_int("adi_max_shifts", static_cast<long long>(o.adi.max_shifts), 1));
-  o.adi_require_convergence =
-      params.get_bool("adi_require_convergence", o.adi_require_convergence);
-  for (const char* key : {"band_quadrature_tolerance", "band_quadrature_budget"}) {
-    if (params.has(key) && (!o.band_limited || o.gramians == GramianRoute::Dense)) {
-      const std::string where = params.location(key);
-      throw ConfigError(fmt::format(
-          "{}{}: {}: applies to band_limited: true on the low-rank route only (the dense band "
-          "Gramians use a matrix function, no quadrature)",
-          where.empty() ? "" : where + ": ", params.owner(), key));
-    }
-  }
-  o.quadrature.max_evaluations = 20000;
-  o.quadrature.relative_tolerance = params.get_double(
-      "band_quadrature_tolerance", o.quadrature.relative_tolerance, 1e-300, 0.999999);
-  o.quadrature.max_evaluations = static_cast<Index>(params.get_int(
-      "band_quadrature_budget", static_cast<long long>(o.quadrature.max_evaluations), 15));
+  const Options o = option_specs().read(params);
   return std::make_unique<BalancedReducer>(o);
 }
 

@@ -26,6 +26,7 @@
 #include "ecmor/base/interrupt.hpp"
 #include "ecmor/gramians/lyapunov.hpp"
 #include "ecmor/model/dense_model.hpp"
+#include "ecmor/base/options.hpp"
 #include "ecmor/plugin/plugin.hpp"
 #include "ecmor/model/projection.hpp"
 #include "ecmor/gramians/quadrature.hpp"
@@ -40,6 +41,8 @@ enum class Structure { FirstOrder, SecondOrder };
 enum class SecondOrderShifts { Iterate, FromFirstOrder };
 enum class Projection { TwoSided, OneSided };
 
+/// The reducer's settings; the initialisers are the defaults, option_specs() the keys, ranges
+/// and documentation.
 struct Options {
   Structure structure = Structure::FirstOrder;
   SecondOrderShifts second_order_shifts = SecondOrderShifts::Iterate;
@@ -64,6 +67,112 @@ struct Options {
   double band_quadrature_tolerance = 1e-8;
   Index band_quadrature_budget = 20000;
 };
+
+const OptionSpecs<Options>& option_specs() {
+  auto frequency_limited = [](const Options& o) { return o.frequency_limited; };
+  static const OptionSpecs<Options> specs(
+      {
+          choice("structure", &Options::structure,
+                 {{"first_order", Structure::FirstOrder}, {"second_order", Structure::SecondOrder}},
+                 "first_order: IRKA on the (first-order realisation of the) model, returns E, A, "
+                 "B, C of order r (H2-optimal); second_order: returns Mr, Dr, Kr, Br, Cr of size "
+                 "r (2r states), second-order models only"),
+          choice("second_order_shifts", &Options::second_order_shifts,
+                 {{"iterate", SecondOrderShifts::Iterate},
+                  {"first_order", SecondOrderShifts::FromFirstOrder}},
+                 "iterate (SO-IRKA: the next shifts are the mirror images of r of the 2r reduced "
+                 "poles, largest H2 weight first) or first_order (the converged shifts of "
+                 "first-order IRKA at order r, then one second-order projection)")
+              .only_if([](const Options& o) { return o.structure == Structure::SecondOrder; },
+                       "applies to structure: second_order only"),
+          choice("projection", &Options::projection,
+                 {{"two_sided", Projection::TwoSided}, {"one_sided", Projection::OneSided}},
+                 "two_sided (Hermite interpolation at the shifts) or one_sided (W = V: keeps "
+                 "symmetric positive definite matrices so, hence every reduced model stable; "
+                 "structure first_order needs E symmetric positive definite and A symmetric "
+                 "negative definite, and then needs larger orders than two_sided when B != C')"),
+          choice("initial_shifts", &Options::start,
+                 {{"band", Options::Start::Band},
+                  {"modal", Options::Start::Modal},
+                  {"balanced", Options::Start::Balanced},
+                  {"best", Options::Start::Best}},
+                 "band: log-spaced band frequencies (real ones for models with real poles); "
+                 "modal: mirror images of dominant poles near the band centre (second order: "
+                 "undamped modes with modal damping; descriptor: the r of largest H2 weight among "
+                 "3r shift-invert eigenvalues); balanced: poles of the dense balanced truncation "
+                 "(at most dense_check_limit states); best: each of these, keeping the converged "
+                 "model of largest H2 norm (smallest error)"),
+          option("relaxation", &Options::relaxation,
+                 "fraction alpha of each step from the old shifts to the mirrored poles (1: plain "
+                 "IRKA); restarts halve it (down to 1/4)")
+              .range(Range::closed(1e-3, 1)),
+          option("initial_damping", &Options::initial_damping,
+                 "starting shifts omega (zeta + i) at log-spaced band frequencies: zeta (at least "
+                 "0.01 with frequency_limited, whose vectors need Re s > 0)")
+              .range(Range::closed(0, 10)),
+          option("max_iterations", &Options::max_iterations,
+                 "IRKA iterations per reduce(), all restarts together")
+              .range(Range::closed(1, 100000)),
+          option("tolerance", &Options::tolerance,
+                 "converged when the shifts change by at most this (relative, matched pairwise)")
+              .range(Range::closed(1e-14, 1e-1)),
+          option("model_tolerance", &Options::model_tolerance,
+                 "also converged when the reduced model changes by at most this in the relative "
+                 "H2 norm between iterations (scaled by 1/relaxation); 0 = off, else >= 1e-7; "
+                 "default 1e-3 for E SPD, A symmetric negative definite; computed from the "
+                 "pole-residue forms, whose cancellation puts its floor near 1e-8")
+              .range(Range::closed(0, 1e-1))
+              .given(&Options::model_tolerance_given),
+          option("stagnation_window", &Options::stagnation_window,
+                 "restart when the shift change has not fallen 10% below its best within this "
+                 "many iterations")
+              .range(Range::closed(2, 100000)),
+          option("restarts", &Options::restarts,
+                 "restarts from other band shifts after cycling, stagnation or a breakdown "
+                 "(default 0 for E SPD, A symmetric negative definite); one more when no attempt "
+                 "built a model")
+              .range(Range::closed(0, 100))
+              .given(&Options::restarts_given),
+          option("warm_start", &Options::warm_start,
+                 "start order r from the final shifts of the largest smaller order run before "
+                 "(plus new shifts in the widest frequency gaps); false: always from the band"),
+          option("surrogate", &Options::surrogate,
+                 "symmetric definite descriptor models (E SPD, A symmetric negative definite), "
+                 "two-sided first order: between true builds, iterate IRKA on the Galerkin "
+                 "projection onto every vector computed so far (cheap, dense) and build at its "
+                 "fixed point; convergence is still judged on the full model; false: plain IRKA "
+                 "steps. Ignored elsewhere unless set true (refused)")
+              .given(&Options::surrogate_given),
+          option("check_stability", &Options::check_stability,
+                 "refuse a model that is not asymptotically stable (symmetric definite matrices "
+                 "certify it; otherwise dense eigenvalues up to dense_check_limit states)"),
+          option("dense_check_limit", &Options::dense_check_limit,
+                 "largest first-order state size whose poles are computed densely for the "
+                 "stability check")
+              .range(Range::closed(0, 20000)),
+          option("frequency_limited", &Options::frequency_limited,
+                 "true: the band-limited H2 objective (FL-IRKA): interpolation vectors are the "
+                 "columns of the band-limited cross Gramians, (sE - A)^-1 (B beta(s) + E L_B) b "
+                 "with L_B the band integral of the resolvent (computed once in setup by adaptive "
+                 "quadrature; see README)"),
+          option("band_quadrature_tolerance", &Options::band_quadrature_tolerance,
+                 "relative tolerance of the band integrals L_B, L_C")
+              .range(Range::closed(1e-12, 1e-2))
+              .only_if(frequency_limited, "applies to frequency_limited: true only"),
+          option("band_quadrature_budget", &Options::band_quadrature_budget,
+                 "largest number of quadrature nodes (one factorisation each) for L_B, L_C")
+              .range(Range::closed(15, 100000000))
+              .only_if(frequency_limited, "applies to frequency_limited: true only"),
+      },
+      {[](const Options& o, const OptionCheck<Options>& c) {
+        if (o.model_tolerance > 0.0 && o.model_tolerance < 1e-7) {
+          c.fail(o.model_tolerance,
+                 "must be 0 (off) or >= 1e-7 (the relative H2 change is computed from "
+                 "pole-residue forms and is rounding below about 1e-8)");
+        }
+      }});
+  return specs;
+}
 
 /// A reduced model built from one interpolation data set, with its bases and the pole-residue
 /// form of its (first-order realisation's) transfer function.
@@ -1444,134 +1553,12 @@ ReducerInfo irka_info() {
   info.second_order = true;
   info.descriptor = true;
   info.uses_expansion_points = false;
-  info.parameters = {
-      {"structure", "string", "first_order",
-       "first_order: IRKA on the (first-order realisation of the) model, returns E, A, B, C of "
-       "order r (H2-optimal); second_order: returns Mr, Dr, Kr, Br, Cr of size r (2r states), "
-       "second-order models only"},
-      {"second_order_shifts", "string", "iterate",
-       "second_order only: iterate (SO-IRKA: the next shifts are the mirror images of r of the 2r "
-       "reduced poles, largest H2 weight first) or first_order (the converged shifts of "
-       "first-order IRKA at order r, then one second-order projection)"},
-      {"projection", "string", "two_sided",
-       "two_sided (Hermite interpolation at the shifts) or one_sided (W = V: keeps symmetric "
-       "positive definite matrices so, hence every reduced model stable; structure first_order "
-       "needs E symmetric positive definite and A symmetric negative definite, and then needs "
-       "larger orders than two_sided when B != C')"},
-      {"initial_shifts", "string", "band",
-       "band: log-spaced band frequencies (real ones for models with real poles); modal: mirror "
-       "images of dominant poles near the band centre (second order: undamped modes with modal "
-       "damping; descriptor: the r of largest H2 weight among 3r shift-invert eigenvalues); "
-       "balanced: poles of the dense balanced truncation (at most dense_check_limit states); "
-       "best: each of these, keeping the converged model of largest H2 norm (smallest error)"},
-      {"relaxation", "double", "1",
-       "fraction alpha in (0, 1] of each step from the old shifts to the mirrored poles (1: plain "
-       "IRKA); restarts halve it (down to 1/4)"},
-      {"initial_damping", "double", "0",
-       "starting shifts omega (zeta + i) at log-spaced band frequencies: zeta, in [0, 10] (at "
-       "least 0.01 with frequency_limited, whose vectors need Re s > 0)"},
-      {"max_iterations", "int", "50", "IRKA iterations per reduce(), all restarts together, >= 1"},
-      {"tolerance", "double", "1e-6",
-       "converged when the shifts change by at most this (relative, matched pairwise), in "
-       "[1e-14, 1e-1]"},
-      {"model_tolerance", "double", "0 (1e-3 for E SPD, A symmetric negative definite)",
-       "also converged when the reduced model changes by at most this in the relative H2 norm "
-       "between iterations (scaled by 1/relaxation); 0 = off; in [0, 1e-1]; computed from the "
-       "pole-residue forms, whose cancellation puts its floor near 1e-8"},
-      {"stagnation_window", "int", "10",
-       "restart when the shift change has not fallen 10% below its best within this many "
-       "iterations, >= 2"},
-      {"restarts", "int", "2 (0 for E SPD, A symmetric negative definite)",
-       "restarts from other band shifts after cycling, stagnation or a breakdown, >= 0; one more "
-       "when no attempt built a model"},
-      {"warm_start", "bool", "true",
-       "start order r from the final shifts of the largest smaller order run before (plus new "
-       "shifts in the widest frequency gaps); false: always from the band"},
-      {"surrogate", "bool", "true",
-       "symmetric definite descriptor models (E SPD, A symmetric negative definite), two-sided "
-       "first order: between true builds, iterate IRKA on the Galerkin projection onto every "
-       "vector computed so far (cheap, dense) and build at its fixed point; convergence is still "
-       "judged on the full model; false: plain IRKA steps. Ignored elsewhere unless set true "
-       "(refused)"},
-      {"check_stability", "bool", "true",
-       "refuse a model that is not asymptotically stable (symmetric definite matrices certify it; "
-       "otherwise dense eigenvalues up to dense_check_limit states)"},
-      {"dense_check_limit", "int", "2000",
-       "largest first-order state size whose poles are computed densely for the stability check"},
-      {"frequency_limited", "bool", "false",
-       "true: the band-limited H2 objective (FL-IRKA): interpolation vectors are the columns of "
-       "the band-limited cross Gramians, (sE - A)^-1 (B beta(s) + E L_B) b with L_B the band "
-       "integral of the resolvent (computed once in setup by adaptive quadrature; see README)"},
-      {"band_quadrature_tolerance", "double", "1e-8",
-       "frequency_limited only: relative tolerance of the band integrals L_B, L_C, in "
-       "[1e-12, 1e-2]"},
-      {"band_quadrature_budget", "int", "20000",
-       "frequency_limited only: largest number of quadrature nodes (one factorisation each) for "
-       "L_B, L_C, >= 15"},
-  };
+  info.parameters = option_specs().docs();
   return info;
 }
 
 std::unique_ptr<Reducer> create_irka(const ParameterMap& params) {
-  Options o;
-  o.structure = params.get_string("structure", "first_order", {"first_order", "second_order"}) ==
-                        "second_order"
-                    ? Structure::SecondOrder
-                    : Structure::FirstOrder;
-  o.second_order_shifts = params.get_string("second_order_shifts", "iterate",
-                                            {"iterate", "first_order"}) == "first_order"
-                              ? SecondOrderShifts::FromFirstOrder
-                              : SecondOrderShifts::Iterate;
-  o.projection =
-      params.get_string("projection", "two_sided", {"two_sided", "one_sided"}) == "one_sided"
-          ? Projection::OneSided
-          : Projection::TwoSided;
-  for (const char* key : {"second_order_shifts"}) {
-    if (params.has(key) && o.structure != Structure::SecondOrder) {
-      const std::string where = params.location(key);
-      throw ConfigError(fmt::format("{}{}: {}: applies to structure: second_order only",
-                                    where.empty() ? "" : where + ": ", params.owner(), key));
-    }
-  }
-  const std::string start =
-      params.get_string("initial_shifts", "band", {"band", "modal", "balanced", "best"});
-  o.start = start == "modal"      ? Options::Start::Modal
-            : start == "balanced" ? Options::Start::Balanced
-            : start == "best"     ? Options::Start::Best
-                                  : Options::Start::Band;
-  o.relaxation = params.get_double("relaxation", o.relaxation, 1e-3, 1.0);
-  o.initial_damping = params.get_double("initial_damping", o.initial_damping, 0.0, 10.0);
-  o.max_iterations = params.get_int("max_iterations", o.max_iterations, 1, 100000);
-  o.tolerance = params.get_double("tolerance", o.tolerance, 1e-14, 1e-1);
-  o.model_tolerance = params.get_double("model_tolerance", o.model_tolerance, 0.0, 1e-1);
-  o.model_tolerance_given = params.has("model_tolerance");
-  if (o.model_tolerance > 0.0 && o.model_tolerance < 1e-7) {
-    const std::string where = params.location("model_tolerance");
-    throw ConfigError(fmt::format(
-        "{}{}: model_tolerance = {}: must be 0 (off) or >= 1e-7 (the relative H2 change is "
-        "computed from pole-residue forms and is rounding below about 1e-8)",
-        where.empty() ? "" : where + ": ", params.owner(), o.model_tolerance));
-  }
-  o.stagnation_window = params.get_int("stagnation_window", o.stagnation_window, 2, 100000);
-  o.restarts = params.get_int("restarts", o.restarts, 0, 100);
-  o.restarts_given = params.has("restarts");
-  o.warm_start = params.get_bool("warm_start", o.warm_start);
-  o.surrogate = params.get_bool("surrogate", o.surrogate);
-  o.surrogate_given = params.has("surrogate");
-  o.check_stability = params.get_bool("check_stability", o.check_stability);
-  o.dense_check_limit = params.get_int("dense_check_limit", o.dense_check_limit, 0, 20000);
-  o.frequency_limited = params.get_bool("frequency_limited", o.frequency_limited);
-  o.band_quadrature_tolerance = params.get_double(
-      "band_quadrature_tolerance", o.band_quadrature_tolerance, 1e-12, 1e-2);
-  o.band_quadrature_budget =
-      params.get_int("band_quadrature_budget", o.band_quadrature_budget, 15, 100000000);
-  for (const char* key : {"band_quadrature_tolerance", "band_quadrature_budget"}) {
-    if (params.has(key) && !o.frequency_limited) {
-      const std::string where = params.location(key);
-      throw ConfigError(fmt::format("{}{}: {}: applies to frequency_limited: true only",
-                                    where.empty() ? "" : where + ": ", params.owner(), key));
-    }
-  }
+  const Options o = option_specs().read(params);
   return std::make_unique<IrkaReducer>(o);
 }
 

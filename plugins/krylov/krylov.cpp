@@ -15,6 +15,7 @@
 
 #include "ecmor/base/error.hpp"
 #include "ecmor/response/frequency_response.hpp"
+#include "ecmor/base/options.hpp"
 #include "ecmor/plugin/plugin.hpp"
 #include "ecmor/model/projection.hpp"
 #include "incremental_projection.hpp"
@@ -26,11 +27,13 @@ namespace {
 
 constexpr const char* kName = "krylov";
 
+/// The reducer's settings; the initialisers are the defaults, option_specs() the keys, ranges
+/// and documentation.
 struct Options {
   bool two_sided = false;
-  std::vector<double> points_hz;      // configured points s0 = i 2 pi f
-  std::vector<double> real_points;    // configured real shifts s0 >= 0 (rad/s)
-  std::vector<double> point_moments;  // blocks per round for each configured point
+  std::vector<double> points_hz;             // configured points s0 = i 2 pi f
+  std::vector<double> real_points;           // configured real shifts s0 >= 0 (rad/s)
+  std::vector<double> point_moments{1.0};    // blocks per round for each configured point
   Index point_count = 1;
   bool linear_spacing = false;  // point_count points equally spaced in f instead of log f
   Index tangential_directions = 0;
@@ -40,7 +43,83 @@ struct Options {
   // structure: auto reduces a first-order model with second-order structure (second_order_form,
   // symmetric M, D, K, M SPD) through that structure; first_order never looks for it.
   bool structure_auto = true;
+
+  std::size_t configured() const { return points_hz.size() + real_points.size(); }
 };
+
+const OptionSpecs<Options>& option_specs() {
+  auto no_configured_points = [](const Options& o) { return o.configured() == 0; };
+  static const OptionSpecs<Options> specs(
+      {
+          choice("projection", &Options::two_sided, {{"one_sided", false}, {"two_sided", true}},
+                 "one_sided (W = V, k moments per block; keeps SPD M, D, K SPD, hence stable) or "
+                 "two_sided (W from the transposed pencil, 2k moments; may lose stability); a "
+                 "point's `moments` counts blocks per side either way"),
+          option("points", &Options::points_hz,
+                 "expansion points as frequencies (s0 = i 2 pi f), inside or outside the band; "
+                 "used when a request gives no points")
+              .unit("Hz")
+              .range(Range::above(0).finite()),
+          option("real_points", &Options::real_points,
+                 "real expansion points s0 (e.g. 0 for the static response); after `points`")
+              .unit("rad/s")
+              .range(Range::at_least(0).finite()),
+          option("point_moments", &Options::point_moments,
+                 "moment blocks per round for each configured point (points, then real_points; or "
+                 "the point_count log-spaced points, low to high); one value applies to all")
+              .integers()
+              .range(Range::closed(1, 1e6)),
+          option("point_count", &Options::point_count,
+                 "without points/real_points: p points log-spaced in the band (midpoints of p "
+                 "equal sections of [log f_min, log f_max]; 1 = geometric centre)")
+              .range(Range::closed(1, 10000))
+              .only_if(no_configured_points,
+                       "conflicts with points/real_points (give either the points or a count)"),
+          choice("point_spacing", &Options::linear_spacing, {{"log", false}, {"linear", true}},
+                 "spacing of the point_count points: log (in log f) or linear (in f; midpoints of "
+                 "p equal sections of [f_min, f_max], for bands whose resonances crowd the top)")
+              .only_if(no_configured_points,
+                       "applies to point_count points only, not to points/real_points"),
+          option("tangential_directions", &Options::tangential_directions,
+                 "0 = full block; l > 0: the l dominant right (input side) / left (output side) "
+                 "singular vectors of H(s0) as directions; l >= m (p) means the full block")
+              .range(Range::closed(0, 100000)),
+          option("deflation_tolerance", &Options::deflation_tolerance,
+                 "a vector whose part orthogonal to the basis is below this times its norm is "
+                 "dropped")
+              .range(Range::closed(1e-15, 1e-2)),
+          option("cache_points", &Options::cache_points,
+                 "point states (factorisation, Q, Arnoldi coefficients) kept, least recently used "
+                 "dropped; a request with more distinct points keeps all of its own for that "
+                 "request")
+              .range(Range::closed(1, 1000000)),
+          option("max_moments_per_point", &Options::max_moments_per_point,
+                 "budget of moment blocks at one point; a request beyond it is an InputError")
+              .range(Range::closed(1, 1000000)),
+          choice("structure", &Options::structure_auto, {{"auto", true}, {"first_order", false}},
+                 "auto: a first-order model that is a second-order one in the state x = [q; q'] "
+                 "(ecmor::second_order_form; symmetric M, D, K, M SPD) is reduced through that "
+                 "structure, V = blkdiag(V2, V2), which keeps one-sided models stable; orders are "
+                 "even (a cap r allows floor(r/2) second-order columns, r = 1 gives order 2); "
+                 "first_order: never"),
+      },
+      {[](const Options& o, const OptionCheck<Options>& c) {
+        // point_moments weights the configured points, or without them the point_count ones.
+        const std::size_t n = o.point_moments.size();
+        if (n > 1 && o.configured() > 0 && n != o.configured()) {
+          c.fail(o.point_moments, fmt::format("{} values for {} configured points: give one per "
+                                              "point or one for all",
+                                              n, o.configured()));
+        }
+        if (n > 1 && o.configured() == 0 && static_cast<Index>(n) != o.point_count) {
+          c.fail(o.point_moments,
+                 fmt::format("{} values for {} = {} log-spaced points: give one per point or "
+                             "one for all",
+                             n, c.key(o.point_count), o.point_count));
+        }
+      }});
+  return specs;
+}
 
 /// A configured point and its weight (moment blocks added per round by the grow path).
 struct ConfiguredPoint {
@@ -801,106 +880,12 @@ ReducerInfo krylov_info() {
   info.second_order = true;
   info.descriptor = true;
   info.uses_expansion_points = true;
-  info.parameters = {
-      {"projection", "string", "one_sided",
-       "one_sided (W = V, k moments per block; keeps SPD M, D, K SPD, hence stable) or two_sided "
-       "(W from the transposed pencil, 2k moments; may lose stability); a point's `moments` "
-       "counts blocks per side either way"},
-      {"points", "list of double", "[]",
-       "expansion points as frequencies in Hz (s0 = i 2 pi f), > 0 and finite, inside or outside "
-       "the band; used when a request gives no points"},
-      {"real_points", "list of double", "[]",
-       "real expansion points s0 >= 0 in rad/s (e.g. 0 for the static response); after `points`"},
-      {"point_moments", "list of int", "[1]",
-       "moment blocks per round for each configured point (points, then real_points; or the "
-       "point_count log-spaced points, low to high); one value applies to all; >= 1"},
-      {"point_count", "int", "1",
-       "without points/real_points: p points log-spaced in the band (midpoints of p equal "
-       "sections of [log f_min, log f_max]; 1 = geometric centre), >= 1"},
-      {"point_spacing", "string", "log",
-       "spacing of the point_count points: log (in log f) or linear (in f; midpoints of p equal "
-       "sections of [f_min, f_max], for bands whose resonances crowd the top)"},
-      {"tangential_directions", "int", "0",
-       "0 = full block; l > 0: the l dominant right (input side) / left (output side) singular "
-       "vectors of H(s0) as directions; l >= m (p) means the full block"},
-      {"deflation_tolerance", "double", "1e-10",
-       "a vector whose part orthogonal to the basis is below this times its norm is dropped; in "
-       "[1e-15, 1e-2]"},
-      {"cache_points", "int", "64",
-       "point states (factorisation, Q, Arnoldi coefficients) kept, least recently used dropped; "
-       "a request with more distinct points keeps all of its own for that request; >= 1"},
-      {"max_moments_per_point", "int", "100", "budget of moment blocks at one point, >= 1"},
-      {"structure", "string", "auto",
-       "auto: a first-order model that is a second-order one in the state x = [q; q'] "
-       "(ecmor::second_order_form; symmetric M, D, K, M SPD) is reduced through that structure, "
-       "V = blkdiag(V2, V2), which keeps one-sided models stable; orders are even (a cap r "
-       "allows floor(r/2) second-order columns, r = 1 gives order 2); first_order: never"},
-  };
+  info.parameters = option_specs().docs();
   return info;
 }
 
 std::unique_ptr<Reducer> create_krylov(const ParameterMap& params) {
-  Options o;
-  const std::string projection =
-      params.get_string("projection", "one_sided", {"one_sided", "two_sided"});
-  o.two_sided = projection == "two_sided";
-  o.structure_auto = params.get_string("structure", "auto", {"auto", "first_order"}) == "auto";
-  const std::string owner = params.owner();
-  auto fail = [&](const std::string& key, const std::string& rule) {
-    const std::string where = params.location(key);
-    throw ConfigError(
-        fmt::format("{}{}: {}: {}", where.empty() ? "" : where + ": ", owner, key, rule));
-  };
-  o.points_hz = params.get_doubles("points", {});
-  for (std::size_t i = 0; i < o.points_hz.size(); ++i) {
-    const double f = o.points_hz[i];
-    if (!(f > 0.0) || !std::isfinite(f)) {
-      fail("points",
-           fmt::format("item {} = {}: a frequency in Hz must be > 0 and finite", i + 1, f));
-    }
-  }
-  o.real_points = params.get_doubles("real_points", {});
-  for (std::size_t i = 0; i < o.real_points.size(); ++i) {
-    const double s = o.real_points[i];
-    if (!(s >= 0.0) || !std::isfinite(s)) {
-      fail("real_points",
-           fmt::format("item {} = {}: a real point must be >= 0 and finite", i + 1, s));
-    }
-  }
-  o.point_moments = params.get_doubles("point_moments", {});
-  const std::size_t configured = o.points_hz.size() + o.real_points.size();
-  if (params.has("point_count") && configured > 0) {
-    fail("point_count", "conflicts with points/real_points (give either the points or a count)");
-  }
-  o.point_count = params.get_int("point_count", o.point_count, 1, 10000);
-  if (params.has("point_spacing") && configured > 0) {
-    fail("point_spacing", "applies to point_count points only, not to points/real_points");
-  }
-  o.linear_spacing = params.get_string("point_spacing", "log", {"log", "linear"}) == "linear";
-  // point_moments weights the configured points, or without them the point_count log-spaced ones.
-  if (o.point_moments.size() > 1 && configured > 0 && o.point_moments.size() != configured) {
-    fail("point_moments",
-         fmt::format("{} values for {} configured points: give one per point or one for all",
-                     o.point_moments.size(), configured));
-  }
-  if (o.point_moments.size() > 1 && configured == 0 &&
-      static_cast<Index>(o.point_moments.size()) != o.point_count) {
-    fail("point_moments",
-         fmt::format("{} values for point_count = {} log-spaced points: give one per point or one "
-                     "for all",
-                     o.point_moments.size(), o.point_count));
-  }
-  for (std::size_t i = 0; i < o.point_moments.size(); ++i) {
-    const double m = o.point_moments[i];
-    if (!(m >= 1.0) || m != std::floor(m) || m > 1e6) {
-      fail("point_moments", fmt::format("item {} = {}: must be an integer >= 1", i + 1, m));
-    }
-  }
-  o.tangential_directions = params.get_int("tangential_directions", 0, 0, 100000);
-  o.deflation_tolerance = params.get_double("deflation_tolerance", 1e-10, 1e-15, 1e-2);
-  o.cache_points = params.get_int("cache_points", o.cache_points, 1, 1000000);
-  o.max_moments_per_point =
-      params.get_int("max_moments_per_point", o.max_moments_per_point, 1, 1000000);
+  Options o = option_specs().read(params);
   return std::make_unique<KrylovReducer>(std::move(o));
 }
 

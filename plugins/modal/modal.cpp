@@ -16,6 +16,7 @@
 #include "ecmor/measures/band_error.hpp"
 #include "ecmor/linalg/eigensolver.hpp"
 #include "ecmor/base/error.hpp"
+#include "ecmor/base/options.hpp"
 #include "ecmor/plugin/plugin.hpp"
 #include "ecmor/model/projection.hpp"
 #include "ecmor/linalg/rigid_body.hpp"
@@ -38,12 +39,9 @@ enum class ModeRanking {
   Band,       ///< by log distance to the band, ties by ascending f
   Dominance,  ///< by relative dominance at the nearest band frequency, largest first
 };
-constexpr const char* kModeRankingNames[] = {"band", "dominance"};
-std::string to_string(ModeRanking r) { return kModeRankingNames[static_cast<int>(r)]; }
-ModeRanking parse_mode_ranking(const std::string& name) {
-  return name == kModeRankingNames[1] ? ModeRanking::Dominance : ModeRanking::Band;
-}
 
+/// The reducer's settings; the initialisers are the defaults, option_specs() the keys, ranges
+/// and documentation.
 struct Options {
   bool static_correction = true;
   ModeRanking mode_ranking = ModeRanking::Band;
@@ -54,6 +52,38 @@ struct Options {
   double symmetry_tolerance = 1e-6;
   long long seed = 1;
 };
+
+const OptionSpecs<Options>& option_specs() {
+  static const OptionSpecs<Options> specs({
+    option("static_correction", &Options::static_correction,
+           "append the M-orthogonalised static response K^-1 B (shifted for singular K); counted "
+           "in the order (second-order and symmetric descriptor models)"),
+    choice("mode_ranking", &Options::mode_ranking,
+           {{"band", ModeRanking::Band}, {"dominance", ModeRanking::Dominance}},
+           "order of the modes within the band margin: band (log distance to the band, then "
+           "ascending f) or dominance (relative dominance ||c_j b_j'|| / |lambda_j - w^2 + i w d_j| "
+           "/ ||H(i w)|| at w = clamp(omega_j, band), largest first; computes every mode within "
+           "the margin first; symmetric eigenproblems only)"),
+    option("batch_size", &Options::batch_size, "eigenpairs per ARPACK run (one slice)")
+        .range(Range::closed(1, 100000)),
+    option("tolerance", &Options::tolerance,
+           "ARPACK's relative accuracy of the Ritz values; 0 = machine precision")
+        .range(Range::closed(0, 1e-2)),
+    option("band_margin", &Options::band_margin,
+           "factor on f: modes within [f_min / margin, f_max * margin] rank by log distance to the "
+           "band, beyond by ascending frequency")
+        .range(Range::at_least(1)),
+    option("max_iterations", &Options::max_iterations, "ARPACK implicit restarts per run")
+        .range(Range::at_least(1)),
+    option("symmetry_tolerance", &Options::symmetry_tolerance,
+           "relative asymmetry of K up to which its symmetric part is used; above, the general "
+           "eigensolver")
+        .range(Range::closed(0, 1)),
+    option("seed", &Options::seed, "seed of ARPACK's start vectors (reproducible runs)")
+        .range(Range::at_least(1)),
+  });
+  return specs;
+}
 
 double asymmetry(const SparseMatrix& A) {
   const double norm = A.norm();
@@ -970,40 +1000,13 @@ ReducerInfo modal_info() {
   info.second_order = true;
   info.descriptor = true;
   info.uses_expansion_points = false;
-  info.parameters = {
-      {"static_correction", "bool", "true",
-       "append the M-orthogonalised static response K^-1 B (shifted for singular K); counted in "
-       "the order"},
-      {"mode_ranking", "string", to_string(Options{}.mode_ranking),
-       "order of the modes within the band margin: band (log distance to the band, then ascending "
-       "f) or dominance (relative dominance ||c_j b_j'|| / |lambda_j - w^2 + i w d_j| / ||H(i w)||"
-       " at w = clamp(omega_j, band), largest first; computes every mode within the margin "
-       "first; symmetric eigenproblems only)"},
-      {"batch_size", "int", "20", "eigenpairs per ARPACK run (slice), >= 1"},
-      {"tolerance", "double", "0", "ARPACK relative accuracy of the Ritz values, 0 = machine precision, in [0, 1e-2]"},
-      {"band_margin", "double", "10",
-       "modes within [f_min / margin, f_max * margin] rank by log distance to the band, beyond by "
-       "ascending frequency; >= 1"},
-      {"max_iterations", "int", "1000", "ARPACK implicit restarts per run, >= 1"},
-      {"symmetry_tolerance", "double", "1e-6",
-       "relative asymmetry of K up to which the symmetric part is used; above, the general "
-       "eigensolver; in [0, 1]"},
-      {"seed", "int", "1", "seed of ARPACK's start vectors (reproducible runs), >= 1"},
-  };
+  info.parameters = option_specs().docs();
   return info;
 }
 
 std::unique_ptr<Reducer> create_modal(const ParameterMap& params) {
-  Options o;
-  o.static_correction = params.get_bool("static_correction", o.static_correction);
-  o.mode_ranking = parse_mode_ranking(
-      params.get_string("mode_ranking", to_string(o.mode_ranking),
-                        {std::begin(kModeRankingNames), std::end(kModeRankingNames)}));
-  o.batch_size = params.get_int("batch_size", o.batch_size, 1, 100000);
-  o.tolerance = params.get_double("tolerance", o.tolerance, 0.0, 1e-2);
-  o.band_margin = params.get_double("band_margin", o.band_margin, 1.0);
-  o.max_iterations = params.get_int("max_iterations", o.max_iterations, 1);
-  o.symmetry_tolerance = params.get_double("symmetry_tolerance", o.symmetry_tolerance, 0.0, 1.0);
+  const Options o = option_specs().read(params);
+  // A removed key, refused with the reason (not an option, so not in option_specs()).
   if (params.has("rigid_tolerance")) {
     // Removed: a relative eigenvalue threshold mislabels the soft modes of long structures.
     throw ConfigError(
@@ -1011,7 +1014,6 @@ std::unique_ptr<Reducer> create_modal(const ParameterMap& params) {
         "K (a successful Cholesky factorisation of K means there is none, else a gap in the "
         "eigenvalues near 0 decides; see rigid_body.hpp); remove the key");
   }
-  o.seed = params.get_int("seed", o.seed, 1);
   return std::make_unique<ModalReducer>(o);
 }
 

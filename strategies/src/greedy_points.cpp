@@ -15,57 +15,10 @@ namespace {
 
 constexpr const char* kStrategy = "greedy_points";
 
-std::string owner_prefix(const ParameterMap* p, const std::string& key) {
-  std::string prefix;
-  if (p != nullptr && !p->location(key).empty()) prefix = p->location(key) + ": ";
-  return prefix + "strategy '" + kStrategy + "': ";
-}
-
 std::string number(double v) {
   std::ostringstream os;
   os << v;
   return os.str();
-}
-
-// The rules of GreedyPointsOptions; `p` (may be null) only adds the YAML location to messages.
-void check(const GreedyPointsOptions& o, const ParameterMap* p) {
-  auto fail = [&](const std::string& key, const std::string& what) {
-    throw ConfigError(owner_prefix(p, key) + what);
-  };
-  for (std::size_t i = 0; i < o.initial_points_hz.size(); ++i) {
-    const double f = o.initial_points_hz[i];
-    if (!std::isfinite(f) || f <= 0.0) {
-      fail("initial_points", "initial_points[" + std::to_string(i) + "] = " + number(f) +
-                                 ": must be a finite frequency > 0 Hz");
-    }
-  }
-  if (o.moments < 1) fail("moments", "moments = " + std::to_string(o.moments) + ": must be >= 1");
-  if (!(o.min_separation >= 0.0 && o.min_separation < 1.0)) {
-    fail("min_separation", "min_separation = " + number(o.min_separation) + ": must be in [0, 1)");
-  }
-  if (o.max_points < 1) {
-    fail("max_points", "max_points = " + std::to_string(o.max_points) + ": must be >= 1");
-  }
-  if (static_cast<std::size_t>(o.max_points) < o.initial_points_hz.size()) {
-    fail("max_points", "max_points = " + std::to_string(o.max_points) +
-                           ": must be >= the number of initial_points (" +
-                           std::to_string(o.initial_points_hz.size()) + ")");
-  }
-  if (o.max_order < 1) {
-    fail("max_order", "max_order = " + std::to_string(o.max_order) + ": must be >= 1");
-  }
-  if (o.max_iterations < 1) {
-    fail("max_iterations",
-         "max_iterations = " + std::to_string(o.max_iterations) + ": must be >= 1");
-  }
-  if (o.stagnation_window < 0) {
-    fail("stagnation_window",
-         "stagnation_window = " + std::to_string(o.stagnation_window) + ": must be >= 0");
-  }
-  if (!(o.stagnation_ratio > 0.0 && o.stagnation_ratio <= 1.0)) {
-    fail("stagnation_ratio",
-         "stagnation_ratio = " + number(o.stagnation_ratio) + ": must be in (0, 1]");
-  }
 }
 
 double hz_of(const ExpansionPoint& p) { return p.s.imag() / kTwoPi; }
@@ -111,22 +64,44 @@ double next_target(const BandError& error, const std::vector<double>& blocked) {
 
 }  // namespace
 
-GreedyPointsOptions GreedyPointsOptions::from(const ParameterMap& p) {
-  GreedyPointsOptions o;
-  o.initial_points_hz = p.get_doubles("initial_points", o.initial_points_hz);
-  o.moments = p.get_int("moments", o.moments);
-  o.min_separation = p.get_double("min_separation", o.min_separation);
-  o.max_points = p.get_int("max_points", o.max_points);
-  o.max_order = p.get_int("max_order", o.max_order);
-  o.max_iterations = p.get_int("max_iterations", o.max_iterations);
-  o.stagnation_window = p.get_int("stagnation_window", o.stagnation_window);
-  o.stagnation_ratio = p.get_double("stagnation_ratio", o.stagnation_ratio);
-  o.prune = p.get_bool("prune", o.prune);
-  check(o, &p);
-  return o;
+const OptionSpecs<GreedyPointsOptions>& GreedyPointsOptions::specs() {
+  using O = GreedyPointsOptions;
+  static const OptionSpecs<O> specs(
+      {
+          option("initial_points", &O::initial_points_hz,
+                 "starting points, inside the band (checked by the run); a single number is a "
+                 "list of one; empty: the band centre sqrt(f_min f_max)")
+              .unit("Hz")
+              .range(Range::above(0).finite()),
+          option("moments", &O::moments, "moments at each new point").range(Range::at_least(1)),
+          option("min_separation", &O::min_separation,
+                 "fraction of the band's width in ln f within which a peak counts as on an "
+                 "existing point; 0: only exact coincidence")
+              .range(Range::closed_open(0, 1)),
+          option("max_points", &O::max_points, "point budget, >= the number of initial_points")
+              .range(Range::at_least(1)),
+          option("max_order", &O::max_order, "reduced order budget").range(Range::at_least(1)),
+          option("max_iterations", &O::max_iterations,
+                 "history-row budget over all phases (including verify and prune)")
+              .range(Range::at_least(1)),
+          option("stagnation_window", &O::stagnation_window,
+                 "additions over which the error must fall; 0: never stagnates")
+              .range(Range::at_least(0)),
+          // Ratios of 0 would make every step "stagnated".
+          option("stagnation_ratio", &O::stagnation_ratio,
+                 "stagnated when best error >= stagnation_ratio x its value stagnation_window "
+                 "additions earlier")
+              .range(Range::open_closed(0, 1)),
+          option("prune", &O::prune, "drop the points and moments not needed after the first pass"),
+      },
+      {[](const O& o, const OptionCheck<O>& c) {
+        if (static_cast<std::size_t>(o.max_points) < o.initial_points_hz.size()) {
+          c.fail(o.max_points, "must be >= the number of " + c.key(o.initial_points_hz) + " (" +
+                                   std::to_string(o.initial_points_hz.size()) + ")");
+        }
+      }});
+  return specs;
 }
-
-void GreedyPointsOptions::validate() const { check(*this, nullptr); }
 
 using strategy_support::Candidate;
 using strategy_support::sci;

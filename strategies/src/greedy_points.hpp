@@ -45,43 +45,35 @@
 ///  Every history record carries the points of the reducer's result (the requested points if the
 ///  reducer returned none).
 ///
-/// Parameters (YAML keys of the strategy section)
-///  * initial_points (list of double, Hz; default: the band centre): starting points, in the band
-///  * moments (int, default 2): moments per new point, >= 1
-///  * min_separation (double, default 1e-3): fraction of the band's log width, in [0, 1)
-///  * max_points (int, default 40): point budget, >= 1 and >= the number of initial points
-///  * max_order (int, default 400): reduced order budget, >= 1
-///  * max_iterations (int, default 200): history-record budget over all phases, >= 1
-///  * stagnation_window (int, default 6): additions compared, >= 0 (0: never stagnates)
-///  * stagnation_ratio (double, default 0.99): required decrease factor, in (0, 1]
-///  * prune (bool, default true): drop the points and moments not needed after the first pass
+/// Parameters: GreedyPointsOptions::specs() (keys, defaults, ranges; docs/strategies.md prints
+/// them).
 
 #include <vector>
 
+#include "ecmor/base/options.hpp"
 #include "ecmor/strategies/strategy.hpp"
 
 namespace ecmor {
 
 struct GreedyPointsOptions {
-  /// Starting expansion points in Hz (each finite, > 0, and inside the band: checked by run()).
-  /// Empty: the geometric band centre.
+  /// Starting expansion points in Hz (inside the band: checked by run()). Empty: the geometric
+  /// band centre.
   std::vector<double> initial_points_hz;
-  Index moments = 2;  ///< moments matched at each new point, >= 1
-  /// Two frequencies closer than this fraction of the band's width in log f count as one point,
-  /// in [0, 1). 0: only an exact coincidence does.
+  Index moments = 2;  ///< moments matched at each new point
+  /// Two frequencies closer than this fraction of the band's width in log f count as one point.
+  /// 0: only an exact coincidence does.
   double min_separation = 1e-3;
-  Index max_points = 40;           ///< point budget, >= 1 and >= initial_points_hz.size()
-  Index max_order = 400;           ///< reduced order budget, >= 1
-  Index max_iterations = 200;      ///< history-record budget (all phases), >= 1
-  Index stagnation_window = 6;     ///< additions over which the error must fall, >= 0 (0: never)
+  Index max_points = 40;           ///< point budget
+  Index max_order = 400;           ///< reduced order budget
+  Index max_iterations = 200;      ///< history-record budget (all phases)
+  Index stagnation_window = 6;     ///< additions over which the error must fall (0: never)
   double stagnation_ratio = 0.99;  ///< the best error must fall below ratio x its earlier value
   bool prune = true;               ///< after the first pass, drop points and moments not needed
 
-  /// Reads every option from `params` (keys as in the file comment).
-  /// \throws ConfigError naming the key, value and rule.
-  static GreedyPointsOptions from(const ParameterMap& params);
-  /// \throws ConfigError naming the field, value and rule.
-  void validate() const;
+  /// Keys, ranges and documentation of the fields above (stated there, not here).
+  static const OptionSpecs<GreedyPointsOptions>& specs();
+  /// Reads every option from `params`. \throws ConfigError naming the key, value and rule.
+  static GreedyPointsOptions from(const ParameterMap& params) { return specs().read(params); }
 };
 
 class GreedyPoints final : public Strategy {

@@ -11,25 +11,43 @@
 
 namespace ecmor {
 
-GrowOrderOptions GrowOrderOptions::from(const ParameterMap& p) {
-  GrowOrderOptions o;
-  o.initial_order = p.get_int("initial_order", o.initial_order, 1);
-  o.growth_factor = p.get_double("growth_factor", o.growth_factor, 1.0, 100.0);
-  o.order_step = p.get_int("order_step", o.order_step, 1);
-  o.max_order = p.get_int("max_order", o.max_order, 1);
-  o.max_iterations = p.get_int("max_iterations", o.max_iterations, 1);
-  o.shrink = p.get_bool("shrink", o.shrink);
-  o.stagnation_window = p.get_int("stagnation_window", o.stagnation_window, 0);
-  o.stagnation_ratio = p.get_double("stagnation_ratio", o.stagnation_ratio, 0.0, 1.0);
-  o.validate();
-  return o;
-}
-
-void GrowOrderOptions::validate() const {
-  if (max_order < initial_order) {
-    throw ConfigError("strategy 'grow_order': max_order = " + std::to_string(max_order) +
-                      ": must be >= initial_order = " + std::to_string(initial_order));
-  }
+const OptionSpecs<GrowOrderOptions>& GrowOrderOptions::specs() {
+  using O = GrowOrderOptions;
+  static const OptionSpecs<O> specs(
+      {
+          option("initial_order", &O::initial_order, "first order tried")
+              .range(Range::at_least(1)),
+          option("growth_factor", &O::growth_factor,
+                 "next order = max(n + order_step, ceil(growth_factor * n))")
+              .range(Range::closed(1, 100)),
+          option("order_step", &O::order_step,
+                 "minimal increment (rounded up to the reducer's own step)")
+              .range(Range::at_least(1)),
+          option("max_order", &O::max_order,
+                 "order budget, >= initial_order (the reducer's own maximum also applies)")
+              .range(Range::at_least(1)),
+          option("max_iterations", &O::max_iterations,
+                 "iteration budget, counting grow, verify and shrink rows")
+              .range(Range::at_least(1)),
+          option("shrink", &O::shrink, "bisect to the smallest passing order after the first pass"),
+          option("stagnation_window", &O::stagnation_window,
+                 "stop as stagnated when the best error has not improved by stagnation_ratio over "
+                 "this many growth steps; 0 = never (the default: a modal or Krylov error often "
+                 "plateaus before it drops)")
+              .range(Range::at_least(0)),
+          // A ratio of 0 would make every window "stagnated" (no error is below 0).
+          option("stagnation_ratio", &O::stagnation_ratio,
+                 "stagnated when best error >= stagnation_ratio x the best error "
+                 "stagnation_window growth steps earlier")
+              .range(Range::open_closed(0, 1)),
+      },
+      {[](const O& o, const OptionCheck<O>& c) {
+        if (o.max_order < o.initial_order) {
+          c.fail(o.max_order, "must be >= " + c.key(o.initial_order) + " = " +
+                                  std::to_string(o.initial_order));
+        }
+      }});
+  return specs;
 }
 
 using strategy_support::Candidate;

@@ -194,55 +194,52 @@ class EpigraphProgram final : public Ipopt::TNLP {
 
 }  // namespace
 
-MinimaxPointsOptions MinimaxPointsOptions::from(const ParameterMap& p) {
-  MinimaxPointsOptions o;
-  o.search = point_search::PointSearchOptions::from(p, kName);
-  o.max_iter = p.get_int("max_iter", o.max_iter, 1, 100000);
-  o.tol = p.get_double("tol", o.tol, 0.0);
-  o.acceptable_tol = p.get_double("acceptable_tol", o.acceptable_tol, 0.0);
-  o.max_evaluations = p.get_int("max_evaluations", o.max_evaluations, 0, 100000000);
-  o.fd_step = p.get_double("fd_step", o.fd_step, 0.0, 0.1);
-  o.central = p.get_string("fd_scheme", "central", {"central", "forward"}) == "central";
-  const std::string pre =
-      p.get_string("presearch", algorithm_name(o.presearch_algorithm),
-                   {"none", "bobyqa", "direct_l", "direct_l_then_bobyqa"});
-  o.presearch = pre != "none";
-  o.presearch_algorithm = pre == "direct_l"               ? PointAlgorithm::DirectL
-                          : pre == "direct_l_then_bobyqa" ? PointAlgorithm::DirectLThenBobyqa
-                                                          : PointAlgorithm::Bobyqa;
-  o.presearch_evaluations =
-      p.get_int("presearch_evaluations", o.presearch_evaluations, 0, 100000000);
-  o.validate();
-  return o;
-}
-
-void MinimaxPointsOptions::validate() const {
-  using strategy_support::sci;
-  search.validate(kName);
-  const std::string head = std::string("strategy '") + kName + "': ";
-  if (max_iter < 1) {
-    throw ConfigError(head + "max_iter = " + std::to_string(max_iter) + ": must be >= 1");
-  }
-  if (!(tol > 0.0) || !std::isfinite(tol)) {
-    throw ConfigError(head + "tol = " + sci(tol) + ": must be finite and > 0");
-  }
-  if (!(acceptable_tol >= tol) || !std::isfinite(acceptable_tol)) {
-    throw ConfigError(head + "acceptable_tol = " + sci(acceptable_tol) + ": must be >= tol = " +
-                      sci(tol));
-  }
-  if (presearch_evaluations < 0) {
-    throw ConfigError(head + "presearch_evaluations = " + std::to_string(presearch_evaluations) +
-                      ": must be >= 0 (0: 20 per point)");
-  }
-  if (max_evaluations < 0) {
-    throw ConfigError(head + "max_evaluations = " + std::to_string(max_evaluations) +
-                      ": must be >= 0 (0: no limit)");
-  }
-  // A zero step divides by zero; beyond a tenth of a decade the difference no longer resolves
-  // a resonance at all.
-  if (!(fd_step > 0.0 && fd_step <= 0.1)) {
-    throw ConfigError(head + "fd_step = " + sci(fd_step) + ": must be in (0, 0.1] decades");
-  }
+const OptionSpecs<MinimaxPointsOptions>& MinimaxPointsOptions::specs() {
+  using O = MinimaxPointsOptions;
+  static const OptionSpecs<O> specs = [] {
+    OptionSpecs<O> s(
+        {
+            option("max_iter", &O::max_iter, "Ipopt iterations per optimisation")
+                .range(Range::closed(1, 100000)),
+            option("tol", &O::tol,
+                   "Ipopt's (scaled) convergence tolerance; t is in decades of the error, so 1e-4 "
+                   "resolves the error to 0.02 %")
+                .range(Range::above(0).finite()),
+            option("acceptable_tol", &O::acceptable_tol,
+                   "Ipopt's \"acceptable\" tolerance, >= tol")
+                .range(Range::at_least(0).finite()),
+            option("max_evaluations", &O::max_evaluations,
+                   "objective evaluations per optimisation, presearch included, checked after "
+                   "every Ipopt iteration (so a budget the presearch uses up stops Ipopt at its "
+                   "first check); 0 = no limit but max_iter")
+                .range(Range::closed(0, 1e8)),
+            // A zero step divides by zero; beyond a tenth of a decade the difference no longer
+            // resolves a resonance at all.
+            option("fd_step", &O::fd_step, "finite-difference step h in log10 f")
+                .unit("decades")
+                .range(Range::open_closed(0, 0.1)),
+            choice("fd_scheme", &O::central, {{"central", true}, {"forward", false}},
+                   "finite-difference scheme"),
+            choice("presearch", &O::presearch,
+                   {{"none", std::nullopt},
+                    {"bobyqa", PointAlgorithm::Bobyqa},
+                    {"direct_l", PointAlgorithm::DirectL},
+                    {"direct_l_then_bobyqa", PointAlgorithm::DirectLThenBobyqa}},
+                   "NLopt presearch before Ipopt"),
+            option("presearch_evaluations", &O::presearch_evaluations,
+                   "the presearch's evaluations; 0 = 20 p")
+                .range(Range::closed(0, 1e8)),
+        },
+        {[](const O& o, const OptionCheck<O>& c) {
+          if (!(o.acceptable_tol >= o.tol)) {
+            c.fail(o.acceptable_tol,
+                   "must be >= " + c.key(o.tol) + " = " + strategy_support::sci(o.tol));
+          }
+        }});
+    s.include(&O::search, point_search::PointSearchOptions::specs());
+    return s;
+  }();
+  return specs;
 }
 
 point_search::Optimisation minimax_optimise(const MinimaxPointsOptions& o,
@@ -252,7 +249,7 @@ point_search::Optimisation minimax_optimise(const MinimaxPointsOptions& o,
   std::vector<double> start = x0;
   if (o.presearch) {
     OptimizePointsOptions pre;
-    pre.algorithm = o.presearch_algorithm;
+    pre.algorithm = *o.presearch;
     pre.max_evaluations = o.presearch_evaluations > 0
                               ? o.presearch_evaluations
                               : 20 * static_cast<Index>(x0.size());

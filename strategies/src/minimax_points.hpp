@@ -39,25 +39,14 @@
 /// step back); a failing start falls back to log-spaced points. Ipopt prints nothing (no console
 /// journal, print_level 0); its return status goes into the history note of the optimum.
 ///
-/// Parameters (YAML key = field; shared ones in PointSearchOptions):
-///   max_iter          int     40        Ipopt iterations per optimisation, >= 1
-///   tol               double  1e-4      Ipopt's (scaled) convergence tolerance; t is in decades
-///                                       of the error, so 1e-4 resolves the error to 0.02 %, > 0
-///   acceptable_tol    double  1e-2      Ipopt's "acceptable" tolerance, >= tol
-///   max_evaluations   int     0         objective evaluations per optimisation (0: no limit but
-///                                       max_iter), checked after every Ipopt iteration
-///   fd_step           double  1e-5      finite-difference step h in decades of f, in (0, 0.1]
-///   fd_scheme         string  central   central | forward
-///   presearch         string  bobyqa    none | bobyqa | direct_l | direct_l_then_bobyqa
-///   presearch_evaluations int 0         the presearch's evaluations (0: 20 p), >= 0
-///   plus initial_points (2), moments (2), max_points (12), max_order (200), max_iterations (20),
-///   reoptimize (1), stagnation_window (3), stagnation_ratio (0.99), error_floor (1e-3),
-///   max_added_samples (400): see point_objective.hpp.
+/// Parameters: MinimaxPointsOptions::specs() (keys, defaults, ranges; docs/strategies.md prints
+/// them), the shared ones from PointSearchOptions.
 ///
 /// Cost. Per Ipopt iteration: one evaluation for the constraints plus 2p (central) or p (forward)
 /// for the Jacobian, plus line-search trials; each evaluation is a reduction at p points and S
 /// reduced solves. An S x (p + 1) dense Jacobian (S ~ a few hundred) is cheap next to that.
 
+#include <optional>
 #include <string>
 
 #include "ecmor/strategies/strategy.hpp"
@@ -69,19 +58,20 @@ namespace ecmor {
 
 struct MinimaxPointsOptions {
   point_search::PointSearchOptions search;
-  Index max_iter = 40;          ///< Ipopt iterations per optimisation, >= 1
-  double tol = 1e-4;            ///< Ipopt tol, > 0
-  double acceptable_tol = 1e-2; ///< Ipopt acceptable_tol, >= tol
-  Index max_evaluations = 0;    ///< evaluations per optimisation, 0: unlimited, >= 0
-  double fd_step = 1e-5;        ///< finite-difference step in decades, in (0, 0.1]
+  Index max_iter = 40;          ///< Ipopt iterations per optimisation
+  double tol = 1e-4;            ///< Ipopt tol
+  double acceptable_tol = 1e-2; ///< Ipopt acceptable_tol
+  Index max_evaluations = 0;    ///< evaluations per optimisation, 0: unlimited
+  double fd_step = 1e-5;        ///< finite-difference step in decades
   bool central = true;          ///< fd_scheme: central (true) or forward
-  bool presearch = true;        ///< run a derivative-free presearch before Ipopt
-  PointAlgorithm presearch_algorithm = PointAlgorithm::Bobyqa;  ///< its NLopt algorithm
-  Index presearch_evaluations = 0;  ///< its evaluations; 0: 20 p; >= 0
+  /// NLopt algorithm of the derivative-free presearch before Ipopt; none: no presearch.
+  std::optional<PointAlgorithm> presearch = PointAlgorithm::Bobyqa;
+  Index presearch_evaluations = 0;  ///< its evaluations; 0: 20 p
 
+  /// Keys, ranges and documentation of the fields above and of `search`.
+  static const OptionSpecs<MinimaxPointsOptions>& specs();
   /// \throws ConfigError naming the key, its value and the rule.
-  static MinimaxPointsOptions from(const ParameterMap& params);
-  void validate() const;
+  static MinimaxPointsOptions from(const ParameterMap& params) { return specs().read(params); }
 };
 
 class MinimaxPoints final : public Strategy {

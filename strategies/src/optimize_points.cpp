@@ -91,43 +91,44 @@ std::string run_nlopt(nlopt::algorithm algorithm, point_search::PointObjective& 
 
 }  // namespace
 
-OptimizePointsOptions OptimizePointsOptions::from(const ParameterMap& p) {
-  OptimizePointsOptions o;
-  o.search = point_search::PointSearchOptions::from(p, kName);
-  const std::string a = p.get_string("algorithm", algorithm_name(o.algorithm),
-                                     {"bobyqa", "direct_l", "direct_l_then_bobyqa"});
-  o.algorithm = a == "bobyqa"     ? PointAlgorithm::Bobyqa
-                : a == "direct_l" ? PointAlgorithm::DirectL
-                                  : PointAlgorithm::DirectLThenBobyqa;
-  o.max_evaluations = p.get_int("max_evaluations", o.max_evaluations, 0, 100000000);
-  o.global_fraction = p.get_double("global_fraction", o.global_fraction, 0.0, 1.0);
-  o.global_max_points = p.get_int("global_max_points", o.global_max_points, 1);
-  o.xtol_rel = p.get_double("xtol_rel", o.xtol_rel, 0.0, 1.0);
-  o.initial_step = p.get_double("initial_step", o.initial_step, 0.0);
-  o.validate();
-  return o;
-}
-
-void OptimizePointsOptions::validate() const {
-  using strategy_support::sci;
-  search.validate(kName);
-  if (max_evaluations < 0) {
-    throw ConfigError(std::string("strategy '") + kName + "': max_evaluations = " +
-                      std::to_string(max_evaluations) + ": must be >= 0 (0: 60 per point)");
-  }
-  // Both phases need evaluations: a fraction of 0 or 1 would silently drop one of them.
-  if (!(global_fraction > 0.0 && global_fraction < 1.0)) {
-    throw ConfigError(std::string("strategy '") + kName + "': global_fraction = " +
-                      sci(global_fraction) + ": must be in (0, 1) (exclusive)");
-  }
-  if (!(xtol_rel > 0.0 && xtol_rel < 1.0)) {
-    throw ConfigError(std::string("strategy '") + kName + "': xtol_rel = " + sci(xtol_rel) +
-                      ": must be in (0, 1) (exclusive)");
-  }
-  if (!(initial_step >= 0.0) || !std::isfinite(initial_step)) {
-    throw ConfigError(std::string("strategy '") + kName + "': initial_step = " +
-                      sci(initial_step) + ": must be finite and >= 0 (0: automatic)");
-  }
+const OptionSpecs<OptimizePointsOptions>& OptimizePointsOptions::specs() {
+  using O = OptimizePointsOptions;
+  static const OptionSpecs<O> specs = [] {
+    OptionSpecs<O> s({
+        choice("algorithm", &O::algorithm,
+               {{"bobyqa", PointAlgorithm::Bobyqa},
+                {"direct_l", PointAlgorithm::DirectL},
+                {"direct_l_then_bobyqa", PointAlgorithm::DirectLThenBobyqa}},
+               "optimiser"),
+        option("max_evaluations", &O::max_evaluations,
+               "objective evaluations per optimisation, warm start included; 0 = 60 p")
+            .range(Range::closed(0, 1e8)),
+        // Both phases need evaluations: a fraction of 0 or 1 would silently drop one of them.
+        option("global_fraction", &O::global_fraction,
+               "DIRECT-L's share of the evaluations in direct_l_then_bobyqa")
+            .range(Range::open(0, 1)),
+        // DIRECT divides the p-dimensional box one coordinate at a time: with 60 p evaluations it
+        // cannot resolve more than a few dimensions and only spends the budget far from the warm
+        // start (measured on triplechain_mess_n1501: the error rose when a point was added at
+        // p >= 7).
+        option("global_max_points", &O::global_max_points,
+               "direct_l_then_bobyqa runs DIRECT-L only while p <= this; above, BOBYQA alone")
+            .range(Range::at_least(1)),
+        // Given to NLopt as xtol_abs: x_i = log10 f_i may be 0, so NLopt's own xtol_rel,
+        // relative to |x_i|, has no meaning here.
+        option("xtol_rel", &O::xtol_rel,
+               "BOBYQA step tolerance, relative to the band width in decades")
+            .range(Range::open(0, 1)),
+        option("initial_step", &O::initial_step,
+               "BOBYQA's first trust-region radius; 0 = width / (4 p), a quarter of the "
+               "log-spaced cell")
+            .unit("decades")
+            .range(Range::at_least(0).finite()),
+    });
+    s.include(&O::search, point_search::PointSearchOptions::specs());
+    return s;
+  }();
+  return specs;
 }
 
 point_search::Optimisation nlopt_optimise(const OptimizePointsOptions& o,

@@ -26,29 +26,8 @@
 /// objective) ends only that NLopt run: the best x so far is kept and the status (in the
 /// "optimum" row's note) says "FAILURE (...)" with NLopt's message and the objective's.
 ///
-/// Parameters (YAML key = field; shared ones in PointSearchOptions):
-///   algorithm         string  direct_l_then_bobyqa   bobyqa | direct_l | direct_l_then_bobyqa
-///   max_evaluations   int     0 (= 60 p)             objective evaluations per optimisation, >= 0
-///   global_fraction   double  0.4                    share of max_evaluations for DIRECT-L, (0, 1)
-///   global_max_points int     3                      direct_l_then_bobyqa: DIRECT-L only while
-///                                                    p <= this; above, BOBYQA alone from the warm
-///                                                    start. DIRECT divides the p-dimensional box
-///                                                    one coordinate at a time: with 60 p
-///                                                    evaluations it cannot resolve more than a few
-///                                                    dimensions and only spends the budget far
-///                                                    from the warm start (measured on
-///                                                    triplechain_mess_n1501: the error rose when a
-///                                                    point was added at p >= 7), >= 1
-///   xtol_rel          double  1e-4                   BOBYQA stops when a step moves every x_i by
-///                                                    less than xtol_rel times the band width in
-///                                                    decades (given to NLopt as xtol_abs: x_i =
-///                                                    log10 f_i may be 0, so NLopt's own xtol_rel,
-///                                                    relative to |x_i|, has no meaning here), (0, 1)
-///   initial_step      double  0 (= width / (4 p))    BOBYQA's first trust-region radius in decades
-///                                                    (0: a quarter of the log-spacing), >= 0
-///   plus initial_points (2), moments (2), max_points (12), max_order (200), max_iterations (20),
-///   reoptimize (1), stagnation_window (3), stagnation_ratio (0.99), error_floor (1e-3),
-///   max_added_samples (400): see point_objective.hpp.
+/// Parameters: OptimizePointsOptions::specs() (keys, defaults, ranges; docs/strategies.md prints
+/// them), the shared ones from PointSearchOptions.
 ///
 /// Cost. Each evaluation is one reduction at p points (p factorisations unless the reducer caches
 /// them) plus S reduced-model solves; an optimisation costs max_evaluations evaluations at most,
@@ -69,19 +48,20 @@ enum class PointAlgorithm { Bobyqa, DirectL, DirectLThenBobyqa };
 struct OptimizePointsOptions {
   point_search::PointSearchOptions search;
   PointAlgorithm algorithm = PointAlgorithm::DirectLThenBobyqa;  ///< see the file comment
-  Index max_evaluations = 0;    ///< per optimisation; 0: 60 p; >= 0
-  double global_fraction = 0.4; ///< DIRECT-L's share in direct_l_then_bobyqa, in (0, 1)
-  /// direct_l_then_bobyqa runs its global phase only up to this many points, >= 1; beyond, BOBYQA
-  /// alone from the warm start (see the file comment).
+  Index max_evaluations = 0;    ///< per optimisation; 0: 60 p
+  double global_fraction = 0.4; ///< DIRECT-L's share in direct_l_then_bobyqa
+  /// direct_l_then_bobyqa runs its global phase only up to this many points; beyond, BOBYQA
+  /// alone from the warm start (why: the comment at its spec).
   Index global_max_points = 3;
-  double xtol_rel = 1e-4;       ///< step tolerance relative to the band width in decades, (0, 1)
-  double initial_step = 0.0;    ///< BOBYQA's initial radius in decades; 0: width / (4 p); >= 0
+  double xtol_rel = 1e-4;       ///< step tolerance relative to the band width in decades
+  double initial_step = 0.0;    ///< BOBYQA's initial radius in decades; 0: width / (4 p)
 
   /// Evaluations for p points.
   Index evaluations_for(Index p) const { return max_evaluations > 0 ? max_evaluations : 60 * p; }
+  /// Keys, ranges and documentation of the fields above and of `search`.
+  static const OptionSpecs<OptimizePointsOptions>& specs();
   /// \throws ConfigError naming the key, its value and the rule.
-  static OptimizePointsOptions from(const ParameterMap& params);
-  void validate() const;
+  static OptimizePointsOptions from(const ParameterMap& params) { return specs().read(params); }
 };
 
 /// "bobyqa" | "direct_l" | "direct_l_then_bobyqa".

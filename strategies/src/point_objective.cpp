@@ -18,66 +18,74 @@ namespace {
 // few lines per decade of improvement), few enough to keep thousands of evaluations out.
 constexpr double kRecordGain = 0.30102999566398120;
 
-std::string key_rule(const std::string& strategy, const std::string& key, const std::string& value,
-                     const std::string& rule) {
-  return "strategy '" + strategy + "': " + key + " = " + value + ": " + rule;
-}
-
 }  // namespace
 
-PointSearchOptions PointSearchOptions::from(const ParameterMap& p, const std::string& strategy) {
-  PointSearchOptions o;
-  o.initial_points = p.get_int("initial_points", o.initial_points, 1, 1000);
-  o.linear_spacing = p.get_string("initial_spacing", "log", {"log", "linear"}) == "linear";
-  o.moments = p.get_int("moments", o.moments, 1, 1000);
-  o.max_points = p.get_int("max_points", o.max_points, 1, 1000);
-  o.max_order = p.get_int("max_order", o.max_order, 1);
-  o.max_iterations = p.get_int("max_iterations", o.max_iterations, 1);
-  o.reoptimize = p.get_int("reoptimize", o.reoptimize, 0);
-  o.stagnation_window = p.get_int("stagnation_window", o.stagnation_window, 0);
-  o.stagnation_ratio = p.get_double("stagnation_ratio", o.stagnation_ratio, 0.0, 1.0);
-  o.error_floor = p.get_double("error_floor", o.error_floor, 0.0, 1.0);
-  o.max_added_samples = p.get_int("max_added_samples", o.max_added_samples, 0);
-  o.stable_only = p.get_bool("stable_only", o.stable_only);
-  o.peaks_per_assessment = p.get_int("peaks_per_assessment", o.peaks_per_assessment, 0, 100000);
-  o.points_per_growth = p.get_int("points_per_growth", o.points_per_growth, 1, 1000);
-  o.prune = p.get_bool("prune", o.prune);
-  o.validate(strategy);
-  return o;
-}
-
-void PointSearchOptions::validate(const std::string& strategy) const {
-  if (initial_points < 1) {
-    throw ConfigError(
-        key_rule(strategy, "initial_points", std::to_string(initial_points), "must be >= 1"));
-  }
-  if (moments < 1) {
-    throw ConfigError(key_rule(strategy, "moments", std::to_string(moments), "must be >= 1"));
-  }
-  if (max_points < initial_points) {
-    throw ConfigError(key_rule(strategy, "max_points", std::to_string(max_points),
-                               "must be >= initial_points = " + std::to_string(initial_points)));
-  }
-  if (max_order < 1) {
-    throw ConfigError(key_rule(strategy, "max_order", std::to_string(max_order), "must be >= 1"));
-  }
-  if (max_iterations < 1) {
-    throw ConfigError(
-        key_rule(strategy, "max_iterations", std::to_string(max_iterations), "must be >= 1"));
-  }
-  if (reoptimize < 0 || stagnation_window < 0 || max_added_samples < 0) {
-    throw ConfigError("strategy '" + strategy +
-                      "': reoptimize, stagnation_window and max_added_samples must be >= 0");
-  }
-  // Ratios of 0 would make every step "stagnated", a floor of 0 brings back log10(0) = -inf.
-  if (!(stagnation_ratio > 0.0 && stagnation_ratio <= 1.0)) {
-    throw ConfigError(
-        key_rule(strategy, "stagnation_ratio", sci(stagnation_ratio), "must be in (0, 1]"));
-  }
-  if (!(error_floor > 0.0 && error_floor <= 1.0)) {
-    throw ConfigError(key_rule(strategy, "error_floor", sci(error_floor),
-                               "must be in (0, 1] (a fraction of the tolerance)"));
-  }
+const OptionSpecs<PointSearchOptions>& PointSearchOptions::specs() {
+  using O = PointSearchOptions;
+  static const OptionSpecs<O> specs(
+      {
+          option("initial_points", &O::initial_points,
+                 "number of points at the start (see initial_spacing)")
+              .range(Range::closed(1, 1000)),
+          choice("initial_spacing", &O::linear_spacing, {{"log", false}, {"linear", true}},
+                 "start points at the midpoints of equal sections of [log f_min, log f_max] or of "
+                 "[f_min, f_max] (linear: for bands over decades whose resonances crowd the top, a "
+                 "chain or a beam)"),
+          option("moments", &O::moments, "moments at every point").range(Range::closed(1, 1000)),
+          option("max_points", &O::max_points, "point budget, >= initial_points")
+              .range(Range::closed(1, 1000)),
+          option("max_order", &O::max_order,
+                 "order budget, checked on the start and on each optimum before they are "
+                 "assessed, and on the predicted order before adding a point")
+              .range(Range::at_least(1)),
+          option("max_iterations", &O::max_iterations,
+                 "assessed models (start, grow and optimum rows; not optimiser trials, not verify "
+                 "rows)")
+              .range(Range::at_least(1)),
+          option("reoptimize", &O::reoptimize,
+                 "re-optimisations at one p after the samples missed a peak")
+              .range(Range::at_least(0)),
+          option("stagnation_window", &O::stagnation_window,
+                 "assessments without enough gain before stagnated; 0: off")
+              .range(Range::at_least(0)),
+          // Ratios of 0 would make every step "stagnated".
+          option("stagnation_ratio", &O::stagnation_ratio,
+                 "stagnated when best assessed error >= stagnation_ratio x its value "
+                 "stagnation_window assessments earlier")
+              .range(Range::open_closed(0, 1)),
+          // A floor of 0 brings back log10(0) = -inf.
+          option("error_floor", &O::error_floor,
+                 "floor = error_floor * tolerance, added to eps before the logarithm (a fraction "
+                 "of the tolerance)")
+              .range(Range::open_closed(0, 1)),
+          option("max_added_samples", &O::max_added_samples,
+                 "cap on frequencies added to the sample set over the run")
+              .range(Range::at_least(0)),
+          option("stable_only", &O::stable_only,
+                 "an unstable reduced model is a failed evaluation (penalty value for NLopt, a "
+                 "failed step for Ipopt): it can never pass, so its band error must not attract "
+                 "the search; the reducer's unstable_poles diagnostic is used when it reports "
+                 "one, else the poles are computed"),
+          option("peaks_per_assessment", &O::peaks_per_assessment,
+                 "local error maxima added to the sample set per assessed model; 0 = max(5, "
+                 "error.refine_peaks)")
+              .range(Range::closed(0, 100000)),
+          option("points_per_growth", &O::points_per_growth,
+                 "points added when an optimum misses: at its peak and its other largest error "
+                 "maxima above the tolerance (bands with dozens of resonances: fewer optimisation "
+                 "rounds)")
+              .range(Range::closed(1, 1000)),
+          option("prune", &O::prune,
+                 "after the first pass, drop the points and moments not needed (as "
+                 "greedy_points)"),
+      },
+      {[](const O& o, const OptionCheck<O>& c) {
+        if (o.max_points < o.initial_points) {
+          c.fail(o.max_points, "must be >= " + c.key(o.initial_points) + " = " +
+                                   std::to_string(o.initial_points));
+        }
+      }});
+  return specs;
 }
 
 std::vector<double> log_spaced(double lower, double upper, Index p) {

@@ -34,34 +34,34 @@
 #include <string>
 #include <vector>
 
+#include "ecmor/base/options.hpp"
 #include "ecmor/strategies/strategy.hpp"
 #include "support.hpp"
 
 namespace ecmor::point_search {
 
-/// Options common to both point-optimising strategies (YAML keys equal the field names).
+/// Options common to both point-optimising strategies; the initialisers are the defaults, specs()
+/// the keys, ranges and documentation.
 struct PointSearchOptions {
-  Index initial_points = 2;      ///< p at the start (log- or linearly spaced), >= 1
+  Index initial_points = 2;      ///< p at the start (log- or linearly spaced)
   bool linear_spacing = false;   ///< start points equally spaced in f instead of log f
-  Index moments = 2;             ///< moments matched per point, >= 1
-  Index max_points = 12;         ///< point budget, >= initial_points
-  Index max_order = 200;         ///< order budget (columns of V), >= 1
-  Index max_iterations = 20;     ///< assessed models ("start" + "optimum" records), >= 1
-  Index reoptimize = 1;          ///< re-optimisations at one p after the samples missed a peak, >= 0
-  Index stagnation_window = 3;   ///< assessments without enough gain before Stagnated, >= 0 (0: off)
-  double stagnation_ratio = 0.99;///< "enough gain": best < ratio * best `window` earlier, in (0, 1]
-  /// floor = error_floor * tolerance is added to eps before the logarithm, in (0, 1].
+  Index moments = 2;             ///< moments matched per point
+  Index max_points = 12;         ///< point budget
+  Index max_order = 200;         ///< order budget (columns of V)
+  Index max_iterations = 20;     ///< assessed models ("start" + "optimum" records)
+  Index reoptimize = 1;          ///< re-optimisations at one p after the samples missed a peak
+  Index stagnation_window = 3;   ///< assessments without enough gain before Stagnated (0: off)
+  double stagnation_ratio = 0.99;///< "enough gain": best < ratio * best `window` earlier
+  /// floor = error_floor * tolerance is added to eps before the logarithm.
   double error_floor = 1e-3;
-  Index max_added_samples = 400; ///< cap on sample frequencies added to the estimator's grid, >= 0
+  Index max_added_samples = 400; ///< cap on sample frequencies added to the estimator's grid
   bool stable_only = true;       ///< an unstable model is a failed evaluation
   Index peaks_per_assessment = 0;///< local error maxima added per assessed model (0: max(5, refine_peaks))
-  Index points_per_growth = 1;   ///< points added when an optimum misses, >= 1
+  Index points_per_growth = 1;   ///< points added when an optimum misses
   bool prune = true;             ///< after the first pass, drop the points and moments not needed
 
-  /// Reads (and so marks as known) the keys above. \throws ConfigError naming key and rule.
-  static PointSearchOptions from(const ParameterMap& params, const std::string& strategy);
-  /// Cross-field rules. \throws ConfigError naming the strategy, the keys and the rule.
-  void validate(const std::string& strategy) const;
+  /// Keys, ranges and documentation of the fields above (included by each point search).
+  static const OptionSpecs<PointSearchOptions>& specs();
 };
 
 /// The objective over log10 point frequencies on a fixed (growing between rounds) sample set.

@@ -27,6 +27,14 @@ std::vector<std::string> strategy_names() {
   return {"grow_order", "greedy_points", "optimize_points", "minimax_points"};
 }
 
+std::vector<ParameterDoc> strategy_parameters(const std::string& name) {
+  if (name == "grow_order") return GrowOrderOptions::specs().docs();
+  if (name == "greedy_points") return GreedyPointsOptions::specs().docs();
+  if (name == "optimize_points") return OptimizePointsOptions::specs().docs();
+  if (name == "minimax_points") return MinimaxPointsOptions::specs().docs();
+  throw ConfigError("unknown strategy '" + name + "'" + suggestion(name, strategy_names()));
+}
+
 std::unique_ptr<Strategy> make_strategy(const std::string& name, const ParameterMap& params) {
   std::unique_ptr<Strategy> s;
   if (name == "grow_order") {

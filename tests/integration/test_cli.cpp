@@ -453,7 +453,7 @@ TEST_F(Cli, UnknownReducerParameterSuggestsNearest) {
 TEST_F(Cli, InvalidReducerParameterValueIsNamed) {
   write_small_model(model());
   EXPECT_ERROR(reduce(yaml("{name: modal, batch_size: 0}")),
-               config().string() + ":4:", "reducer 'modal'", "batch_size = 0", "must be >= 1");
+               config().string() + ":4:", "reducer 'modal'", "batch_size = 0", "must be in [1, 100000]");
 }
 
 TEST_F(Cli, UnknownStrategyIsNamed) {

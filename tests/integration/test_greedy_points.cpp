@@ -699,7 +699,7 @@ TEST(GreedyPoints, InvalidOptionsAreNamed) {
       {"stagnation_window", integer(-1), "stagnation_window = -1: must be >= 0"},
       {"stagnation_ratio", num(0.0), "stagnation_ratio = 0: must be in (0, 1]"},
       {"stagnation_ratio", num(1.5), "stagnation_ratio = 1.5: must be in (0, 1]"},
-      {"initial_points", list({1.0, -2.0}), "initial_points[1] = -2: must be a finite"},
+      {"initial_points", list({1.0, -2.0}), "initial_points[1] = -2: must be > 0 and finite"},
       {"initial_points", ParameterValue{std::string("centre"), {}}, "initial_points"},
       {"prune", integer(1), "prune"},
       {"max_point", integer(3), "did you mean 'max_points'"},

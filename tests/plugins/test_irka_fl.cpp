@@ -132,7 +132,7 @@ TEST(FrequencyLimitedIrkaInput, RefusesTheBestStartAndAStrayQuadratureTolerance)
     registry().create("irka", q);
     FAIL() << "no error for band_quadrature_tolerance without frequency_limited";
   } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("band_quadrature_tolerance: applies to "
+    EXPECT_NE(std::string(e.what()).find("band_quadrature_tolerance = 1e-06: applies to "
                                          "frequency_limited: true only"),
               std::string::npos)
         << e.what();

@@ -89,7 +89,7 @@ const ParameterValue* ParameterMap::find(const std::string& key) const {
 namespace {
 
 // "run.yaml:7: reducer 'modal': batch_size = -3: must be >= 1"
-[[noreturn]] void fail(const ParameterMap& map, const std::string& key, const ParameterValue& v,
+[[noreturn]] void reject(const ParameterMap& map, const std::string& key, const ParameterValue& v,
                        const std::string& rule) {
   std::string prefix = v.location.empty() ? std::string() : v.location + ": ";
   throw ConfigError(
@@ -102,7 +102,7 @@ bool ParameterMap::get_bool(const std::string& key, bool fallback) const {
   const ParameterValue* v = find(key);
   if (v == nullptr) return fallback;
   if (const bool* b = std::get_if<bool>(&v->value)) return *b;
-  fail(*this, key, *v, "must be true or false, not " + type_name(v->value));
+  reject(*this, key, *v, "must be true or false, not " + type_name(v->value));
 }
 
 long long ParameterMap::get_int(const std::string& key, long long fallback, long long min,
@@ -115,13 +115,13 @@ long long ParameterMap::get_int(const std::string& key, long long fallback, long
   } else if (const double* d = std::get_if<double>(&v->value)) {
     // 1e3 or 20.0 are integers written as floats; 2.5 is not. The bounds keep the cast defined.
     if (!std::isfinite(*d) || *d != std::trunc(*d) || *d < -9.2e18 || *d > 9.2e18)
-      fail(*this, key, *v, "must be an integer");
+      reject(*this, key, *v, "must be an integer");
     result = static_cast<long long>(*d);
   } else {
-    fail(*this, key, *v, "must be an integer, not " + type_name(v->value));
+    reject(*this, key, *v, "must be an integer, not " + type_name(v->value));
   }
-  if (result < min) fail(*this, key, *v, fmt::format("must be >= {}", min));
-  if (result > max) fail(*this, key, *v, fmt::format("must be <= {}", max));
+  if (result < min) reject(*this, key, *v, fmt::format("must be >= {}", min));
+  if (result > max) reject(*this, key, *v, fmt::format("must be <= {}", max));
   return result;
 }
 
@@ -135,12 +135,12 @@ double ParameterMap::get_double(const std::string& key, double fallback, double 
   } else if (const long long* i = std::get_if<long long>(&v->value)) {
     result = static_cast<double>(*i);
   } else {
-    fail(*this, key, *v, "must be a number, not " + type_name(v->value));
+    reject(*this, key, *v, "must be a number, not " + type_name(v->value));
   }
   // NaN would pass every range comparison below, so it is rejected explicitly.
-  if (std::isnan(result)) fail(*this, key, *v, "must be a number, not NaN");
-  if (result < min) fail(*this, key, *v, fmt::format("must be >= {}", min));
-  if (result > max) fail(*this, key, *v, fmt::format("must be <= {}", max));
+  if (std::isnan(result)) reject(*this, key, *v, "must be a number, not NaN");
+  if (result < min) reject(*this, key, *v, fmt::format("must be >= {}", min));
+  if (result > max) reject(*this, key, *v, fmt::format("must be <= {}", max));
   return result;
 }
 
@@ -149,12 +149,12 @@ std::string ParameterMap::get_string(const std::string& key, const std::string& 
   const ParameterValue* v = find(key);
   if (v == nullptr) return fallback;
   const std::string* s = std::get_if<std::string>(&v->value);
-  if (s == nullptr) fail(*this, key, *v, "must be a string, not " + type_name(v->value));
+  if (s == nullptr) reject(*this, key, *v, "must be a string, not " + type_name(v->value));
   if (!choices.empty() && std::find(choices.begin(), choices.end(), *s) == choices.end()) {
     std::string rule = "must be one of " + join(choices);
     std::string near = nearest(*s, choices);
     if (!near.empty()) rule += " (did you mean '" + near + "'?)";
-    fail(*this, key, *v, rule);
+    reject(*this, key, *v, rule);
   }
   return *s;
 }
@@ -171,11 +171,16 @@ std::vector<double> ParameterMap::get_doubles(const std::string& key,
   } else if (const long long* i = std::get_if<long long>(&v->value)) {
     result = {static_cast<double>(*i)};
   } else {
-    fail(*this, key, *v, "must be a list of numbers, not " + type_name(v->value));
+    reject(*this, key, *v, "must be a list of numbers, not " + type_name(v->value));
   }
   for (double x : result)
-    if (std::isnan(x)) fail(*this, key, *v, "must not contain NaN");
+    if (std::isnan(x)) reject(*this, key, *v, "must not contain NaN");
   return result;
+}
+
+void ParameterMap::fail(const std::string& key, const std::string& what) const {
+  const std::string where = location(key);
+  throw ConfigError(fmt::format("{}{}: {}", where.empty() ? "" : where + ": ", m_owner, what));
 }
 
 void ParameterMap::declare(const std::vector<std::string>& keys) const {

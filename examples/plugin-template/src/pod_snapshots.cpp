@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "ecmor/base/error.hpp"
+#include "ecmor/base/options.hpp"
 #include "ecmor/plugin/plugin.hpp"
 #include "ecmor/model/projection.hpp"
 
@@ -33,12 +34,32 @@ using ecmor::Matrix;
 
 constexpr const char* kName = "pod_snapshots";
 
-/// The options of the reducer, read from the YAML `reducer:` mapping in create().
+/// The options of the reducer, read from the YAML `reducer:` mapping in create(). The
+/// initialisers are the defaults; option_specs() gives each field's key, range and documentation,
+/// once, for reading, validating and `ecmor plugins` alike.
 struct Options {
-  Index snapshots = 24;           ///< frequencies sampled across the band, >= 1
-  double rank_tolerance = 1e-10;  ///< keep singular values > rank_tolerance * sigma_1
-  bool normalize = true;          ///< scale each frequency's block to unit Frobenius norm
+  Index snapshots = 24;
+  double rank_tolerance = 1e-10;
+  bool normalize = true;
 };
+
+const ecmor::OptionSpecs<Options>& option_specs() {
+  using ecmor::option;
+  using ecmor::Range;
+  static const ecmor::OptionSpecs<Options> specs({
+      option("snapshots", &Options::snapshots,
+             "frequencies sampled log-spaced across the band (ends included); each costs one "
+             "complex factorisation and m solves")
+          .range(Range::closed(1, 100000)),
+      option("rank_tolerance", &Options::rank_tolerance,
+             "singular values <= rank_tolerance * sigma_1 are dropped, which sets max_order")
+          .range(Range::closed(1e-16, 0.1)),
+      option("normalize", &Options::normalize,
+             "scale each frequency's snapshot block to unit Frobenius norm (equal weight per "
+             "frequency) before the SVD"),
+  });
+  return specs;
+}
 
 /// A number with three significant digits for messages ("0.0159", "3.2e-06").
 std::string text(double value) {
@@ -178,25 +199,12 @@ ecmor::ReducerInfo pod_info() {
   info.second_order = true;
   info.descriptor = true;
   info.uses_expansion_points = false;
-  info.parameters = {
-      {"snapshots", "int", "24",
-       "frequencies sampled log-spaced across the band (ends included), in [1, 100000]; each "
-       "costs one complex factorisation and m solves"},
-      {"rank_tolerance", "double", "1e-10",
-       "singular values <= rank_tolerance * sigma_1 are dropped, which sets max_order; in "
-       "[1e-16, 0.1]"},
-      {"normalize", "bool", "true",
-       "scale each frequency's snapshot block to unit Frobenius norm (equal weight per "
-       "frequency) before the SVD"},
-  };
+  info.parameters = option_specs().docs();
   return info;
 }
 
 std::unique_ptr<ecmor::Reducer> create(const ecmor::ParameterMap& params) {
-  Options o;
-  o.snapshots = params.get_int("snapshots", o.snapshots, 1, 100000);
-  o.rank_tolerance = params.get_double("rank_tolerance", o.rank_tolerance, 1e-16, 0.1);
-  o.normalize = params.get_bool("normalize", o.normalize);
+  const Options o = option_specs().read(params);
   return std::make_unique<PodSnapshotsReducer>(o);
 }
 

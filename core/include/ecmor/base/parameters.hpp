@@ -68,6 +68,11 @@ class ECMOR_API ParameterMap {
   std::vector<double> get_doubles(const std::string& key,
                                   const std::vector<double>& fallback) const;
 
+  /// Rejects the value of `key`: throws ConfigError "<location>: <owner>: <what>", the location
+  /// being that of `key` (omitted when unknown). `what` names the key, the value and the rule
+  /// ("max_order = 1: must be >= initial_order = 2"); options.hpp composes it.
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const;
+
   /// Marks keys as known without reading them (e.g. documented but handled elsewhere).
   void declare(const std::vector<std::string>& keys) const;
   /// \throws ConfigError for the first key never read nor declared, with a suggestion.

@@ -78,5 +78,8 @@ class Strategy {
 /// \throws ConfigError for unknown names (listing the valid ones) or invalid/unknown parameters.
 std::unique_ptr<Strategy> make_strategy(const std::string& name, const ParameterMap& params);
 std::vector<std::string> strategy_names();
+/// The documented options of a strategy (key, type, default, meaning with unit and range), from
+/// its option specs; what `ecmor plugins` prints. \throws ConfigError for unknown names.
+std::vector<ParameterDoc> strategy_parameters(const std::string& name);
 
 }  // namespace ecmor
