@@ -126,7 +126,6 @@ MatrixQuadrature integrate_adaptive(const MatrixIntegrand& f, double a, double b
     pieces = {MatrixPiece{a, b, {}, 0.0, true}};
   evaluate(pieces);
 
-  constexpr Index kMaxBatch = 16;
   while (true) {
     Matrix integral = Matrix::Zero(rows, cols);
     double error = 0.0;
@@ -144,29 +143,7 @@ MatrixQuadrature integrate_adaptive(const MatrixIntegrand& f, double a, double b
     }
     const Index affordable = (options.max_evaluations - result.evaluations) / (2 * kNodes);
     if (affordable <= 0) break;
-    std::vector<std::size_t> order;
-    for (std::size_t i = 0; i < pieces.size(); ++i)
-      if (pieces[i].splittable) order.push_back(i);
-    if (order.empty()) break;
-    std::sort(order.begin(), order.end(),
-              [&](std::size_t x, std::size_t y) { return pieces[x].error > pieces[y].error; });
-    const double share = tol / static_cast<double>(pieces.size());
-    Index count = 1;
-    while (count < static_cast<Index>(order.size()) && count < std::min(affordable, kMaxBatch) &&
-           pieces[order[count]].error > share)
-      ++count;
-    std::vector<MatrixPiece> batch;
-    std::vector<std::size_t> replaced(order.begin(), order.begin() + count);
-    for (std::size_t idx : replaced) {
-      const double mid = 0.5 * (pieces[idx].a + pieces[idx].b);
-      batch.push_back(MatrixPiece{pieces[idx].a, mid, {}, 0.0, true});
-      batch.push_back(MatrixPiece{mid, pieces[idx].b, {}, 0.0, true});
-    }
-    evaluate(batch);
-    std::sort(replaced.begin(), replaced.end());
-    for (auto it = replaced.rbegin(); it != replaced.rend(); ++it)
-      pieces.erase(pieces.begin() + static_cast<std::ptrdiff_t>(*it));
-    pieces.insert(pieces.end(), batch.begin(), batch.end());
+    if (!detail::bisect_worst(pieces, tol, affordable, evaluate)) break;
   }
   result.intervals = static_cast<Index>(pieces.size());
   std::sort(pieces.begin(), pieces.end(),

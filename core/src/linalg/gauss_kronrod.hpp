@@ -3,7 +3,9 @@
 // (h2_norm.cpp for scalar integrands, quadrature.cpp for matrix-valued ones). Private to core.
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <limits>
+#include <vector>
 
 namespace ecmor::detail {
 
@@ -66,6 +68,45 @@ inline void rule(Piece& p, const double* f) {
   p.error = std::max(50.0 * std::numeric_limits<double>::epsilon() * resabs, err);
   // An interval this narrow cannot be bisected into distinct nodes any more.
   p.splittable = (p.b - p.a) > 64.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, p.b);
+}
+
+/// One round of adaptive bisection over `pieces` (each with a, b, error and splittable): bisects
+/// the splittable piece of largest error and, in the same round, every other one whose error
+/// exceeds its equal share of `tol` (they must be split anyway), at most min(affordable, 16)
+/// pieces: parallel work without overshooting. `evaluate(std::vector<P>&)` fills the new halves,
+/// which then replace their parents. Returns false, changing nothing, when no piece is splittable.
+template <class P, class Evaluate>
+bool bisect_worst(std::vector<P>& pieces, double tol, long long affordable, Evaluate&& evaluate) {
+  constexpr long long kMaxBatch = 16;
+  std::vector<std::size_t> order;
+  for (std::size_t i = 0; i < pieces.size(); ++i)
+    if (pieces[i].splittable) order.push_back(i);
+  if (order.empty()) return false;
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t x, std::size_t y) { return pieces[x].error > pieces[y].error; });
+  const double share = tol / static_cast<double>(pieces.size());
+  long long count = 1;
+  while (count < static_cast<long long>(order.size()) && count < std::min(affordable, kMaxBatch) &&
+         pieces[order[count]].error > share)
+    ++count;
+  std::vector<P> batch;
+  std::vector<std::size_t> replaced(order.begin(), order.begin() + count);
+  for (std::size_t idx : replaced) {
+    const double mid = 0.5 * (pieces[idx].a + pieces[idx].b);
+    P left{}, right{};
+    left.a = pieces[idx].a;
+    left.b = mid;
+    right.a = mid;
+    right.b = pieces[idx].b;
+    batch.push_back(std::move(left));
+    batch.push_back(std::move(right));
+  }
+  evaluate(batch);
+  std::sort(replaced.begin(), replaced.end());
+  for (auto it = replaced.rbegin(); it != replaced.rend(); ++it)
+    pieces.erase(pieces.begin() + static_cast<std::ptrdiff_t>(*it));
+  pieces.insert(pieces.end(), batch.begin(), batch.end());
+  return true;
 }
 
 }  // namespace ecmor::detail

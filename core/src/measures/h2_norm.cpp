@@ -225,7 +225,6 @@ H2Result h2_error_quadrature(const Model& full, ShiftedSolver& solver, const Red
     pieces.push_back(Piece{unique_cuts[i], unique_cuts[i + 1]});
   evaluate(pieces);
 
-  constexpr Index kMaxBatch = 16;  // bisections per round: parallel work without overshooting
   while (true) {
     double integral = 0.0, error = 0.0;
     for (const Piece& p : pieces) {
@@ -242,31 +241,7 @@ H2Result h2_error_quadrature(const Model& full, ShiftedSolver& solver, const Red
     }
     const Index affordable = (options.max_evaluations - result.evaluations) / (2 * kNodes);
     if (affordable <= 0) break;
-    std::vector<std::size_t> order;
-    for (std::size_t i = 0; i < pieces.size(); ++i)
-      if (pieces[i].splittable) order.push_back(i);
-    if (order.empty()) break;
-    std::sort(order.begin(), order.end(),
-              [&](std::size_t x, std::size_t y) { return pieces[x].error > pieces[y].error; });
-    // Split the worst interval and, in the same round, any other whose error exceeds its equal
-    // share of the tolerance (those must be split anyway).
-    const double share = tol / static_cast<double>(pieces.size());
-    Index count = 1;
-    while (count < static_cast<Index>(order.size()) && count < std::min(affordable, kMaxBatch) &&
-           pieces[order[count]].error > share)
-      ++count;
-    std::vector<Piece> batch;
-    std::vector<std::size_t> replaced(order.begin(), order.begin() + count);
-    for (std::size_t idx : replaced) {
-      const double mid = 0.5 * (pieces[idx].a + pieces[idx].b);
-      batch.push_back(Piece{pieces[idx].a, mid});
-      batch.push_back(Piece{mid, pieces[idx].b});
-    }
-    evaluate(batch);
-    std::sort(replaced.begin(), replaced.end());
-    for (auto it = replaced.rbegin(); it != replaced.rend(); ++it)
-      pieces.erase(pieces.begin() + static_cast<std::ptrdiff_t>(*it));
-    pieces.insert(pieces.end(), batch.begin(), batch.end());
+    if (!detail::bisect_worst(pieces, tol, affordable, evaluate)) break;
   }
   result.intervals = static_cast<Index>(pieces.size());
   result.value = std::sqrt(std::max(0.0, result.integral));
