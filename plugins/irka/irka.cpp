@@ -24,6 +24,7 @@
 #include "ecmor/base/error.hpp"
 #include "ecmor/response/frequency_response.hpp"
 #include "ecmor/base/interrupt.hpp"
+#include "ecmor/gramians/balancing.hpp"
 #include "ecmor/gramians/lyapunov.hpp"
 #include "ecmor/model/dense_model.hpp"
 #include "ecmor/base/options.hpp"
@@ -258,6 +259,7 @@ class IrkaReducer final : public Reducer {
     }
     m_options = m_given;
     m_surrogate = Surrogate{};
+    m_balancing.reset();  // of the previous model, if setup() is called again
     m_view.emplace(*context.model, *context.solver);
     m_model = context.model;
     m_band = context.band;
@@ -1074,8 +1076,7 @@ class IrkaReducer final : public Reducer {
 
   /// Mirror images of the poles (and residue directions) of the dense square-root balanced
   /// truncation of order r (`initial_shifts: balanced`, models of at most dense_check_limit
-  /// first-order states): Gramians by the core's dense Lyapunov solver, factors by clipped
-  /// symmetric eigendecompositions, SVD of Lq' E Lp.
+  /// first-order states), by the core's DenseBalancing (gramians/balancing.hpp).
   Interpolation balanced_shifts(Index r) {
     const Index dim = m_view->state_size();
     if (dim > m_options.dense_check_limit) {
@@ -1084,33 +1085,14 @@ class IrkaReducer final : public Reducer {
           "has {} > dense_check_limit = {} entries; use band or modal",
           dim, m_options.dense_check_limit));
     }
-    if (!m_balanced) {
-      // Once per setup: every order's balanced truncation is a prefix of the same SVD.
-      const ReducedModel dense = densify(*m_model);
-      Balanced b;
-      b.fo = first_order_realization(dense);
-      const Gramians g = gramians(dense);
-      auto factor = [](const Matrix& X) {
-        const Eigen::SelfAdjointEigenSolver<Matrix> es(0.5 * (X + X.transpose()));
-        return Matrix(es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal());
-      };
-      b.Lp = factor(g.P);
-      b.Lq = factor(g.Q);
-      const Eigen::BDCSVD<Matrix> svd(b.Lq.transpose() * b.fo.E * b.Lp,
-                                      Eigen::ComputeThinU | Eigen::ComputeThinV);
-      b.U = svd.matrixU();
-      b.V = svd.matrixV();
-      b.hankel = svd.singularValues();
-      m_balanced = std::move(b);
-    }
-    const Balanced& b = *m_balanced;
-    const ReducedDescriptorModel& fo = b.fo;
-    const Index k = std::min<Index>(r, b.hankel.size());
-    const Vector s = b.hankel.head(k).cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
-    const Matrix V = b.Lp * b.V.leftCols(k) * s.asDiagonal();
-    const Matrix W = b.Lq * b.U.leftCols(k) * s.asDiagonal();
-    const PoleResidues pr = pole_residues(W.transpose() * fo.E * V, W.transpose() * fo.A * V,
-                                          W.transpose() * fo.B, fo.C * V);
+    // Once per setup: every order's balanced truncation is a prefix of the same SVD.
+    if (!m_balancing) m_balancing.emplace(densify(*m_model));
+    const Index k = std::min<Index>(r, m_balancing->positive_count());
+    if (k < 1)
+      throw NumericalError("reducer 'irka': initial_shifts = balanced: every Hankel singular value "
+                           "of the model is zero");
+    const ReducedDescriptorModel bt = m_balancing->truncate(k);
+    const PoleResidues pr = pole_residues(bt.E, bt.A, bt.B, bt.C);
     Index reflected = 0;
     return next_shifts(pr, r, reflected);
   }
@@ -1535,12 +1517,7 @@ class IrkaReducer final : public Reducer {
   Surrogate m_surrogate;
   Index m_surrogate_iterations = 0;  // in this reduce()
   /// The dense square-root balancing of the model (initial_shifts: balanced/best), computed once.
-  struct Balanced {
-    ReducedDescriptorModel fo;
-    Matrix Lp, Lq, U, V;
-    Vector hankel;
-  };
-  std::optional<Balanced> m_balanced;
+  std::optional<DenseBalancing> m_balancing;
 };
 
 ReducerInfo irka_info() {

@@ -7,6 +7,8 @@
 ///     V = Lp Z_r S_r^-1/2,   W = Lq U_r S_r^-1/2   (W' E V = I_r),
 /// giving Er = I, Ar = W' A V, Br = W' B, Cr = C V. Moore (1981); Tombs and Postlethwaite (1987).
 /// The reduced model is stable and ||G - Gr||_inf <= 2 (s_{r+1} + ... + s_n) (Glover 1984).
+/// Written independently of the library's DenseBalancing (gramians/balancing.hpp), which IRKA's
+/// balanced start uses: a test oracle must not share the code it checks.
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <stdexcept>
