@@ -141,9 +141,8 @@ MatrixQuadrature integrate_adaptive(const MatrixIntegrand& f, double a, double b
       result.converged = true;
       break;
     }
-    const Index affordable = (options.max_evaluations - result.evaluations) / (2 * kNodes);
-    if (affordable <= 0) break;
-    if (!detail::bisect_worst(pieces, tol, affordable, evaluate)) break;
+    if (!detail::bisect_worst(pieces, tol, options.max_evaluations - result.evaluations, evaluate))
+      break;
   }
   result.intervals = static_cast<Index>(pieces.size());
   std::sort(pieces.begin(), pieces.end(),

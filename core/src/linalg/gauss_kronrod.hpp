@@ -72,12 +72,16 @@ inline void rule(Piece& p, const double* f) {
 
 /// One round of adaptive bisection over `pieces` (each with a, b, error and splittable): bisects
 /// the splittable piece of largest error and, in the same round, every other one whose error
-/// exceeds its equal share of `tol` (they must be split anyway), at most min(affordable, 16)
-/// pieces: parallel work without overshooting. `evaluate(std::vector<P>&)` fills the new halves,
-/// which then replace their parents. Returns false, changing nothing, when no piece is splittable.
+/// exceeds its equal share of `tol` (they must be split anyway), at most 16 pieces (parallel work
+/// without overshooting) and no more than `evaluations_left` integrand values pay for (2 kNodes
+/// per bisection). `evaluate(std::vector<P>&)` fills the new halves, which then replace their
+/// parents. Returns false, changing nothing, when no piece is splittable or affordable.
 template <class P, class Evaluate>
-bool bisect_worst(std::vector<P>& pieces, double tol, long long affordable, Evaluate&& evaluate) {
+bool bisect_worst(std::vector<P>& pieces, double tol, long long evaluations_left,
+                  Evaluate&& evaluate) {
   constexpr long long kMaxBatch = 16;
+  const long long affordable = evaluations_left / (2 * kNodes);
+  if (affordable <= 0) return false;
   std::vector<std::size_t> order;
   for (std::size_t i = 0; i < pieces.size(); ++i)
     if (pieces[i].splittable) order.push_back(i);

@@ -239,9 +239,8 @@ H2Result h2_error_quadrature(const Model& full, ShiftedSolver& solver, const Red
       result.converged = true;
       break;
     }
-    const Index affordable = (options.max_evaluations - result.evaluations) / (2 * kNodes);
-    if (affordable <= 0) break;
-    if (!detail::bisect_worst(pieces, tol, affordable, evaluate)) break;
+    if (!detail::bisect_worst(pieces, tol, options.max_evaluations - result.evaluations, evaluate))
+      break;
   }
   result.intervals = static_cast<Index>(pieces.size());
   result.value = std::sqrt(std::max(0.0, result.integral));
