@@ -530,23 +530,16 @@ class BalancedReducer final : public Reducer {
 };
 
 ReducerInfo balanced_info() {
-  ReducerInfo info;
-  info.name = kName;
-  info.description =
+  return reducer_info(
+      kName,
       "balanced truncation from Gramian factors computed once: first-order square root or "
       "balancing-free (a-priori bound 2 sum(tail)), second-order variants p/v/pv/vp/fv, "
-      "frequency-limited to the band; dense Gramians for small models, low-rank ADI for large ones";
-  info.version = "0.1.0";
-  info.second_order = true;
-  info.descriptor = true;
-  info.uses_expansion_points = false;
-  info.parameters = option_specs().docs();
-  return info;
+      "frequency-limited to the band; dense Gramians for small models, low-rank ADI for large ones",
+      "0.1.0", option_specs(), {});
 }
 
 std::unique_ptr<Reducer> create_balanced(const ParameterMap& params) {
-  const Options o = option_specs().read(params);
-  return std::make_unique<BalancedReducer>(o);
+  return create_from_specs<BalancedReducer>(params, option_specs());
 }
 
 void register_reducers(Registry& registry) { registry.add({balanced_info(), create_balanced}); }

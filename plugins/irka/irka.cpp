@@ -32,6 +32,8 @@
 #include "ecmor/model/projection.hpp"
 #include "ecmor/gramians/quadrature.hpp"
 #include "interpolation.hpp"
+#include "next_shifts.hpp"
+#include "start_shifts.hpp"
 
 namespace ecmor::irka {
 namespace {
@@ -854,147 +856,29 @@ class IrkaReducer final : public Reducer {
     }
   }
 
-  /// The next shifts: mirror images of the reduced poles (r of the 2r poles of a second-order
-  /// model, the largest H2 contributions first), poles with Re >= 0 reflected first; directions
-  /// the residue directions, normalised.
-  Interpolation next_shifts(const PoleResidues& pr, Index r, Index& reflected) const {
-    const Index n = pr.poles.size();
-    std::vector<Index> chosen;
-    if (n == r) {
-      for (Index i = 0; i < n; ++i) chosen.push_back(i);
-    } else {
-      chosen = dominant(pr, r);
-    }
-    std::vector<Complex> shifts;
-    ComplexMatrix b(pr.b.rows(), r), c(pr.c.rows(), r);
-    Index k = 0;
-    for (Index i : chosen) {
-      Complex lambda = pr.poles(i);
-      if (lambda.real() >= 0.0) {
-        lambda = -std::conj(lambda);
-        ++reflected;
-      }
-      shifts.push_back(-lambda);
-      const double nb = pr.b.col(i).norm(), nc = pr.c.col(i).norm();
-      b.col(k) = nb > 0.0 ? ComplexVector(pr.b.col(i) / nb) : ComplexVector(pr.b.col(i));
-      c.col(k) = nc > 0.0 ? ComplexVector(pr.c.col(i) / nc) : ComplexVector(pr.c.col(i));
-      ++k;
-    }
-    // An odd r with no real pole left among the dominant ones (second order): the best pair not
-    // chosen gives a real shift |lambda| with the real parts of its directions.
-    if (static_cast<Index>(shifts.size()) == r - 1) {
-      Index extra = -1;
-      double heaviest = -1.0;
-      for (Index i = 0; i < n; ++i) {
-        if (std::find(chosen.begin(), chosen.end(), i) != chosen.end()) continue;
-        const double w = h2_weight(pr, i);
-        if (pr.poles(i).imag() > 0.0 && w > heaviest) {
-          heaviest = w;
-          extra = i;
-        }
-      }
-      if (extra >= 0) {
-        shifts.emplace_back(std::abs(pr.poles(extra)), 0.0);
-        b.col(k) = pr.b.col(extra).real().normalized().cast<Complex>();
-        c.col(k) = pr.c.col(extra).real().normalized().cast<Complex>();
-      }
-    }
-    if (static_cast<Index>(shifts.size()) < r) {
-      throw NumericalError(
-          fmt::format("only {} of the {} next shifts could be chosen from {} reduced poles",
-                      shifts.size(), r, n));
-    }
-    return canonical(shifts, b, c);
-  }
 
-  /// |c_i|^2 |b_i|^2 / |Re lambda_i|: the size of pole i's term in the H2 norm.
-  static double h2_weight(const PoleResidues& pr, Index i) {
-    return pr.b.col(i).squaredNorm() * pr.c.col(i).squaredNorm() /
-           std::max(std::abs(pr.poles(i).real()), std::numeric_limits<double>::min());
-  }
 
-  /// r poles of the 2r of a second-order reduced model, closed under conjugation, by decreasing
-  /// H2 weight |c_i|^2 |b_i|^2 / |Re lambda_i| (the size of the pole's term in the H2 norm).
-  /// An odd r with no real pole left is completed by the pair's member with Im > 0 turned into
-  /// the real shift |lambda|; handled by the caller through canonical() (a real shift).
-  static std::vector<Index> dominant(const PoleResidues& pr, Index r) {
-    struct Item {
-      std::vector<Index> members;
-      double weight;
-    };
-    std::vector<Item> items;
-    const Index n = pr.poles.size();
-    for (Index i = 0; i < n; ++i) {
-      const Complex p = pr.poles(i);
-      if (p.imag() < 0.0) continue;
-      const double w = h2_weight(pr, i);
-      Item item{{i}, p.imag() > 0.0 ? 2.0 * w : w};
-      if (p.imag() > 0.0) {
-        // Its conjugate partner: the nearest pole to conj(p) with Im < 0.
-        Index partner = -1;
-        double best = std::numeric_limits<double>::infinity();
-        for (Index j = 0; j < n; ++j) {
-          if (pr.poles(j).imag() >= 0.0) continue;
-          const double d = std::abs(pr.poles(j) - std::conj(p));
-          if (d < best) {
-            best = d;
-            partner = j;
-          }
-        }
-        if (partner < 0) continue;
-        item.members.push_back(partner);
-      }
-      items.push_back(std::move(item));
-    }
-    std::stable_sort(items.begin(), items.end(),
-                     [](const Item& a, const Item& b) { return a.weight > b.weight; });
-    std::vector<Index> chosen;
-    for (const Item& item : items) {
-      const Index left = r - static_cast<Index>(chosen.size());
-      if (left == 0) break;
-      if (static_cast<Index>(item.members.size()) <= left) {
-        chosen.insert(chosen.end(), item.members.begin(), item.members.end());
-      }
-    }
-    return chosen;
-  }
 
-  /// Band-based starting shifts: floor(r/2) conjugate pairs omega (zeta + i) at log-spaced
-  /// frequencies of the band, one real shift at the band's geometric centre when r is odd; for a
-  /// model with certified real poles, r real shifts 2 pi f at log-spaced band frequencies.
-  /// Restart a > 0 moves the frequencies by a fraction of their spacing and damps them more.
-  Interpolation band_shifts(Index r, Index attempt) const {
-    const Index pairs = r / 2;
-    const double lo = std::log(m_band.f_min_hz), hi = std::log(m_band.f_max_hz);
-    const double offset = std::fmod(0.5 + 0.381966 * static_cast<double>(attempt), 1.0);
-    if (m_real_poles) {
-      // Real shifts 2 pi f at r log-spaced band frequencies.
-      std::vector<Complex> real;
-      for (Index k = 0; k < r; ++k) {
-        const double t = (static_cast<double>(k) + offset) / static_cast<double>(r);
-        real.emplace_back(kTwoPi * std::exp(lo + t * (hi - lo)), 0.0);
-      }
-      return with_uniform_directions(real);
-    }
-    const double zeta = attempt == 0 ? start_damping()
-                                     : std::max(start_damping(), 1e-2 * std::pow(10.0, attempt - 1));
-    std::vector<Complex> shifts;
-    for (Index k = 0; k < pairs; ++k) {
-      const double t = (static_cast<double>(k) + offset) / static_cast<double>(pairs);
-      const double w = kTwoPi * std::exp(lo + t * (hi - lo));
-      shifts.emplace_back(zeta * w, w);
-      shifts.emplace_back(zeta * w, -w);
-    }
-    if (r % 2 == 1) shifts.emplace_back(kTwoPi * std::exp(0.5 * (lo + hi)), 0.0);
-    return with_uniform_directions(shifts);
-  }
 
-  Interpolation with_uniform_directions(const std::vector<Complex>& shifts) const {
-    const Index r = static_cast<Index>(shifts.size());
-    const Index m = m_view->inputs(), p = m_view->outputs();
-    const ComplexMatrix b = ComplexMatrix::Constant(m, r, 1.0 / std::sqrt(static_cast<double>(m)));
-    const ComplexMatrix c = ComplexMatrix::Constant(p, r, 1.0 / std::sqrt(static_cast<double>(p)));
-    return canonical(shifts, b, c);
+
+  /// The settings the starting data read (start_shifts.hpp).
+  StartSetting start_setting() {
+    StartSetting s;
+    s.model = m_model;
+    s.view = &*m_view;
+    s.band = m_band;
+    s.real_poles = m_real_poles;
+    s.one_sided = m_one_sided;
+    s.damping = start_damping();
+    s.dense_check_limit = m_options.dense_check_limit;
+    return s;
+  }
+  Interpolation band_shifts(Index r, Index attempt) {
+    return irka::band_shifts(start_setting(), r, attempt);
+  }
+  Interpolation modal_shifts(Index r) { return irka::modal_shifts(start_setting(), r); }
+  Interpolation balanced_shifts(Index r) {
+    return irka::balanced_shifts(start_setting(), m_balancing, r);
   }
 
   /// IRKA from the configured start, or with `initial_shifts: best` from each available start
@@ -1074,140 +958,7 @@ class IrkaReducer final : public Reducer {
     return band_shifts(r, 0);
   }
 
-  /// Mirror images of the poles (and residue directions) of the dense square-root balanced
-  /// truncation of order r (`initial_shifts: balanced`, models of at most dense_check_limit
-  /// first-order states), by the core's DenseBalancing (gramians/balancing.hpp).
-  Interpolation balanced_shifts(Index r) {
-    const Index dim = m_view->state_size();
-    if (dim > m_options.dense_check_limit) {
-      throw ConfigError(fmt::format(
-          "reducer 'irka': initial_shifts = balanced needs dense Gramians: the first-order state "
-          "has {} > dense_check_limit = {} entries; use band or modal",
-          dim, m_options.dense_check_limit));
-    }
-    // Once per setup: every order's balanced truncation is a prefix of the same SVD.
-    if (!m_balancing) m_balancing.emplace(densify(*m_model));
-    const Index k = std::min<Index>(r, m_balancing->positive_count());
-    if (k < 1)
-      throw NumericalError("reducer 'irka': initial_shifts = balanced: every Hankel singular value "
-                           "of the model is zero");
-    const ReducedDescriptorModel bt = m_balancing->truncate(k);
-    const PoleResidues pr = pole_residues(bt.E, bt.A, bt.B, bt.C);
-    Index reflected = 0;
-    return next_shifts(pr, r, reflected);
-  }
 
-  /// Mirror images of approximate poles of the full model near the band (`initial_shifts: modal`).
-  /// Second order (symmetric K, M SPD): the floor(r/2) undamped modes K phi = w^2 M phi nearest
-  /// the band's geometric centre (shift-invert ARPACK, M-normalised phi), each giving the pole
-  /// pair -a +- i sqrt(w^2 - a^2) with a = phi' D phi / 2 (modal damping), directions B' phi and
-  /// (C + s Cv) phi; a real shift at the centre when r is odd. Descriptor: the r eigenvalues of
-  /// (A, E) nearest -2 pi f_centre (general shift-invert ARPACK), uniform directions.
-  Interpolation modal_shifts(Index r) {
-    FirstOrderView& view = *m_view;
-    const double wc = kTwoPi * std::sqrt(m_band.f_min_hz * m_band.f_max_hz);
-    std::vector<Complex> shifts;
-    if (const SecondOrderModel* so = view.so()) {
-      const Index pairs = r / 2;
-      if (pairs > 0) {
-        if (relative_asymmetry(so->K) > 1e-10 || !is_positive_definite(so->M)) {
-          throw InputError(
-              "irka: initial_shifts = modal needs symmetric K and a symmetric positive definite M "
-              "for a second-order model; use initial_shifts: band");
-        }
-        const double sigma = wc * wc;
-        const std::vector<Complex> w{Complex(1.0), Complex(0.0), Complex(-sigma)};
-        const auto F = view.solver().factorize_combination(w);
-        EigenOptions eo;
-        eo.nev = std::min<Index>(pairs, view.size() - 1);
-        const SymmetricEigenResult modes = symmetric_shift_invert(*F, so->M, sigma, eo);
-        ComplexMatrix b(view.inputs(), 2 * modes.eigenvalues.size());
-        ComplexMatrix c(view.outputs(), 2 * modes.eigenvalues.size());
-        Index k = 0;
-        for (Index j = 0; j < modes.eigenvalues.size(); ++j) {
-          const Vector phi = modes.eigenvectors.col(j);
-          const double w2 = std::max(modes.eigenvalues(j), 0.0);
-          const double a = 0.5 * phi.dot(so->D * phi);
-          // Poles: lambda^2 + 2 a lambda + w^2 = 0, lambda = -a -+ sqrt(a^2 - w^2); shifts -lambda.
-          const Complex root = std::sqrt(Complex(a * a - w2, 0.0));
-          if (std::abs(Complex(a, 0.0) - root) == 0.0) continue;  // rigid-body mode: a shift at 0
-          const ComplexVector bj = (so->B.transpose() * phi).cast<Complex>();
-          for (const Complex z : {Complex(a, 0.0) + root, Complex(a, 0.0) - root}) {
-            // Residue direction at the pole -z: (C + (-z) Cv) phi.
-            ComplexVector cj = (so->C * phi).cast<Complex>();
-            if (so->has_velocity_output()) cj -= z * (so->Cv * phi).cast<Complex>();
-            shifts.push_back(z);
-            b.col(k) = bj;
-            c.col(k) = cj;
-            ++k;
-          }
-        }
-        while (static_cast<Index>(shifts.size()) < 2 * pairs) {
-          // Too few usable modes: complete with band shifts.
-          const Interpolation band = band_shifts(2 * pairs - static_cast<Index>(shifts.size()), 0);
-          b.conservativeResize(Eigen::NoChange, k + band.size());
-          c.conservativeResize(Eigen::NoChange, k + band.size());
-          for (Index j = 0; j < band.size(); ++j, ++k) {
-            shifts.push_back(band.shifts[static_cast<std::size_t>(j)]);
-            b.col(k) = band.b.col(j);
-            c.col(k) = band.c.col(j);
-          }
-        }
-        if (r % 2 == 1) {
-          shifts.emplace_back(wc, 0.0);
-          b.conservativeResize(Eigen::NoChange, k + 1);
-          c.conservativeResize(Eigen::NoChange, k + 1);
-          b.col(k).setConstant(1.0);
-          c.col(k).setConstant(1.0);
-        }
-        for (Index j = 0; j < b.cols(); ++j) {
-          if (b.col(j).norm() > 0.0) b.col(j).normalize();
-          if (c.col(j).norm() > 0.0) c.col(j).normalize();
-        }
-        return canonical(shifts, b, c);
-      }
-      return band_shifts(r, 0);
-    }
-    // Descriptor: dominant poles. 3r eigenvalues nearest -w_c with right (A x = l E x) and left
-    // (y' A = l y' E) eigenvectors give the residues c b' with c = C x, b = B' y / (y' E x); the
-    // r of largest H2 weight are mirrored (as IRKA mirrors its reduced poles, next_shifts()).
-    const auto& ds = std::get<DescriptorModel>(*m_model);
-    const double sigma = -wc;
-    const std::vector<Complex> w{Complex(-1.0), Complex(-sigma)};  // A - sigma E
-    const auto F = view.solver().factorize_combination(w);
-    EigenOptions eo;
-    eo.nev = std::max<Index>(1, std::min<Index>(3 * r, view.size() - 3));
-    const GeneralEigenResult right = general_shift_invert(*F, ds.E, sigma, eo, false);
-    const GeneralEigenResult left = general_shift_invert(*F, ds.E, sigma, eo, true);
-    const Index k = right.eigenvalues.size();
-    PoleResidues pr;
-    pr.poles = right.eigenvalues;
-    pr.b.resize(view.inputs(), k);
-    pr.c.resize(view.outputs(), k);
-    const ComplexMatrix EX = ds.E.cast<Complex>() * right.eigenvectors;
-    for (Index i = 0; i < k; ++i) {
-      Index j = 0;
-      double nearest = std::numeric_limits<double>::infinity();
-      for (Index l = 0; l < left.eigenvalues.size(); ++l) {
-        const double d = std::abs(left.eigenvalues(l) - right.eigenvalues(i));
-        if (d < nearest) {
-          nearest = d;
-          j = l;
-        }
-      }
-      const ComplexVector y = left.eigenvectors.col(j);
-      const Complex scale = y.transpose() * EX.col(i);
-      pr.c.col(i) = ds.C.cast<Complex>() * right.eigenvectors.col(i);
-      pr.b.col(i) = ds.B.transpose().cast<Complex>() * y / scale;
-    }
-    if (k < r) {
-      throw NumericalError(fmt::format(
-          "irka: initial_shifts = modal found {} eigenvalues near the band, fewer than r = {}", k,
-          r));
-    }
-    Index reflected = 0;
-    return next_shifts(pr, r, reflected);
-  }
 
   /// Warm start for order r: the final data of order r if it ran before; for a symmetric definite
   /// model the mirror images of the r dominant poles of the smallest larger order run before;
@@ -1231,49 +982,7 @@ class IrkaReducer final : public Reducer {
     }
     if (it == m_warm.begin()) return first_shifts(r);
     --it;
-    const Interpolation& previous = it->second.data;
-    std::vector<Complex> shifts = previous.shifts;
-    ComplexMatrix b = previous.b, c = previous.c;
-    const Index add = r - previous.size();
-    const Index m = b.rows(), p = c.rows();
-    std::vector<double> logs{std::log(m_band.f_min_hz), std::log(m_band.f_max_hz)};
-    for (const Complex& s : shifts) {
-      const double f = (m_one_sided ? std::abs(s) : std::abs(s.imag())) / kTwoPi;
-      if (f > m_band.f_min_hz && f < m_band.f_max_hz) logs.push_back(std::log(f));
-    }
-    auto widest_gap_midpoint = [&]() {
-      std::sort(logs.begin(), logs.end());
-      double best = -1.0, mid = logs.front();
-      for (std::size_t i = 0; i + 1 < logs.size(); ++i) {
-        if (logs[i + 1] - logs[i] > best) {
-          best = logs[i + 1] - logs[i];
-          mid = 0.5 * (logs[i] + logs[i + 1]);
-        }
-      }
-      logs.push_back(mid);
-      return kTwoPi * std::exp(mid);
-    };
-    std::vector<Complex> added;
-    if (m_one_sided) {
-      // Real shifts 2 pi f, as band_shifts() starts a model with real poles.
-      while (static_cast<Index>(added.size()) < add) added.emplace_back(widest_gap_midpoint(), 0.0);
-    } else {
-      for (Index k = 0; k + 1 < add; k += 2) {
-        const double w = widest_gap_midpoint();
-        added.emplace_back(start_damping() * w, w);
-        added.emplace_back(start_damping() * w, -w);
-      }
-      if (add % 2 == 1) added.emplace_back(widest_gap_midpoint(), 0.0);
-    }
-    const Index old = previous.size();
-    b.conservativeResize(m, r);
-    c.conservativeResize(p, r);
-    for (Index k = 0; k < add; ++k) {
-      shifts.push_back(added[static_cast<std::size_t>(k)]);
-      b.col(old + k).setConstant(1.0 / std::sqrt(static_cast<double>(m)));
-      c.col(old + k).setConstant(1.0 / std::sqrt(static_cast<double>(p)));
-    }
-    return canonical(shifts, b, c);
+    return completed_shifts(start_setting(), it->second.data, r);
   }
 
   /// IRKA at order r with the safeguards: converged when the shifts and directions change by at
@@ -1284,203 +993,255 @@ class IrkaReducer final : public Reducer {
   /// Not converged: the stable iterate with the smallest change (the iterate with the smallest
   /// change when none was stable), with the reason.
   Outcome run(Index r, bool second_order, const Interpolation& initial) {
-    Outcome best;
-    bool have_best = false, best_stable = false;
-    Index iterations = 0, reflected = 0, restarts = 0;
-    std::string reason;
+    RunState state;
     // One restart beyond `restarts` when no attempt has built a model (a warm start whose first
     // basis breaks down): an error would end the strategy's run, any model lets it go on.
     auto another = [&](Index attempt) {
-      return attempt < m_options.restarts || (!have_best && attempt == m_options.restarts);
+      return attempt < m_options.restarts || (!state.have_best && attempt == m_options.restarts);
     };
     for (Index attempt = 0; attempt == 0 || another(attempt - 1); ++attempt) {
-      // Restarts start from other band shifts with a halved relaxation (a 2-cycle is an
-      // oscillation that damping can turn into convergence).
-      const double alpha = attempt == 0
-                               ? m_options.relaxation
-                               : std::max(0.25, m_options.relaxation * std::pow(0.5, attempt));
-      Interpolation data = attempt == 0 ? initial : restart_shifts(r, attempt);
-      // With a surrogate, the start is first moved to the surrogate's fixed point: the vectors of
-      // the orders run before make it a close model of G, so the first build lands near the
-      // fixed point of order r instead of iterating there one factorisation per shift per step.
-      // The surrogate's model at `data`, when the surrogate proposed it.
-      std::optional<PoleResidues> predicted;
-      bool surrogate_converged = false;  // whether `data` is a fixed point of the surrogate
-      if (surrogate_active() && (m_surrogate.U.cols() > 0 || m_surrogate.pending.cols() > 0)) {
-        data = surrogate_fixed_point(std::move(data), r, alpha, predicted, surrogate_converged);
+      Attempt a = begin_attempt(r, attempt, initial, state.iterations);
+      Step end = Step::Continue;
+      while (end == Step::Continue && state.iterations < m_options.max_iterations) {
+        end = iterate_once(r, second_order, a, state);
       }
-      std::vector<Interpolation> trail;
-      std::optional<PoleResidues> previous;  // of the previous iterate of this attempt
-      double best_change = std::numeric_limits<double>::infinity();
-      Index best_at = iterations;
-      bool restart = false, stalled = false;
-      while (iterations < m_options.max_iterations) {
-        ++iterations;
-        check_interrupt(fmt::format("irka, iteration {}", iterations));
-        Built built;
-        Interpolation next;
-        try {
-          built = build(data, second_order, r);
-          if (surrogate_active()) {
-            surrogate_add(built.V);
-            surrogate_add(built.W);
-          }
-          next = next_shifts(built.poles, r, reflected);
-        } catch (const NumericalError& e) {
-          reason = fmt::format("breakdown at iteration {}: {}", iterations, e.what());
-          restart = true;
-          break;
-        }
-        const double change = data_change(data, next);
-        // The model's relative H2 change since the previous iterate, scaled back by the
-        // relaxation (a step of alpha moves the model alpha times as far).
-        const double model_change = previous ? relative_h2_change(*previous, built.poles) / alpha
-                                             : std::numeric_limits<double>::infinity();
-        previous = built.poles;
-        // With a surrogate: the true model against the surrogate's model at the same data,
-        // predicted before this build's vectors joined the surrogate. Agreement to
-        // model_tolerance means the surrogate reproduces G's reduced model where IRKA now stands,
-        // so its fixed point (the data just built) is IRKA's to that accuracy: one build per
-        // order instead of two (rail_5177: 536 -> 298 factorisations).
-        const double predicted_change = predicted ? relative_h2_change(*predicted, built.poles)
-                                                  : std::numeric_limits<double>::infinity();
-        predicted.reset();
-        // The fallback iterate of a run that does not converge: a stable one before any
-        // unstable one (strategies reject unstable models), then the smallest change.
-        // Frequency-limited: among iterates of equal stability, the smallest band H2 error
-        // (the objective itself) rather than the smallest change.
-        const bool stable_now = unstable_count(built.poles.poles) == 0;
-        const double objective = m_band_integrals
-                                     ? band_h2_squared_error(*m_band_integrals, &built.model)
-                                     : std::numeric_limits<double>::quiet_NaN();
-        const bool better = m_band_integrals ? objective < best.band_objective
-                                             : change < best.shift_change;
-        if (!have_best || (stable_now && !best_stable) || (stable_now == best_stable && better)) {
-          best.built = built;
-          best.data = data;
-          best.shift_change = change;
-          best.model_change = model_change;
-          best.band_objective = objective;
-          best_stable = stable_now;
-          have_best = true;
-        }
-        // Only a fixed point of the surrogate predicts one of IRKA (an unconverged surrogate run
-        // accepted this way ended rail_5177's order 18 at band error 0.23 instead of 0.09).
-        const bool predicted_right =
-            m_options.model_tolerance > 0.0 && predicted_change <= m_options.model_tolerance;
-        const bool predicted_settled = predicted_right && surrogate_converged;
-        const bool settled =
-            change <= m_options.tolerance ||
-            (m_options.model_tolerance > 0.0 && model_change <= m_options.model_tolerance) ||
-            predicted_settled;
-        const Index unstable_now = settled ? unstable_count(built.poles.poles) : 0;
-        if (settled && unstable_now > 0) {
-          // A fixed point whose model has poles with Re >= 0 (reached through reflected shifts)
-          // is not an H2-optimal model: restart rather than report it as converged.
-          reason = fmt::format("settled at iteration {} on a model with {} poles of Re >= 0",
-                               iterations, unstable_now);
-          restart = true;
-          break;
-        }
-        if (settled) {
-          best.built = std::move(built);
-          best.data = data;
-          best.shift_change = change;
-          best.model_change = model_change;
-          best.band_objective = objective;
-          best.converged = true;
-          if (change <= m_options.tolerance) {
-            best.reason =
-                fmt::format("converged (change of shifts and directions {:.2e} <= {:.1e})", change,
-                            m_options.tolerance);
-          } else if (model_change <= m_options.model_tolerance) {
-            best.reason = fmt::format(
-                "converged (relative H2 change of the model {:.2e} <= {:.1e}; shifts and "
-                "directions still change by {:.2e})",
-                model_change, m_options.model_tolerance, change);
-          } else {
-            best.model_change = predicted_change;
-            best.reason = fmt::format(
-                "converged (the model differs from the surrogate's prediction by {:.2e} <= {:.1e} "
-                "relative H2; shifts and directions still change by {:.2e})",
-                predicted_change, m_options.model_tolerance, change);
-          }
-          best.iterations = iterations;
-          best.restarts = restarts;
-          best.reflected = reflected;
-          return best;
-        }
-        if (predicted_right && !surrogate_converged) {
-          // The surrogate reproduces G's reduced model here, and IRKA on it found no fixed point
-          // in kSurrogateIterations: more builds would retrace that iteration at r
-          // factorisations a step (rail_5177 at r = 18: 11 builds, then stagnation).
-          reason = fmt::format(
-              "IRKA on the surrogate (which reproduces the model here to {:.2e}) found no fixed "
-              "point in {} iterations",
-              predicted_change, kSurrogateIterations);
-          stalled = true;
-          break;
-        }
-        for (std::size_t j = 2; j <= std::min<std::size_t>(10, trail.size() + 1); ++j) {
-          // Back (to a tenth of the step) where it was j iterations ago while still moving: a
-          // cycle. A sequence converging linearly never returns closer than it moves.
-          if (data_change(trail[trail.size() + 1 - j], next) <= 0.1 * change) {
-            reason = fmt::format("cycling with period {} at iteration {} (change {:.2e})", j,
-                                 iterations, change);
-            restart = true;
-            break;
-          }
-        }
-        if (!restart && change < 0.9 * best_change) {
-          best_change = change;
-          best_at = iterations;
-        } else if (iterations - best_at >= m_options.stagnation_window) {
-          reason = fmt::format(
-              "stagnation: no 10% smaller change in {} iterations (best {:.2e}, now {:.2e})",
-              m_options.stagnation_window, best_change, change);
-          restart = true;
-        }
-        if (restart) {
-          // Cycling or stagnating within 100 x tolerance of convergence is the rounding floor of
-          // the iteration (the poles of a two-sided projection carry its conditioning), not a bad
-          // start: a restart would throw the nearly converged iterate away.
-          if (change <= 1e2 * m_options.tolerance) {
-            stalled = true;
-            reason += fmt::format(
-                ", within 100 x tolerance: the rounding floor of this model's "
-                "iteration lies above tolerance = {:.1e}",
-                m_options.tolerance);
-          }
-          break;
-        }
-        trail.push_back(data);
-        data = relax(data, next, alpha);
-        // Surrogate: the step goes on to the surrogate's fixed point. The surrogate now also
-        // interpolates G (Hermite) at the shifts just built, so its IRKA map there is the true
-        // one; the true build at the proposed data still decides convergence, as without it.
-        if (surrogate_active()) {
-          data = surrogate_fixed_point(std::move(data), r, alpha, predicted, surrogate_converged);
-        }
-      }
-      if (stalled) break;
-      if (!restart) {
-        reason =
+      if (end == Step::Settled) return std::move(state.best);
+      if (end == Step::Stalled) break;
+      if (end == Step::Continue) {  // the loop ended on the budget
+        state.reason =
             fmt::format("iteration budget max_iterations = {} used up", m_options.max_iterations);
         break;
       }
-      if (another(attempt)) ++restarts;
+      if (another(attempt)) ++state.restarts;
     }
-    if (!have_best) {
+    if (!state.have_best) {
       throw NumericalError(
-          fmt::format("irka r = {}: no reduced model could be built: {}", r, reason));
+          fmt::format("irka r = {}: no reduced model could be built: {}", r, state.reason));
     }
+    Outcome best = std::move(state.best);
     best.converged = false;
     best.reason =
-        fmt::format("not converged: {}; smallest change {:.2e}", reason, best.shift_change);
-    best.iterations = iterations;
-    best.restarts = restarts;
-    best.reflected = reflected;
+        fmt::format("not converged: {}; smallest change {:.2e}", state.reason, best.shift_change);
+    best.iterations = state.iterations;
+    best.restarts = state.restarts;
+    best.reflected = state.reflected;
     return best;
+  }
+
+  /// What run() carries across attempts: the fallback iterate and the counts.
+  struct RunState {
+    Outcome best;
+    bool have_best = false, best_stable = false;
+    Index iterations = 0, reflected = 0, restarts = 0;
+    std::string reason;  // why the last attempt ended
+  };
+
+  /// One attempt's iterate and its history.
+  struct Attempt {
+    Interpolation data;
+    double alpha = 1.0;  // relaxation
+    // The surrogate's model at `data`, when the surrogate proposed it, and whether `data` is a
+    // fixed point of the surrogate.
+    std::optional<PoleResidues> predicted;
+    bool surrogate_converged = false;
+    std::vector<Interpolation> trail;
+    std::optional<PoleResidues> previous;  // of the previous iterate of this attempt
+    double best_change = std::numeric_limits<double>::infinity();
+    Index best_at = 0;
+  };
+
+  /// How one iteration ends: go on, converged (state.best holds the result), restart (reason in
+  /// state.reason), or stop the attempts (stalled at the iteration's floor).
+  enum class Step { Continue, Settled, Restart, Stalled };
+
+  /// Attempt 0 starts from `initial`; restarts start from other shifts (restart_shifts) with a
+  /// halved relaxation (a 2-cycle is an oscillation that damping can turn into convergence).
+  Attempt begin_attempt(Index r, Index attempt, const Interpolation& initial, Index iterations) {
+    Attempt a;
+    a.alpha = attempt == 0 ? m_options.relaxation
+                           : std::max(0.25, m_options.relaxation * std::pow(0.5, attempt));
+    a.data = attempt == 0 ? initial : restart_shifts(r, attempt);
+    a.best_at = iterations;
+    // With a surrogate, the start is first moved to the surrogate's fixed point: the vectors of
+    // the orders run before make it a close model of G, so the first build lands near the
+    // fixed point of order r instead of iterating there one factorisation per shift per step.
+    if (surrogate_active() && (m_surrogate.U.cols() > 0 || m_surrogate.pending.cols() > 0)) {
+      a.data = surrogate_fixed_point(std::move(a.data), r, a.alpha, a.predicted,
+                                     a.surrogate_converged);
+    }
+    return a;
+  }
+
+  /// One IRKA iteration of attempt `a`: build at a.data, judge the change, and move a.data on.
+  Step iterate_once(Index r, bool second_order, Attempt& a, RunState& state) {
+    ++state.iterations;
+    check_interrupt(fmt::format("irka, iteration {}", state.iterations));
+    Built built;
+    Interpolation next;
+    try {
+      built = build(a.data, second_order, r);
+      if (surrogate_active()) {
+        surrogate_add(built.V);
+        surrogate_add(built.W);
+      }
+      next = next_shifts(built.poles, r, state.reflected);
+    } catch (const NumericalError& e) {
+      state.reason = fmt::format("breakdown at iteration {}: {}", state.iterations, e.what());
+      return Step::Restart;
+    }
+    Measures m;
+    m.change = data_change(a.data, next);
+    // The model's relative H2 change since the previous iterate, scaled back by the relaxation
+    // (a step of alpha moves the model alpha times as far).
+    m.model_change = a.previous ? relative_h2_change(*a.previous, built.poles) / a.alpha
+                                : std::numeric_limits<double>::infinity();
+    a.previous = built.poles;
+    // With a surrogate: the true model against the surrogate's model at the same data,
+    // predicted before this build's vectors joined the surrogate. Agreement to model_tolerance
+    // means the surrogate reproduces G's reduced model where IRKA now stands, so its fixed point
+    // (the data just built) is IRKA's to that accuracy: one build per order instead of two
+    // (rail_5177: 536 -> 298 factorisations).
+    m.predicted_change = a.predicted ? relative_h2_change(*a.predicted, built.poles)
+                                     : std::numeric_limits<double>::infinity();
+    a.predicted.reset();
+    m.objective = m_band_integrals ? band_h2_squared_error(*m_band_integrals, &built.model)
+                                   : std::numeric_limits<double>::quiet_NaN();
+    keep_if_better(built, a.data, m, state);
+    // Only a fixed point of the surrogate predicts one of IRKA (an unconverged surrogate run
+    // accepted this way ended rail_5177's order 18 at band error 0.23 instead of 0.09).
+    const bool predicted_right =
+        m_options.model_tolerance > 0.0 && m.predicted_change <= m_options.model_tolerance;
+    const bool settled =
+        m.change <= m_options.tolerance ||
+        (m_options.model_tolerance > 0.0 && m.model_change <= m_options.model_tolerance) ||
+        (predicted_right && a.surrogate_converged);
+    if (settled) return settle(std::move(built), a.data, m, state);
+    if (predicted_right && !a.surrogate_converged) {
+      // The surrogate reproduces G's reduced model here, and IRKA on it found no fixed point in
+      // kSurrogateIterations: more builds would retrace that iteration at r factorisations a
+      // step (rail_5177 at r = 18: 11 builds, then stagnation).
+      state.reason = fmt::format(
+          "IRKA on the surrogate (which reproduces the model here to {:.2e}) found no fixed "
+          "point in {} iterations",
+          m.predicted_change, kSurrogateIterations);
+      return Step::Stalled;
+    }
+    if (const Step end = cycle_or_stagnation(a, next, m.change, state); end != Step::Continue) {
+      return end;
+    }
+    a.trail.push_back(a.data);
+    a.data = relax(a.data, next, a.alpha);
+    // Surrogate: the step goes on to the surrogate's fixed point. The surrogate now also
+    // interpolates G (Hermite) at the shifts just built, so its IRKA map there is the true one;
+    // the true build at the proposed data still decides convergence, as without it.
+    if (surrogate_active()) {
+      a.data = surrogate_fixed_point(std::move(a.data), r, a.alpha, a.predicted,
+                                     a.surrogate_converged);
+    }
+    return Step::Continue;
+  }
+
+  /// What one iteration measured of its iterate.
+  struct Measures {
+    double change = 0.0;            // of the shifts and directions (data_change)
+    double model_change = 0.0;      // relative H2 change of the model, per unit relaxation
+    double predicted_change = 0.0;  // relative H2 distance to the surrogate's prediction
+    double objective = 0.0;         // frequency-limited: the band H2 error; NaN otherwise
+  };
+
+  /// The fallback iterate of a run that does not converge: a stable one before any unstable one
+  /// (strategies reject unstable models), then the smallest change. Frequency-limited: among
+  /// iterates of equal stability, the smallest band H2 error (the objective itself) rather than
+  /// the smallest change.
+  void keep_if_better(const Built& built, const Interpolation& data, const Measures& m,
+                      RunState& state) const {
+    const bool stable_now = unstable_count(built.poles.poles) == 0;
+    const bool better = m_band_integrals ? m.objective < state.best.band_objective
+                                         : m.change < state.best.shift_change;
+    if (state.have_best && !(stable_now && !state.best_stable) &&
+        !(stable_now == state.best_stable && better)) {
+      return;
+    }
+    state.best.built = built;
+    state.best.data = data;
+    state.best.shift_change = m.change;
+    state.best.model_change = m.model_change;
+    state.best.band_objective = m.objective;
+    state.best_stable = stable_now;
+    state.have_best = true;
+  }
+
+  /// A settled iterate: converged when its model is stable (state.best, with the reason), else a
+  /// restart: a fixed point whose model has poles with Re >= 0 (reached through reflected
+  /// shifts) is not an H2-optimal model.
+  Step settle(Built&& built, const Interpolation& data, const Measures& m, RunState& state) {
+    if (const Index unstable = unstable_count(built.poles.poles); unstable > 0) {
+      state.reason = fmt::format("settled at iteration {} on a model with {} poles of Re >= 0",
+                               state.iterations, unstable);
+      return Step::Restart;
+    }
+    Outcome& best = state.best;
+    best.built = std::move(built);
+    best.data = data;
+    best.shift_change = m.change;
+    best.model_change = m.model_change;
+    best.band_objective = m.objective;
+    best.converged = true;
+    if (m.change <= m_options.tolerance) {
+      best.reason = fmt::format("converged (change of shifts and directions {:.2e} <= {:.1e})",
+                                m.change, m_options.tolerance);
+    } else if (m.model_change <= m_options.model_tolerance) {
+      best.reason = fmt::format(
+          "converged (relative H2 change of the model {:.2e} <= {:.1e}; shifts and directions "
+          "still change by {:.2e})",
+          m.model_change, m_options.model_tolerance, m.change);
+    } else {
+      best.model_change = m.predicted_change;
+      best.reason = fmt::format(
+          "converged (the model differs from the surrogate's prediction by {:.2e} <= {:.1e} "
+          "relative H2; shifts and directions still change by {:.2e})",
+          m.predicted_change, m_options.model_tolerance, m.change);
+    }
+    best.iterations = state.iterations;
+    best.restarts = state.restarts;
+    best.reflected = state.reflected;
+    return Step::Settled;
+  }
+
+  /// Cycling (back to within a tenth of the step to where the data were 2..10 iterations ago:
+  /// a sequence converging linearly never returns closer than it moves) or stagnation (no 10 %
+  /// smaller change in stagnation_window iterations) restart the iteration; within 100 x
+  /// tolerance of convergence either is the rounding floor of the iteration (the poles of a
+  /// two-sided projection carry its conditioning), not a bad start, and ends the attempts.
+  Step cycle_or_stagnation(Attempt& a, const Interpolation& next, double change,
+                           RunState& state) const {
+    bool restart = false;
+    const std::size_t depth = std::min<std::size_t>(10, a.trail.size() + 1);
+    for (std::size_t j = 2; j <= depth && !restart; ++j) {
+      if (data_change(a.trail[a.trail.size() + 1 - j], next) <= 0.1 * change) {
+        state.reason = fmt::format("cycling with period {} at iteration {} (change {:.2e})", j,
+                                 state.iterations, change);
+        restart = true;
+      }
+    }
+    if (!restart && change < 0.9 * a.best_change) {
+      a.best_change = change;
+      a.best_at = state.iterations;
+    } else if (state.iterations - a.best_at >= m_options.stagnation_window) {
+      state.reason =
+          fmt::format("stagnation: no 10% smaller change in {} iterations (best {:.2e}, now {:.2e})",
+                      m_options.stagnation_window, a.best_change, change);
+      restart = true;
+    }
+    if (!restart) return Step::Continue;
+    if (change <= 1e2 * m_options.tolerance) {
+      state.reason += fmt::format(
+          ", within 100 x tolerance: the rounding floor of this model's iteration lies above "
+          "tolerance = {:.1e}",
+          m_options.tolerance);
+      return Step::Stalled;
+    }
+    return Step::Restart;
   }
 
   Options m_given;    // as configured
@@ -1521,22 +1282,15 @@ class IrkaReducer final : public Reducer {
 };
 
 ReducerInfo irka_info() {
-  ReducerInfo info;
-  info.name = kName;
-  info.description =
+  return reducer_info(
+      kName,
       "IRKA: H2-optimal interpolation at the mirror images of the reduced poles (tangential, "
-      "MIMO); first order, or second-order structure preserved; safeguarded iteration";
-  info.version = "0.1.0";
-  info.second_order = true;
-  info.descriptor = true;
-  info.uses_expansion_points = false;
-  info.parameters = option_specs().docs();
-  return info;
+      "MIMO); first order, or second-order structure preserved; safeguarded iteration",
+      "0.1.0", option_specs(), {});
 }
 
 std::unique_ptr<Reducer> create_irka(const ParameterMap& params) {
-  const Options o = option_specs().read(params);
-  return std::make_unique<IrkaReducer>(o);
+  return create_from_specs<IrkaReducer>(params, option_specs());
 }
 
 void register_reducers(Registry& registry) { registry.add({irka_info(), create_irka}); }

@@ -871,22 +871,15 @@ class KrylovReducer final : public Reducer {
 };
 
 ReducerInfo krylov_info() {
-  ReducerInfo info;
-  info.name = kName;
-  info.description =
+  return reducer_info(
+      kName,
       "moment matching (rational Krylov) by a two-level orthogonal Arnoldi process: multipoint, "
-      "one- or two-sided, block or tangential, second order preserved";
-  info.version = "0.1.0";
-  info.second_order = true;
-  info.descriptor = true;
-  info.uses_expansion_points = true;
-  info.parameters = option_specs().docs();
-  return info;
+      "one- or two-sided, block or tangential, second order preserved",
+      "0.1.0", option_specs(), {true, true, true});
 }
 
 std::unique_ptr<Reducer> create_krylov(const ParameterMap& params) {
-  Options o = option_specs().read(params);
-  return std::make_unique<KrylovReducer>(std::move(o));
+  return create_from_specs<KrylovReducer>(params, option_specs());
 }
 
 void register_reducers(Registry& registry) { registry.add({krylov_info(), create_krylov}); }

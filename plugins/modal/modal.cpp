@@ -513,15 +513,11 @@ class ModalReducer final : public Reducer {
         sym.K = symmetric_part(so->K);
         m_symmetrised = std::make_unique<Model>(std::move(sym));
         m_own_solver = make_shifted_solver(*m_symmetrised);
-        ShiftedSolver* solver = m_own_solver.get();
+        ShiftedSolver& solver = *m_own_solver;
         const auto& sym_model = std::get<SecondOrderModel>(*m_symmetrised);
-        m_slicer.emplace(
-            sym_model.K, sym_model.M, *solver,
-            [solver](double sigma) {
-              const Complex w[3] = {1.0, 0.0, -sigma};
-              return solver->factorize_combination(w);
-            },
-            true, m_options, m_band, rigid_body_modes(*m_symmetrised, *solver));
+        m_slicer.emplace(sym_model.K, sym_model.M, solver, pencil_factorizer(solver, true), true,
+                         slice_options(m_options), m_band.f_min_hz,
+                         rigid_body_modes(*m_symmetrised, solver));
         m_path = "symmetric part";
       } else {
         // Clearly unsymmetric K: eigenvectors of the general pencil (K, M), a real basis from their

@@ -190,22 +190,15 @@ class PodSnapshotsReducer final : public ecmor::Reducer {
 };
 
 ecmor::ReducerInfo pod_info() {
-  ecmor::ReducerInfo info;
-  info.name = kName;
-  info.description =
+  return ecmor::reducer_info(
+      kName,
       "POD of frequency-response snapshots P(s_k)^-1 B at log-spaced band frequencies, Galerkin "
-      "projection on the leading left singular vectors";
-  info.version = "0.1.0";
-  info.second_order = true;
-  info.descriptor = true;
-  info.uses_expansion_points = false;
-  info.parameters = option_specs().docs();
-  return info;
+      "projection on the leading left singular vectors",
+      "0.1.0", option_specs(), {/*second_order=*/true, /*descriptor=*/true});
 }
 
 std::unique_ptr<ecmor::Reducer> create(const ecmor::ParameterMap& params) {
-  const Options o = option_specs().read(params);
-  return std::make_unique<PodSnapshotsReducer>(o);
+  return ecmor::create_from_specs<PodSnapshotsReducer>(params, option_specs());
 }
 
 void register_reducers(ecmor::Registry& registry) { registry.add({pod_info(), create}); }

@@ -12,6 +12,11 @@
 ///   static void register_reducers(ecmor::Registry& r) { r.add({info, create}); }
 ///   ECMOR_PLUGIN(register_reducers)
 
+#include <memory>
+#include <string>
+#include <utility>
+
+#include "ecmor/base/options.hpp"
 #include "ecmor/plugin/registry.hpp"
 #include "ecmor/version.hpp"
 
@@ -48,3 +53,38 @@
       ::ecmor::Registry* registry) {                                                       \
     register_function(*registry);                                                          \
   }
+
+namespace ecmor {
+
+/// The model kinds a reducer accepts and whether it takes expansion points (ReducerInfo).
+struct ReducerKinds {
+  bool second_order = true;
+  bool descriptor = true;
+  bool uses_expansion_points = false;
+};
+
+/// The ReducerInfo of a reducer whose options are stated once in `specs`: its parameters are
+/// the specs' documentation.
+template <class Options>
+ReducerInfo reducer_info(std::string name, std::string description, std::string version,
+                         const OptionSpecs<Options>& specs, ReducerKinds kinds) {
+  ReducerInfo info;
+  info.name = std::move(name);
+  info.description = std::move(description);
+  info.version = std::move(version);
+  info.second_order = kinds.second_order;
+  info.descriptor = kinds.descriptor;
+  info.uses_expansion_points = kinds.uses_expansion_points;
+  info.parameters = specs.docs();
+  return info;
+}
+
+/// A reducer R constructed from the options `specs` reads (and checks: ConfigError naming the
+/// key and the rule) from the YAML parameters.
+template <class R, class Options>
+std::unique_ptr<Reducer> create_from_specs(const ParameterMap& params,
+                                           const OptionSpecs<Options>& specs) {
+  return std::make_unique<R>(specs.read(params));
+}
+
+}  // namespace ecmor
