@@ -3,6 +3,7 @@
 #include <fmt/core.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
@@ -16,6 +17,8 @@
 #include "ecmor/linalg/parallel.hpp"
 #include "ecmor/plugin/registry.hpp"
 #include "ecmor/linalg/rigid_body.hpp"
+#include "ecmor/linalg/spectrum_slicer.hpp"
+#include "ecmor/model/model.hpp"
 #include "ecmor/strategies/driver.hpp"
 #include "ecmor/strategies/strategy.hpp"
 #include "signals.hpp"
@@ -269,6 +272,38 @@ int plugins(const CommonOptions& common) {
   });
 }
 
+namespace {
+
+/// The lowest `nev` undamped eigenfrequencies sqrt(lambda)/2pi of K phi = lambda M phi, by the
+/// modal reducer's certified spectrum slicing, with its rigid-body modes (rigid_body.hpp) marked.
+void print_undamped_eigenfrequencies(const Model& model, const SecondOrderModel& so,
+                                     ShiftedSolver& solver, Index nev) {
+  if (relative_asymmetry(so.K) > 1e-12 || relative_asymmetry(so.M) > 1e-12) {
+    fmt::print("eigenfrequencies not computed: K and M must be symmetric for the undamped "
+               "eigenproblem\n");
+    return;
+  }
+  const RigidBodyModes rigid = rigid_body_modes(model, solver);
+  fmt::print("{}\n", rigid.describe());
+  SliceOptions options;
+  options.batch_size = std::max<Index>(nev, 20);
+  options.caller = "ecmor info";
+  SymmetricSlicer slicer(so.K, so.M, solver, pencil_factorizer(solver, true), true, options, 0.0,
+                         rigid);
+  while (slicer.known() < nev && !slicer.complete()) slicer.next_batch();
+  std::vector<double> lambda;
+  for (Index j = 0; j < slicer.known(); ++j) lambda.push_back(slicer.lambda(j));
+  std::sort(lambda.begin(), lambda.end());
+  lambda.resize(std::min<std::size_t>(lambda.size(), static_cast<std::size_t>(nev)));
+  fmt::print("lowest {} undamped eigenfrequencies [Hz]:\n", lambda.size());
+  for (std::size_t i = 0; i < lambda.size(); ++i) {
+    fmt::print("  {:>4}  {:.6e}{}\n", i + 1, slicer.frequency(lambda[i]),
+               slicer.is_rigid(lambda[i]) ? "  (rigid-body mode)" : "");
+  }
+}
+
+}  // namespace
+
 int info(const std::filesystem::path& model_path, int eigenfrequencies, const CommonOptions&) {
   return guarded([&] {
     const Model model = load_model(model_path);
@@ -305,23 +340,7 @@ int info(const std::filesystem::path& model_path, int eigenfrequencies, const Co
     opt.nev = nev;
     try {
       if (const auto* so = std::get_if<SecondOrderModel>(&model)) {
-        // Undamped eigenfrequencies sqrt(lambda)/2pi of K phi = lambda M phi. A negative shift keeps
-        // K - sigma M positive definite even for a singular K (free-floating body).
-        const double scale = std::abs(so->K.diagonal().sum() / so->M.diagonal().sum());
-        const double sigma = -1e-6 * (scale > 0.0 ? scale : 1.0);
-        const std::vector<Complex> w{1.0, 0.0, -sigma};
-        const auto f = solver->factorize_combination(w);
-        const SymmetricEigenResult r = symmetric_shift_invert(*f, so->M, sigma, opt);
-        // Rigid-body modes are the null space of K (rigid_body.hpp), not small eigenvalues.
-        const RigidBodyModes rigid = rigid_body_modes(model, *solver);
-        fmt::print("{}\n", rigid.describe());
-        fmt::print("lowest {} undamped eigenfrequencies [Hz]:\n", r.eigenvalues.size());
-        for (Index i = 0; i < r.eigenvalues.size(); ++i) {
-          const double lambda = r.eigenvalues(i);
-          const bool is_rigid = rigid.count > 0 && std::abs(lambda) <= rigid.zero_bound;
-          fmt::print("  {:>4}  {:.6e}{}\n", i + 1, std::sqrt(std::max(lambda, 0.0)) / kTwoPi,
-                     is_rigid ? "  (rigid-body mode)" : "");
-        }
+        print_undamped_eigenfrequencies(model, *so, *solver, nev);
       } else {
         const auto& ds = std::get<DescriptorModel>(model);
         const std::vector<Complex> w{-1.0, 0.0};  // A - 0 E

@@ -20,16 +20,13 @@
 #include "ecmor/plugin/plugin.hpp"
 #include "ecmor/model/projection.hpp"
 #include "ecmor/linalg/rigid_body.hpp"
+#include "ecmor/linalg/spectrum_slicer.hpp"
 
 namespace ecmor::modal {
 namespace {
 
 constexpr const char* kName = "modal";
 constexpr double kInf = std::numeric_limits<double>::infinity();
-/// Ritz values farther than this factor times the nearest eigenvalue's distance from the shift are
-/// not trusted: shift-invert computes nu = 1/(lambda - sigma) with absolute error ~eps |nu_max|, so
-/// lambda - sigma has relative error ~eps * ratio; 1e4 keeps it near 1e-12.
-constexpr double kTrustRatio = 1e4;
 /// Coefficient matrices with relative asymmetry below this count as exactly symmetric (the
 /// shifted solver's own default, so that it uses Cholesky on them).
 constexpr double kExactSymmetry = 1e-12;
@@ -95,15 +92,15 @@ SparseMatrix symmetric_part(const SparseMatrix& A) {
   return SparseMatrix(0.5 * (A + SparseMatrix(A.transpose())));
 }
 
-/// max_i A_ii / B_ii: Rayleigh quotients of unit vectors, a lower bound of the largest eigenvalue of
-/// the pencil and so a safe "spectrum scale" for what counts as a zero (rigid-body) eigenvalue.
-double spectrum_scale(const SparseMatrix& A, const SparseMatrix& B) {
-  double scale = 0.0;
-  for (Index i = 0; i < A.rows(); ++i) {
-    const double b = B.coeff(i, i);
-    if (b > 0.0) scale = std::max(scale, std::abs(A.coeff(i, i)) / b);
-  }
-  return scale > 0.0 ? scale : 1.0;
+/// The slicer's eigensolver settings from the reducer's.
+SliceOptions slice_options(const Options& o) {
+  SliceOptions s;
+  s.batch_size = o.batch_size;
+  s.tolerance = o.tolerance;
+  s.max_iterations = o.max_iterations;
+  s.seed = static_cast<std::uint64_t>(o.seed);
+  s.caller = kName;
+  return s;
 }
 
 /// Ranking of modes for a band: rigid modes first (tier 0), then modes whose frequency lies within
@@ -146,233 +143,6 @@ class Ranking {
  private:
   Band m_band;
   double m_margin;
-};
-
-/// Symmetric pencil  Ks phi = lambda Ms phi, Ms SPD, Ks positive semidefinite, solved in slices.
-/// Second order: Ks = K, Ms = M, f = sqrt(lambda) / 2pi. Symmetric descriptor: Ks = -A, Ms = E,
-/// poles -lambda, f = lambda / 2pi.
-///
-/// Why the covered interval is contiguous: a converged ARPACK run at shift sigma returns the nev
-/// eigenvalues nearest sigma, i.e. every eigenvalue in [sigma - r, sigma + r] with r the largest
-/// returned distance (we keep only the trusted part [sigma - t, sigma + t], t <= r, which is again
-/// "every eigenvalue in an interval"). The first shift sigma_0 < 0 lies below the whole spectrum
-/// (Ks positive semidefinite, checked on the results), so it covers (-inf, sigma_0 + t]. A later
-/// shift sigma = lambda_cov + delta is accepted only if sigma - t <= lambda_cov, so the union of
-/// covered intervals stays one interval (-inf, lambda_cov]; otherwise delta shrinks and the batch is
-/// redone. Hence every eigenvalue below the frontier is known and none is skipped. (Caveat of any
-/// single-vector Lanczos method: copies of an exactly multiple eigenvalue are found through
-/// rounding; the deduplication below keeps every genuinely new copy.)
-class SymmetricSlicer {
- public:
-  using FactorizeFn = std::function<std::shared_ptr<const Factorization>(double sigma)>;
-
-  /// \param solver  factorises Ks - sigma Ms (factorize); its failed-Cholesky counter tells whether
-  ///                 Ks - sigma_0 Ms is indefinite, i.e. Ks is not positive semidefinite.
-  /// \param rigid   the rigid-body modes of (Ks, Ms) (rigid_body_modes): they enter first, with
-  ///                 eigenvalue 0, and a computed eigenvalue is rigid when |lambda| <= zero_bound.
-  SymmetricSlicer(const SparseMatrix& Ks, const SparseMatrix& Ms, ShiftedSolver& solver,
-                  FactorizeFn factorize, bool second_order, const Options& options,
-                  const Band& band, RigidBodyModes rigid)
-      : m_K(Ks), m_M(Ms), m_solver(solver), m_factorize(std::move(factorize)),
-        m_second_order(second_order),
-        m_options(options), m_n(Ks.rows()), m_rigid(std::move(rigid)) {
-    m_scale = spectrum_scale(Ks, Ms);
-    m_k_norm = Ks.norm();
-    m_phi.resize(m_n, 0);
-    const double omega_min = kTwoPi * band.f_min_hz;
-    // sigma_0 < 0 so that K - sigma_0 M is SPD even for singular K (Cholesky applies); not so close
-    // to 0 that it is numerically singular for a free-floating body.
-    const double band_value = m_second_order ? omega_min * omega_min : omega_min;
-    m_sigma0 = -std::max(band_value, 1e-6 * m_scale);
-    // The rigid-body modes are part of the basis exactly as the null-space analysis found them
-    // (M-orthonormal); the slices then find them again and drop them as copies.
-    for (Index j = 0; j < m_rigid.count; ++j) add(0.0, m_rigid.basis.col(j));
-  }
-
-  Index size() const { return m_n; }
-  Index known() const { return static_cast<Index>(m_lambda.size()); }
-  /// Every eigenpair is known, or the slicing is exhausted: kMaxEmptyBatches batches in a row
-  /// added nothing (the shift is above the spectrum, or ARPACK misses the copies of a multiple
-  /// eigenvalue), so more slices would only climb without end.
-  bool complete() const { return known() >= m_n || m_empty_batches >= kMaxEmptyBatches; }
-  bool exhausted() const { return known() < m_n && m_empty_batches >= kMaxEmptyBatches; }
-  Index spurious() const { return m_spurious; }
-  /// |lambda| below which a computed eigenvalue is 0: the rigid-body analysis's bound (the
-  /// geometric mean across the gap between rigid and elastic eigenvalues) when K is singular, else
-  /// the rounding floor (nothing is rigid then).
-  double rigid_threshold() const {
-    return m_rigid.count > 0 ? m_rigid.zero_bound : kRigidFloor * m_scale;
-  }
-  bool is_rigid(double lambda) const {
-    return m_rigid.count > 0 && std::abs(lambda) <= m_rigid.zero_bound;
-  }
-  const RigidBodyModes& rigid() const { return m_rigid; }
-  double frequency(double lambda) const {
-    const double l = std::max(lambda, 0.0);
-    return (m_second_order ? std::sqrt(l) : l) / kTwoPi;
-  }
-  double frontier_frequency() const {
-    if (complete()) return kInf;
-    if (m_batches == 0) return -kInf;
-    return frequency(m_lambda_cov);
-  }
-  double lambda(Index j) const { return m_lambda[static_cast<std::size_t>(j)]; }
-  const Matrix& vectors() const { return m_phi; }
-  double sigma0() const { return m_sigma0; }
-  Index batches() const { return m_batches; }
-  Index operator_applications() const { return m_applications; }
-  /// The eigensolver of the last slice ("arpack", "dense" or "slepc").
-  const std::string& eigensolver() const { return m_eigensolver; }
-  Index duplicates() const { return m_duplicates; }
-  const std::vector<double>& shifts() const { return m_shifts; }
-  /// The factorisation at sigma_0 (exists after the first batch).
-  const Factorization& first_factorization() const { return *m_factorizations.front(); }
-
-  /// Computes one more slice above the frontier (or the first slice).
-  void next_batch() {
-    if (complete()) return;
-    double delta = m_delta;
-    for (int attempt = 0; attempt < 8; ++attempt) {
-      const double sigma = m_batches == 0 ? m_sigma0 : m_lambda_cov + delta;
-      std::shared_ptr<const Factorization> F;
-      const Index failed_before = m_solver.counters().failed_cholesky;
-      try {
-        F = m_factorize(sigma);
-      } catch (const NumericalError&) {
-        if (m_batches == 0) throw;
-        delta *= 0.7;  // sigma hit an eigenvalue: move off it
-        continue;
-      }
-      EigenOptions eo;
-      eo.nev = std::min<Index>(m_options.batch_size, m_n - 1);
-      eo.tolerance = m_options.tolerance;
-      eo.max_iterations = m_options.max_iterations;
-      eo.seed = static_cast<std::uint64_t>(m_options.seed);
-      const SymmetricEigenResult r = symmetric_shift_invert(*F, m_M, sigma, eo);
-      m_applications += r.operator_applications;
-      m_eigensolver = r.method;
-      if (r.eigenvalues.size() == 0) {
-        throw NumericalError(fmt::format("modal: ARPACK returned no eigenpair at shift {:g}", sigma));
-      }
-      const Vector dist = (r.eigenvalues.array() - sigma).abs();
-      const double d_near = dist.minCoeff();
-      const double r_max = dist.maxCoeff();
-      const double t = std::min(r_max, kTrustRatio * std::max(d_near, 1e-300));
-      if (m_batches > 0 && sigma - t > m_lambda_cov * (1.0 + 1e-12) + 1e-300) {
-        delta *= 0.25;  // the slice does not reach back to the frontier: a gap; retry nearer
-        continue;
-      }
-      // Indefinite Ks: an eigenvalue clearly below 0, or (whatever ARPACK found) a failed
-      // Cholesky of Ks - sigma_0 Ms, which is SPD whenever Ks is positive semidefinite. Either
-      // breaks the premise that sigma_0 lies below the whole spectrum.
-      const bool cholesky_failed =
-          m_batches == 0 && m_solver.counters().failed_cholesky > failed_before;
-      if (r.eigenvalues.minCoeff() < -rigid_threshold() || cholesky_failed) {
-        throw InputError(fmt::format(
-            "modal: {} has a negative eigenvalue ({}): it must be positive semidefinite for "
-            "modal truncation",
-            m_second_order ? "K" : "-A",
-            cholesky_failed ? fmt::format("the Cholesky factorisation of {} - sigma M failed at "
-                                          "sigma = {:g} < 0",
-                                          m_second_order ? "K" : "-A", sigma)
-                            : fmt::format("{:g}, spectrum scale {:g}", r.eigenvalues.minCoeff(),
-                                          m_scale)));
-      }
-      m_factorizations.push_back(F);
-      m_shifts.push_back(sigma);
-      const Index known_before = known();
-      for (Index j = 0; j < r.eigenvalues.size(); ++j) {
-        if (dist[j] <= t) add(r.eigenvalues[j], r.eigenvectors.col(j));
-      }
-      m_empty_batches = known() > known_before ? 0 : m_empty_batches + 1;
-      // Covered now: every eigenvalue in [sigma - t, sigma + t].
-      m_lambda_cov = m_batches == 0 ? sigma + t : std::max(m_lambda_cov, sigma + t);
-      ++m_batches;
-      // Next step: place the shift so that about 80 % of the next batch is new, from the density of
-      // eigenvalues just seen; the gap check above repairs an over-long step.
-      const Index found = r.eigenvalues.size();
-      const double width = r.eigenvalues.maxCoeff() - std::max(r.eigenvalues.minCoeff(), 0.0);
-      if (found >= 2 && width > 0.0) {
-        const double density = static_cast<double>(found - 1) / width;
-        m_delta = 0.6 * static_cast<double>(eo.nev) / (2.0 * density);
-      } else {
-        m_delta = std::max(std::abs(m_lambda_cov - sigma), 1e-3 * m_scale);
-      }
-      return;
-    }
-    throw NumericalError(fmt::format(
-        "modal: spectrum slicing could not place a shift above lambda = {:g} without leaving a gap "
-        "(8 attempts); increase batch_size",
-        m_lambda_cov));
-  }
-
- private:
-  // Adds an eigenpair unless it is already known: same eigenvalue (relative 1e-8) and inside the
-  // span of the known vectors of that eigenvalue (M inner product). A new copy of a multiple
-  // eigenvalue is M-orthogonalised against the known copies.
-  void add(double lambda, const Vector& phi_in) {
-    Vector phi = phi_in;
-    // A Ritz pair that is not an eigenpair (ARPACK past the top of the spectrum, or mixing the
-    // copies of a multiple eigenvalue) is dropped: relative residual above the admissible one.
-    const double residual = (m_K * phi - lambda * (m_M * phi)).norm() /
-                            (std::max(m_k_norm, 1e-300) * std::max(phi.norm(), 1e-300));
-    if (!(residual <= std::max(1e-6, 100.0 * m_options.tolerance))) {
-      ++m_spurious;
-      return;
-    }
-    const double tol = 1e-8 * std::max(std::abs(lambda), rigid_threshold());
-    // All rigid-body modes share the eigenvalue 0: a computed one is a copy when it lies in their
-    // span, whatever its rounding-level eigenvalue.
-    const bool rigid = is_rigid(lambda);
-    std::vector<Index> same;
-    for (Index j = 0; j < known(); ++j) {
-      const double lj = m_lambda[static_cast<std::size_t>(j)];
-      if (rigid ? is_rigid(lj) : std::abs(lj - lambda) <= tol) same.push_back(j);
-    }
-    if (!same.empty()) {
-      for (int pass = 0; pass < 2; ++pass) {
-        for (Index j : same) {
-          const double c = m_phi.col(j).dot(m_M * phi);
-          phi -= c * m_phi.col(j);
-        }
-      }
-      const double norm = std::sqrt(phi.dot(m_M * phi));
-      if (norm <= 1e-6) {
-        ++m_duplicates;
-        return;
-      }
-      phi /= norm;
-    }
-    if (complete()) return;
-    m_lambda.push_back(lambda);
-    m_phi.conservativeResize(Eigen::NoChange, m_phi.cols() + 1);
-    m_phi.col(m_phi.cols() - 1) = phi;
-  }
-
-  static constexpr Index kMaxEmptyBatches = 3;
-  const SparseMatrix& m_K;
-  const SparseMatrix& m_M;
-  double m_k_norm = 1.0;
-  Index m_empty_batches = 0;
-  Index m_spurious = 0;
-  ShiftedSolver& m_solver;
-  FactorizeFn m_factorize;
-  bool m_second_order;
-  Options m_options;
-  Index m_n;
-  RigidBodyModes m_rigid;
-  double m_scale = 1.0;
-  double m_sigma0 = -1.0;
-  double m_lambda_cov = -kInf;
-  double m_delta = 0.0;
-  Index m_batches = 0;
-  Index m_applications = 0;
-  std::string m_eigensolver = "arpack";
-  Index m_duplicates = 0;
-  std::vector<double> m_lambda;
-  Matrix m_phi;
-  std::vector<double> m_shifts;
-  std::vector<std::shared_ptr<const Factorization>> m_factorizations;
 };
 
 /// One computed mode of a general (unsymmetric) pencil: a real eigenvalue or a conjugate pair
@@ -495,14 +265,9 @@ class ModalReducer final : public Reducer {
       const double asym_k = asymmetry(so->K);
       m_asymmetry = asym_k;
       if (asym_k <= kExactSymmetry) {
-        ShiftedSolver* solver = m_solver;
-        m_slicer.emplace(
-            so->K, so->M, *solver,
-            [solver](double sigma) {
-              const Complex w[3] = {1.0, 0.0, -sigma};
-              return solver->factorize_combination(w);
-            },
-            true, m_options, m_band, rigid_body_modes(*m_model, *solver));
+        m_slicer.emplace(so->K, so->M, *m_solver, pencil_factorizer(*m_solver, true), true,
+                         slice_options(m_options), m_band.f_min_hz,
+                         rigid_body_modes(*m_model, *m_solver));
         m_path = "symmetric";
       } else if (asym_k <= m_options.symmetry_tolerance) {
         // Tiny asymmetry (rounding in the source data): the modes of the symmetric part, through a
@@ -542,14 +307,9 @@ class ModalReducer final : public Reducer {
       }
       if (symmetric && spd_e) {
         // E SPD, A symmetric (e.g. the rail models): -A phi = mu E phi, poles -mu, W = V.
-        ShiftedSolver* solver = m_solver;
-        m_slicer.emplace(
-            m_negA, ds.E, *solver,
-            [solver](double sigma) {
-              const Complex w[2] = {1.0, -sigma};  // -A - sigma E
-              return solver->factorize_combination(w);
-            },
-            false, m_options, m_band, rigid_body_modes(*m_model, *solver));
+        m_slicer.emplace(m_negA, ds.E, *m_solver, pencil_factorizer(*m_solver, false), false,
+                         slice_options(m_options), m_band.f_min_hz,
+                         rigid_body_modes(*m_model, *m_solver));
         m_path = "symmetric descriptor";
       } else {
         // Poles nearest 0 by |lambda| (= the natural frequency of a pole pair): sigma = 0 unless A
@@ -987,17 +747,11 @@ class ModalReducer final : public Reducer {
 };
 
 ReducerInfo modal_info() {
-  ReducerInfo info;
-  info.name = kName;
-  info.description =
+  return reducer_info(
+      kName,
       "modal truncation: eigenmodes nearest the band by shift-invert ARPACK in slices, rigid-body "
-      "modes first, optional static correction";
-  info.version = "0.1.0";
-  info.second_order = true;
-  info.descriptor = true;
-  info.uses_expansion_points = false;
-  info.parameters = option_specs().docs();
-  return info;
+      "modes first, optional static correction",
+      "0.1.0", option_specs(), {});
 }
 
 std::unique_ptr<Reducer> create_modal(const ParameterMap& params) {

@@ -28,16 +28,6 @@ constexpr double kSymmetry = 1e-10;
 constexpr Index kFirstEigenpairs = 12;
 constexpr Index kMaxEigenpairs = 384;
 
-/// max_i A_ii / B_ii (a lower bound of the largest eigenvalue of the pencil), 1 when none is > 0.
-double spectrum_scale(const SparseMatrix& A, const SparseMatrix& B) {
-  double scale = 0.0;
-  const Vector a = A.diagonal(), b = B.diagonal();
-  for (Index i = 0; i < a.size(); ++i) {
-    if (b(i) > 0.0) scale = std::max(scale, std::abs(a(i)) / b(i));
-  }
-  return scale > 0.0 ? scale : 1.0;
-}
-
 /// M-orthonormalises the columns of X in place (classical Gram-Schmidt, twice).
 void m_orthonormalise(Matrix& X, const SparseMatrix& M) {
   for (Index j = 0; j < X.cols(); ++j) {
@@ -110,6 +100,15 @@ RigidBodyModes analyse(const Model& model, ShiftedSolver& solver);
 
 }  // namespace
 
+double spectrum_scale(const SparseMatrix& A, const SparseMatrix& B) {
+  double scale = 0.0;
+  const Vector a = A.diagonal(), b = B.diagonal();
+  for (Index i = 0; i < a.size(); ++i) {
+    if (b(i) > 0.0) scale = std::max(scale, std::abs(a(i)) / b(i));
+  }
+  return scale > 0.0 ? scale : 1.0;
+}
+
 RigidBodyModes rigid_body_modes(const Model& model, ShiftedSolver& solver) {
   const std::uint64_t key = model_key(model);
   LastAnalysis& last = last_analysis();
@@ -135,41 +134,156 @@ std::string RigidBodyModes::describe() const {
 
 namespace {
 
+/// The stiffness pencil (Ks, Ms) the analysis works on: (K, M) of a second-order model, (-A, E)
+/// of a descriptor model.
+struct StiffnessPencil {
+  explicit StiffnessPencil(const Model& model)
+      : second(std::holds_alternative<SecondOrderModel>(model)) {
+    if (second) {
+      const auto& so = std::get<SecondOrderModel>(model);
+      K = &so.K;
+      M = &so.M;
+    } else {
+      const auto& ds = std::get<DescriptorModel>(model);
+      negated_a = -ds.A;
+      K = &negated_a;
+      M = &ds.E;
+    }
+  }
+  StiffnessPencil(const StiffnessPencil&) = delete;
+  StiffnessPencil& operator=(const StiffnessPencil&) = delete;
+
+  const char* k_name() const { return second ? "K" : "-A"; }
+  const char* m_name() const { return second ? "M" : "E"; }
+
+  bool second;
+  SparseMatrix negated_a;  // -A of a descriptor model (K is used in place)
+  const SparseMatrix* K = nullptr;
+  const SparseMatrix* M = nullptr;
+};
+
+/// The lowest eigenvalues of the pencil and the largest gap among them.
+struct LowSpectrum {
+  SymmetricEigenResult eig;
+  std::vector<double> x;  // sorted max(|lambda|, floor)
+  Index below_gap = 0;    // the number of eigenvalues below the largest gap (0: none found)
+  double gap = 0.0;       // the ratio across it
+};
+
+/// The gap test: the largest ratio between consecutive floored |lambda| among the candidates
+/// (|lambda| <= ceiling). The eigenvalues come sorted by signed value; rounding-level negative
+/// ones are candidates like their positive counterparts.
+void find_gap(LowSpectrum& s, double floor, double ceiling) {
+  const Index k = s.eig.eigenvalues.size();
+  s.x.assign(static_cast<std::size_t>(k), 0.0);
+  for (Index j = 0; j < k; ++j)
+    s.x[static_cast<std::size_t>(j)] = std::max(std::abs(s.eig.eigenvalues(j)), floor);
+  std::sort(s.x.begin(), s.x.end());
+  s.below_gap = 0;
+  s.gap = 0.0;
+  for (Index j = 1; j < k; ++j) {
+    const double below = s.x[static_cast<std::size_t>(j - 1)];
+    if (below > ceiling) break;
+    const double ratio = s.x[static_cast<std::size_t>(j)] / below;
+    if (ratio > s.gap) {
+      s.gap = ratio;
+      s.below_gap = j;
+    }
+  }
+}
+
+/// Step 2 of analyse(): shift-invert Lanczos at sigma < 0 with a doubling number of eigenpairs
+/// until a gap is found, an eigenvalue above the ceiling is known (no gap can follow among
+/// candidates), or nothing more can be computed. Stops early on a negative eigenvalue below
+/// -ceiling (indefinite).
+LowSpectrum lowest_spectrum(ShiftedSolver& solver, const StiffnessPencil& pencil, double sigma,
+                            double floor, double ceiling) {
+  const Index n = pencil.K->rows();
+  std::vector<Complex> w(pencil.second ? 3 : 2, Complex(0.0, 0.0));
+  w[0] = 1.0;
+  w[pencil.second ? 2 : 1] = -sigma;
+  const auto F = solver.factorize_combination(w);
+  LowSpectrum s;
+  for (Index nev = std::min(kFirstEigenpairs, n - 1);; nev = std::min(2 * nev, n - 1)) {
+    EigenOptions options;
+    options.nev = nev;
+    options.seed = 1;
+    s.eig = symmetric_shift_invert(*F, *pencil.M, sigma, options);
+    const Index k = s.eig.eigenvalues.size();
+    if (k > 0 && s.eig.eigenvalues(0) < -ceiling) break;  // indefinite: decided by the caller
+    find_gap(s, floor, ceiling);
+    if (s.gap >= kRigidGap || k == 0 || s.x.back() > ceiling || nev >= n - 1 ||
+        nev >= kMaxEigenpairs)
+      break;
+  }
+  return s;
+}
+
+/// A 1 x 1 K that is not positive definite: its one eigenvalue is the ratio itself.
+void analyse_scalar(const StiffnessPencil& pencil, RigidBodyModes& r) {
+  const Index n = pencil.K->rows();
+  const double lambda = n == 1 ? pencil.K->coeff(0, 0) / pencil.M->coeff(0, 0) : 0.0;
+  r.decided = true;
+  r.indefinite = lambda < 0.0;
+  r.count = lambda < 0.0 ? 0 : n;
+  r.zero_poles = pencil.second ? 2 * r.count : r.count;
+  if (r.count > 0) {
+    r.basis = Matrix::Constant(1, 1, 1.0 / std::sqrt(pencil.M->coeff(0, 0)));
+    r.rigid_eigenvalues = Vector::Constant(1, lambda);
+    r.zero_bound = kRigidFloor * r.scale;
+  }
+  r.method = fmt::format("{} is 1 x 1 and not positive", pencil.k_name());
+}
+
+/// The rigid-body eigenpairs: the s.below_gap eigenvalues of least modulus, M-orthonormal.
+void take_rigid_modes(const Model& model, const StiffnessPencil& pencil, const LowSpectrum& s,
+                      RigidBodyModes& r) {
+  const Vector& lambda = s.eig.eigenvalues;  // ascending
+  const Index k = lambda.size();
+  r.count = s.below_gap;
+  std::vector<Index> order(static_cast<std::size_t>(k));
+  for (Index j = 0; j < k; ++j) order[static_cast<std::size_t>(j)] = j;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](Index a, Index b) { return std::abs(lambda(a)) < std::abs(lambda(b)); });
+  r.basis.resize(pencil.K->rows(), r.count);
+  r.rigid_eigenvalues.resize(r.count);
+  for (Index j = 0; j < r.count; ++j) {
+    const Index i = order[static_cast<std::size_t>(j)];
+    r.basis.col(j) = s.eig.eigenvectors.col(i);
+    r.rigid_eigenvalues(j) = lambda(i);
+  }
+  m_orthonormalise(r.basis, *pencil.M);
+  const double largest_rigid = s.x[static_cast<std::size_t>(s.below_gap - 1)];
+  r.first_elastic = s.x[static_cast<std::size_t>(s.below_gap)];
+  r.zero_bound = std::sqrt(largest_rigid * r.first_elastic);
+  r.zero_poles =
+      pencil.second
+          ? 2 * r.count - damped_rank(r.basis, std::get<SecondOrderModel>(model).D, *pencil.M)
+          : r.count;
+}
+
 RigidBodyModes analyse(const Model& model, ShiftedSolver& solver) {
   RigidBodyModes r;
-  const bool second = std::holds_alternative<SecondOrderModel>(model);
-  r.second_order = second;
-  const char* k_name = second ? "K" : "-A";
-  SparseMatrix negated_a;  // -A of a descriptor model (K is used in place)
-  const SparseMatrix* k_ptr = nullptr;
-  const SparseMatrix* Ms = nullptr;
-  if (second) {
-    const auto& so = std::get<SecondOrderModel>(model);
-    k_ptr = &so.K;
-    Ms = &so.M;
-  } else {
-    const auto& ds = std::get<DescriptorModel>(model);
-    negated_a = -ds.A;
-    k_ptr = &negated_a;
-    Ms = &ds.E;
-  }
-  const SparseMatrix& Ks = *k_ptr;
-  const Index n = Ks.rows();
-  if (!(relative_asymmetry(Ks) <= kSymmetry) || !(relative_asymmetry(*Ms) <= kSymmetry)) {
+  const StiffnessPencil pencil(model);
+  r.second_order = pencil.second;
+  const SparseMatrix& Ks = *pencil.K;
+  const SparseMatrix& Ms = *pencil.M;
+  const char* k_name = pencil.k_name();
+  if (!(relative_asymmetry(Ks) <= kSymmetry) || !(relative_asymmetry(Ms) <= kSymmetry)) {
     r.method = fmt::format("{} or {} is not symmetric: no rigid-body analysis", k_name,
-                           second ? "M" : "E");
+                           pencil.m_name());
     return r;
   }
-  if (!is_positive_definite(*Ms)) {
+  if (!is_positive_definite(Ms)) {
     // A singular E (a DAE) or massless degrees of freedom: (K, M) has infinite eigenvalues, and
     // Lanczos on it need not converge (mna1: minutes without an answer). Such models are judged
     // by their poles alone.
     r.method = fmt::format("{} is not positive definite (a DAE or massless degrees of freedom): "
                            "no rigid-body analysis",
-                           second ? "M" : "E");
+                           pencil.m_name());
     return r;
   }
-  r.scale = spectrum_scale(Ks, *Ms);
+  r.scale = spectrum_scale(Ks, Ms);
   // Step 1: a positive definite K has no null space, whatever its condition number.
   if (is_positive_definite(Ks)) {
     r.decided = true;
@@ -178,19 +292,8 @@ RigidBodyModes analyse(const Model& model, ShiftedSolver& solver) {
         fmt::format("the Cholesky factorisation of {} succeeded: it is positive definite", k_name);
     return r;
   }
-  if (n < 2) {
-    // A 1 x 1 K that is not positive definite: its one eigenvalue is the ratio itself.
-    const double lambda = n == 1 ? Ks.coeff(0, 0) / Ms->coeff(0, 0) : 0.0;
-    r.decided = true;
-    r.indefinite = lambda < 0.0;
-    r.count = lambda < 0.0 ? 0 : n;
-    r.zero_poles = second ? 2 * r.count : r.count;
-    if (r.count > 0) {
-      r.basis = Matrix::Constant(1, 1, 1.0 / std::sqrt(Ms->coeff(0, 0)));
-      r.rigid_eigenvalues = Vector::Constant(1, lambda);
-      r.zero_bound = kRigidFloor * r.scale;
-    }
-    r.method = fmt::format("{} is 1 x 1 and not positive", k_name);
+  if (Ks.rows() < 2) {
+    analyse_scalar(pencil, r);
     return r;
   }
   // Step 2: the lowest eigenvalues, by shift-invert at sigma < 0 (K - sigma M is positive definite
@@ -202,46 +305,9 @@ RigidBodyModes analyse(const Model& model, ShiftedSolver& solver) {
   const double floor = kRigidFloor * r.scale;
   const double ceiling = kRigidCeiling * r.scale;
   const double sigma = -std::sqrt(kRigidFloor * kRigidCeiling) * r.scale;
-  SymmetricEigenResult eig;
-  Index best = 0;  // the number of rigid-body modes, once a gap is found
-  double best_ratio = 0.0;
-  std::vector<double> x;  // sorted max(|lambda|, floor)
+  LowSpectrum s;
   try {
-    std::vector<Complex> w(second ? 3 : 2, Complex(0.0, 0.0));
-    w[0] = 1.0;
-    w[second ? 2 : 1] = -sigma;
-    const auto F = solver.factorize_combination(w);
-    for (Index nev = std::min(kFirstEigenpairs, n - 1);; nev = std::min(2 * nev, n - 1)) {
-      EigenOptions options;
-      options.nev = nev;
-      options.seed = 1;
-      eig = symmetric_shift_invert(*F, *Ms, sigma, options);
-      const Index k = eig.eigenvalues.size();
-      if (k > 0 && eig.eigenvalues(0) < -ceiling) break;  // indefinite: decided below
-      // The gap test: the largest ratio between consecutive floored |lambda| among the
-      // candidates (|lambda| <= ceiling). The eigenvalues come sorted by signed value; rounding-
-      // level negative ones are candidates like their positive counterparts.
-      x.assign(static_cast<std::size_t>(k), 0.0);
-      for (Index j = 0; j < k; ++j)
-        x[static_cast<std::size_t>(j)] = std::max(std::abs(eig.eigenvalues(j)), floor);
-      std::sort(x.begin(), x.end());
-      best = 0;
-      best_ratio = 0.0;
-      for (Index j = 1; j < k; ++j) {
-        const double below = x[static_cast<std::size_t>(j - 1)];
-        if (below > ceiling) break;
-        const double ratio = x[static_cast<std::size_t>(j)] / below;
-        if (ratio > best_ratio) {
-          best_ratio = ratio;
-          best = j;
-        }
-      }
-      // Done with a gap, once an eigenvalue above the ceiling is known (no gap can follow among
-      // candidates), or when nothing more can be computed.
-      if (best_ratio >= kRigidGap || k == 0 || x.back() > ceiling || nev >= n - 1 ||
-          nev >= kMaxEigenpairs)
-        break;
-    }
+    s = lowest_spectrum(solver, pencil, sigma, floor, ceiling);
   } catch (const Interrupted&) {
     throw;  // a stop request is not a finding about the model
   } catch (const Error& e) {
@@ -252,7 +318,7 @@ RigidBodyModes analyse(const Model& model, ShiftedSolver& solver) {
     return r;
   }
   r.decided = true;
-  const Vector& lambda = eig.eigenvalues;  // ascending
+  const Vector& lambda = s.eig.eigenvalues;  // ascending
   const Index k = lambda.size();
   if (k > 0 && lambda(0) < -ceiling) {
     r.indefinite = true;
@@ -260,7 +326,7 @@ RigidBodyModes analyse(const Model& model, ShiftedSolver& solver) {
                            lambda(0), r.scale);
     return r;
   }
-  if (best == 0 || best_ratio < kRigidGap) {
+  if (s.below_gap == 0 || s.gap < kRigidGap) {
     // Not positive definite by Cholesky, but no eigenvalue separated from the rest: a numerically
     // singular but elastic K (condition beyond 1 / (N eps)), or all computed ones are candidates.
     r.method = fmt::format(
@@ -270,31 +336,12 @@ RigidBodyModes analyse(const Model& model, ShiftedSolver& solver) {
         k_name, k, k > 0 ? lambda(0) : 0.0, k > 0 ? lambda(k - 1) : 0.0, r.scale, kRigidGap);
     return r;
   }
-  r.count = best;
-  // The rigid-body eigenpairs: the `best` eigenvalues of least modulus.
-  std::vector<Index> order(static_cast<std::size_t>(k));
-  for (Index j = 0; j < k; ++j) order[static_cast<std::size_t>(j)] = j;
-  std::stable_sort(order.begin(), order.end(),
-                   [&](Index a, Index b) { return std::abs(lambda(a)) < std::abs(lambda(b)); });
-  r.basis.resize(n, r.count);
-  r.rigid_eigenvalues.resize(r.count);
-  for (Index j = 0; j < r.count; ++j) {
-    const Index i = order[static_cast<std::size_t>(j)];
-    r.basis.col(j) = eig.eigenvectors.col(i);
-    r.rigid_eigenvalues(j) = lambda(i);
-  }
-  m_orthonormalise(r.basis, *Ms);
-  const double largest_rigid = x[static_cast<std::size_t>(best - 1)];
-  r.first_elastic = x[static_cast<std::size_t>(best)];
-  r.zero_bound = std::sqrt(largest_rigid * r.first_elastic);
-  r.zero_poles = second
-                     ? 2 * r.count - damped_rank(r.basis, std::get<SecondOrderModel>(model).D, *Ms)
-                     : r.count;
+  take_rigid_modes(model, pencil, s, r);
   r.method = fmt::format(
       "{} is singular: {} eigenvalue{} of ({}, {}) at most {:.3g} of the spectrum scale {:.4g}, "
       "the next {:.4g} times larger (shift-invert Lanczos at sigma = {:.3g})",
-      k_name, r.count, r.count == 1 ? "" : "s", k_name, second ? "M" : "E", largest_rigid / r.scale,
-      r.scale, best_ratio, sigma);
+      k_name, r.count, r.count == 1 ? "" : "s", k_name, pencil.m_name(),
+      s.x[static_cast<std::size_t>(s.below_gap - 1)] / r.scale, r.scale, s.gap, sigma);
   return r;
 }
 

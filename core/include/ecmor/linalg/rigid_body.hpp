@@ -82,6 +82,11 @@ struct ECMOR_API RigidBodyModes {
   std::string describe() const;
 };
 
+/// max_i |A_ii| / B_ii over the positive B_ii: Rayleigh quotients of unit vectors, a lower bound
+/// of the largest eigenvalue of the pencil (A, B) and the scale against which an eigenvalue counts
+/// as zero (kRigidFloor); 1 when no B_ii is positive.
+ECMOR_API double spectrum_scale(const SparseMatrix& A, const SparseMatrix& B);
+
 /// The rigid-body modes of `model` (see the file comment), using `solver` (built on `model`) for
 /// the shift-invert factorisation when step 2 is needed. The last decided result is remembered,
 /// keyed by a fingerprint of the model's matrices: the driver, the reducer and the stability
