@@ -229,6 +229,14 @@ inline std::string singular_e_poles_text(const Matrix& A, const Matrix& E) {
       unstable, finite, largest);
 }
 
+/// The refusal of a model whose Gramians do not exist (the dense solver broke down with `e`).
+inline InputError no_gramians(const NumericalError& e) {
+  return InputError(fmt::format(
+      "balanced: the Gramians do not exist to working precision: {} (an undamped or marginally "
+      "damped model, poles on or next to the imaginary axis, has no finite Gramians)",
+      e.what()));
+}
+
 /// The Gramian factors of a stable model with nonsingular E (M) of at most kMaxDenseStates
 /// first-order states; `band` (Hz) set: the frequency-limited Gramians on that band.
 /// \throws InputError naming the problem for a model too large for dense Gramians, an unstable or
@@ -291,11 +299,7 @@ inline GramianFactors dense_gramian_factors(const Model& model,
     try {
       f = lyapunov_factors(fo.A, fo.E, fo.B, fo.C);
     } catch (const NumericalError& e) {
-      throw InputError(fmt::format(
-          "balanced: the Gramians do not exist to working precision: {} (an undamped or "
-          "marginally damped model, poles on or next to the imaginary axis, has no finite "
-          "Gramians)",
-          e.what()));
+      throw no_gramians(e);
     }
     out.Zc = std::move(f.Zc);
     out.Zq = std::move(f.Zq);
@@ -314,11 +318,7 @@ inline GramianFactors dense_gramian_factors(const Model& model,
         Q = solve_sylvester(transposed, transposed, Ro);
       }
     } catch (const NumericalError& e) {
-      throw InputError(fmt::format(
-          "balanced: the Gramians do not exist to working precision: {} (an undamped or "
-          "marginally damped model, poles on or next to the imaginary axis, has no finite "
-          "Gramians)",
-          e.what()));
+      throw no_gramians(e);
     }
     out.Zc = psd_factor(P);
     out.Zq = psd_factor(Q);

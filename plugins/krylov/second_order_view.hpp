@@ -20,6 +20,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "ecmor/base/error.hpp"
@@ -46,34 +47,35 @@ class FirstOrderBackedFactorization final : public Factorization {
   const std::vector<Complex>& weights() const override { return m_weights; }
   double rcond() const override { return m_first->rcond(); }
 
-  Matrix solve(const Matrix& B) const override {
-    if (m_scale.imag() != 0.0) {
-      throw NumericalError("krylov: a real solve was asked of a complex combination");
-    }
-    Matrix rhs = Matrix::Zero(2 * m_n, B.cols());
-    rhs.bottomRows(m_n) = B;
-    return m_first->solve(rhs).topRows(m_n) / m_scale.real();
-  }
+  Matrix solve(const Matrix& B) const override { return second_order_solve(B, false); }
   ComplexMatrix solve(const ComplexMatrix& B) const override {
-    ComplexMatrix rhs = ComplexMatrix::Zero(2 * m_n, B.cols());
-    rhs.bottomRows(m_n) = B;
-    return m_first->solve(rhs).topRows(m_n) / m_scale;
+    return second_order_solve(B, false);
   }
-  Matrix solve_transposed(const Matrix& B) const override {
-    if (m_scale.imag() != 0.0) {
-      throw NumericalError("krylov: a real solve was asked of a complex combination");
-    }
-    Matrix rhs = Matrix::Zero(2 * m_n, B.cols());
-    rhs.topRows(m_n) = B;
-    return m_first->solve_transposed(rhs).bottomRows(m_n) / m_scale.real();
-  }
+  Matrix solve_transposed(const Matrix& B) const override { return second_order_solve(B, true); }
   ComplexMatrix solve_transposed(const ComplexMatrix& B) const override {
-    ComplexMatrix rhs = ComplexMatrix::Zero(2 * m_n, B.cols());
-    rhs.topRows(m_n) = B;
-    return m_first->solve_transposed(rhs).bottomRows(m_n) / m_scale;
+    return second_order_solve(B, true);
   }
 
  private:
+  /// P(s)^-1 B = top half of (s E - A)^-1 [0; B], P(s)^-T B = bottom half of (s E - A)^-T [B; 0]
+  /// (see the file comment), divided by the combination's scale.
+  template <class Dense>
+  Dense second_order_solve(const Dense& B, bool transposed) const {
+    if constexpr (std::is_same_v<Dense, Matrix>) {
+      if (m_scale.imag() != 0.0) {
+        throw NumericalError("krylov: a real solve was asked of a complex combination");
+      }
+    }
+    Dense rhs = Dense::Zero(2 * m_n, B.cols());
+    rhs.middleRows(transposed ? 0 : m_n, m_n) = B;
+    const Dense x = transposed ? m_first->solve_transposed(rhs) : m_first->solve(rhs);
+    if constexpr (std::is_same_v<Dense, Matrix>) {
+      return x.middleRows(transposed ? m_n : 0, m_n) / m_scale.real();
+    } else {
+      return x.middleRows(transposed ? m_n : 0, m_n) / m_scale;
+    }
+  }
+
   std::shared_ptr<const Factorization> m_first;
   Index m_n;
   Complex m_scale;

@@ -180,6 +180,11 @@ class Parser {
               " bytes after it can hold)";
     fail(rule);
   }
+  /// The banner line: format, field and symmetry, with the combinations refused.
+  Header parse_banner();
+  /// The size line after the banner: dimensions and entry count, checked against the storage's
+  /// capacity and the bytes left in the file.
+  void parse_size_line(Header& h);
   std::int64_t parse_index(std::string_view tok, const char* what, std::int64_t max);
   double parse_value(std::string_view tok, Field field);
   std::int64_t parse_size(std::string_view tok, const char* what);
@@ -200,6 +205,12 @@ class Parser {
 };
 
 Header Parser::parse_header() {
+  Header h = parse_banner();
+  parse_size_line(h);
+  return h;
+}
+
+Header Parser::parse_banner() {
   static constexpr std::string_view kExpected =
       "expected the banner '%%MatrixMarket matrix <coordinate|array> "
       "<real|integer|unsigned-integer|pattern> "
@@ -273,7 +284,12 @@ Header Parser::parse_header() {
   h.pub.format = format;
   h.pub.field = h.field == Field::Real ? "real" : field;
   h.pub.symmetry = symmetry;
+  return h;
+}
 
+void Parser::parse_size_line(Header& h) {
+  const std::string symmetry = h.pub.symmetry;
+  std::string_view line;
   // Size line: first line that is neither a comment nor blank.
   if (!next_data_line(line))
     fail(
@@ -331,7 +347,6 @@ Header Parser::parse_header() {
                           "), which need at least " + std::to_string(min_bytes) +
                           " bytes, but only " + std::to_string(left) + " bytes follow");
   }
-  return h;
 }
 
 std::int64_t Parser::parse_size(std::string_view tok, const char* what) {

@@ -189,9 +189,35 @@ struct Workspace {
   Vector lar, lai, lcr, lci;  // columns k and k - 1 of L Z
 };
 
-Workspace& workspace() {
+/// The thread's workspace, sized for G (n x m) and L (p x n): Y = G, column n - 1 of L Z = L's.
+Workspace& workspace(const Matrix& G, const Matrix& L) {
   thread_local Workspace w;
+  const Index n = G.rows(), m = G.cols(), p = L.rows();
+  w.ar.resize(n);
+  w.ai.resize(n);
+  w.cr.resize(n);
+  w.ci.resize(n);
+  w.yr = G;
+  w.yi.setZero(n, m);
+  w.lar = L.col(n - 1);
+  w.lai.setZero(p);
+  w.lcr.resize(p);
+  w.lci.resize(p);
   return w;
+}
+
+/// out_r + i out_i, transposed for a model evaluated through its transpose.
+ComplexMatrix assemble(const Matrix& out_r, const Matrix& out_i, bool transposed) {
+  ComplexMatrix out(transposed ? out_r.cols() : out_r.rows(),
+                    transposed ? out_r.rows() : out_r.cols());
+  if (transposed) {
+    out.real() = out_r.transpose();
+    out.imag() = out_i.transpose();
+  } else {
+    out.real() = out_r;
+    out.imag() = out_i;
+  }
+  return out;
 }
 
 // |re| + |im|: the modulus up to a factor sqrt(2), without hypot's cost (LAPACK's pivot measure,
@@ -215,15 +241,17 @@ inline void divide(double ar, double ai, double br, double bi, double& qr, doubl
   throw NumericalError(os.str());
 }
 
+[[noreturn]] void throw_not_finite(Complex s) {
+  std::ostringstream os;
+  os << "reduced response: s = " << s.real() << (std::signbit(s.imag()) ? "-" : "+")
+     << std::abs(s.imag()) << "i: must be finite";
+  throw NumericalError(os.str());
+}
+
 }  // namespace
 
 ComplexMatrix ReducedResponse::operator()(Complex s) const {
-  if (!std::isfinite(s.real()) || !std::isfinite(s.imag())) {
-    std::ostringstream os;
-    os << "reduced response: s = " << s.real() << (std::signbit(s.imag()) ? "-" : "+")
-       << std::abs(s.imag()) << "i: must be finite";
-    throw NumericalError(os.str());
-  }
+  if (!std::isfinite(s.real()) || !std::isfinite(s.imag())) throw_not_finite(s);
   if (!m_hessenberg) return transfer_function(m_model, s);
   const Index n = m_minus_H.rows(), m = m_G.cols(), p = m_L.rows();
   const double sr = s.real(), si = s.imag();
@@ -239,17 +267,7 @@ ComplexMatrix ReducedResponse::operator()(Complex s) const {
   // elimination, the substitution and the product L Z Y run in one sweep that keeps two columns,
   // O(n m) memory in all. Why columns, not rows: the matrices are column-major, so every update
   // runs over contiguous memory (Laub's row operations stride by n), and -H is only read, once.
-  Workspace& w = workspace();
-  w.ar.resize(n);
-  w.ai.resize(n);
-  w.cr.resize(n);
-  w.ci.resize(n);
-  w.yr = m_G;
-  w.yi.setZero(n, m);
-  w.lar = m_L.col(n - 1);
-  w.lai.setZero(p);
-  w.lcr.resize(p);
-  w.lci.resize(p);
+  Workspace& w = workspace(m_G, m_L);
   double* ar = w.ar.data();
   double* ai = w.ai.data();
   double* cr = w.cr.data();
@@ -342,15 +360,7 @@ ComplexMatrix ReducedResponse::operator()(Complex s) const {
     std::swap(la_r, lc_r);
     std::swap(la_i, lc_i);
   }
-  ComplexMatrix out(m_transposed ? m : p, m_transposed ? p : m);
-  if (m_transposed) {
-    out.real() = out_r.transpose();
-    out.imag() = out_i.transpose();
-  } else {
-    out.real() = out_r;
-    out.imag() = out_i;
-  }
-  return out;
+  return assemble(out_r, out_i, m_transposed);
 }
 
 }  // namespace ecmor
