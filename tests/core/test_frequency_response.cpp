@@ -13,12 +13,15 @@
 #include <string>
 #include <vector>
 
+#include "common/builders.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/response/frequency_response.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
 
 namespace {
+
+using ecmor::test::sparse;
 
 using namespace ecmor;
 
@@ -79,11 +82,6 @@ Reference read_reference(const std::string& name, Index p, Index m) {
 // ---------------------------------------------------------------------------------------------
 // Small systems with closed-form responses.
 
-SparseMatrix sparse(const Matrix& A) {
-  SparseMatrix S = A.sparseView();
-  S.makeCompressed();
-  return S;
-}
 
 constexpr double km = 2.0, kd = 0.3, kk = 50.0, kb = 1.5, kc = -0.7;
 

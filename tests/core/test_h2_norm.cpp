@@ -15,6 +15,7 @@
 #include <variant>
 #include <vector>
 
+#include "common/builders.hpp"
 #include "common/dense_balanced_truncation.hpp"
 #include "common/small_models.hpp"
 #include "common/test_support.hpp"
@@ -30,13 +31,14 @@
 namespace ecmor {
 namespace {
 
+using test::sparse;
+
 using test::first_order;
 using test::message_of;
 using test::oscillator;
 
 const std::string kModels = "../shared/models/";
 
-SparseMatrix sparse(const Matrix& X) { return X.sparseView(0.0, 0.0).eval(); }
 
 /// <G1, G2>_H2 for Gi = 1 / (s^2 + di s + ki), by the residues of G1(-s) G2(s) in the left
 /// half-plane (derived by hand, checked by a 2e6-point quadrature: 0.210526315789 for

@@ -24,6 +24,7 @@
 #include <variant>
 #include <vector>
 
+#include "common/builders.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/gramians/lowrank_adi.hpp"
@@ -33,6 +34,8 @@
 
 namespace ecmor {
 namespace {
+
+using test::sparse;
 
 using test::message_of;
 
@@ -81,7 +84,6 @@ AdiOptions options(Index max_iterations = 1000, bool compress = false) {
   return o;
 }
 
-SparseMatrix sparse(const Matrix& X) { return X.sparseView(0.0, 0.0).eval(); }
 
 DescriptorModel descriptor(const Matrix& E, const Matrix& A, const Matrix& B, const Matrix& C) {
   DescriptorModel m;

@@ -11,6 +11,7 @@
 #include <random>
 #include <regex>
 
+#include "common/builders.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/gramians/lyapunov.hpp"
@@ -18,16 +19,10 @@
 namespace ecmor {
 namespace {
 
+using test::random_matrix;
+
 using test::message_of;
 
-Matrix random_matrix(Index rows, Index cols, unsigned seed) {
-  std::mt19937 gen(seed);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Matrix X(rows, cols);
-  for (Index j = 0; j < cols; ++j)
-    for (Index i = 0; i < rows; ++i) X(i, j) = u(gen);
-  return X;
-}
 
 /// A random matrix shifted so that all eigenvalues have Re <= -1 (checked with EigenSolver).
 Matrix random_stable(Index n, unsigned seed) {

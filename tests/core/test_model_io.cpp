@@ -1,6 +1,7 @@
 // Tests of model loading, validation, definiteness checks, summaries and reduced-model files.
 #include <gtest/gtest.h>
 
+#include "common/builders.hpp"
 #include "common/bitwise_equal.hpp"
 #include "common/test_support.hpp"
 #include <unistd.h>
@@ -27,13 +28,14 @@ using namespace ecmor;
 
 namespace {
 
+using ecmor::test::sparse;
+
 const fs::path kModels = fs::path(ECMOR_TEST_SOURCE_DIR) / ".." / "shared" / "models";
 
 using test::bitwise_equal;
 using test::TempDir;
 using test::write_raw;
 
-SparseMatrix sparse(const Matrix& A) { return A.sparseView(); }
 
 /// Symmetric positive definite tridiagonal n x n (1D Dirichlet Laplacian).
 SparseMatrix laplacian(Index n, bool neumann = false) {

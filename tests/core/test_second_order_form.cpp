@@ -10,15 +10,17 @@
 #include <string>
 #include <vector>
 
+#include "common/builders.hpp"
 #include "ecmor/model/model.hpp"
 #include "ecmor/model/model_io.hpp"
 
 namespace ecmor {
 namespace {
 
-Model load(const std::string& name) { return load_model("../shared/models/" + name); }
+using test::sparse;
+using test::shared_model;
 
-SparseMatrix sparse(const Matrix& X) { return X.sparseView(); }
+
 
 // H(s) = C (s E - A)^-1 B by a dense LU.
 ComplexMatrix dense_h(const DescriptorModel& m, Complex s) {
@@ -120,14 +122,14 @@ TEST(SecondOrderForm, SmallModelWithNonIdentityE11HasTheSameTransferFunction) {
 }
 
 TEST(SecondOrderForm, IssIsRecognisedAndEqualsTheShippedSecondOrderModel) {
-  const Model full = load("iss");
+  const Model full = shared_model("iss");
   const auto& fo = std::get<DescriptorModel>(full);
   const auto so = second_order_form(fo);
   ASSERT_TRUE(so.has_value());
   ASSERT_EQ(so->size(), 135);
   // iss_so was derived from the same SLICOT file by another converter: M = I, D, K diagonal,
   // velocity outputs (C zero).
-  const Model ref_model = load("iss_so");
+  const Model ref_model = shared_model("iss_so");
   const auto& ref = std::get<SecondOrderModel>(ref_model);
   EXPECT_EQ(Matrix(so->M), Matrix(ref.M));
   EXPECT_EQ(Matrix(so->D), Matrix(ref.D));
@@ -222,7 +224,7 @@ TEST(SecondOrderForm, ShippedFirstOrderModels) {
   // build (the SLICOT building) is the first-order form of build_so: recognised, with the
   // slightly unsymmetric K and D of build_so (the krylov plugin keeps its first-order path).
   {
-    const Model full = load("build");
+    const Model full = shared_model("build");
     const auto& fo = std::get<DescriptorModel>(full);
     const auto so = second_order_form(fo);
     ASSERT_TRUE(so.has_value());
@@ -237,7 +239,7 @@ TEST(SecondOrderForm, ShippedFirstOrderModels) {
   // Models without the structure: E SPD and A symmetric (rail), a dense A (beam), general ones.
   for (const char* name :
        {"rail_371", "cdplayer", "beam", "heat_cont", "pde", "random200", "fom"}) {
-    const Model full = load(name);
+    const Model full = shared_model(name);
     const auto& fo = std::get<DescriptorModel>(full);
     EXPECT_FALSE(second_order_form(fo).has_value()) << name;
   }

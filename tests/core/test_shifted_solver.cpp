@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "common/builders.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/linalg/first_order_view.hpp"
 #include "ecmor/response/frequency_response.hpp"
@@ -18,13 +19,10 @@
 
 namespace {
 
+using ecmor::test::sparse;
+
 using namespace ecmor;
 
-SparseMatrix sparse(const Matrix& A) {
-  SparseMatrix S = A.sparseView();
-  S.makeCompressed();
-  return S;
-}
 
 /// 2-DOF mass-spring-damper: M = diag(m1, m2), K = [[k1 + k2, -k2], [-k2, k2]], D = 0.1 M + 0.01 K.
 SecondOrderModel two_dof() {

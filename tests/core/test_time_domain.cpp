@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "common/builders.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/model/model_io.hpp"
@@ -22,13 +23,14 @@
 namespace ecmor {
 namespace {
 
+using test::sparse;
+
 using test::message_of;
 using Kind = InputSignal::Kind;
 using Scheme = TimeIntegrationOptions::Scheme;
 
 const std::string kModels = "../shared/models/";
 
-SparseMatrix sparse(const Matrix& X) { return X.sparseView(0.0, 0.0).eval(); }
 
 // m q'' + d q' + k q = b u,  y = c q + cv q'.
 SecondOrderModel oscillator(double m, double d, double k, double b, double c, double cv) {

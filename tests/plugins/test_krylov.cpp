@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "common/builders.hpp"
 #include "common/plugin_registry.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
@@ -32,6 +33,8 @@
 
 namespace ecmor {
 namespace {
+
+using test::shared_model;
 
 using test::message_of;
 
@@ -159,7 +162,6 @@ ParameterMap first_order(ParameterMap p) {
   return p;
 }
 
-Model load(const std::string& name) { return load_model("../shared/models/" + name); }
 
 // Band in Hz from the models' suggested angular band (info.json lists rad/s).
 Band band_rad(double w_min, double w_max) { return {w_min / kTwoPi, w_max / kTwoPi}; }
@@ -292,7 +294,7 @@ constexpr double kMomentTol = 1e-10;
 constexpr double kUnmatched = 100 * kMomentTol;
 
 TEST(Krylov, OneSidedSecondOrderMatchesMomentsAtComplexAndRealPoints) {
-  const Model model = load("triplechain_saak09_n451");
+  const Model model = shared_model("triplechain_saak09_n451");
   auto f = make(model, band_rad(1e-4, 1e2), params());
   const std::vector<ExpansionPoint> pts = {
       point_at_hz(0.05, 4), point_at_hz(1.0, 3), {Complex(0.0, 0.0), 2}};
@@ -314,7 +316,7 @@ TEST(Krylov, OneSidedSecondOrderMatchesMomentsAtComplexAndRealPoints) {
 }
 
 TEST(Krylov, TwoSidedMatchesTwiceTheMoments) {
-  const Model model = load("triplechain_saak09_n451");
+  const Model model = shared_model("triplechain_saak09_n451");
   auto f = make(model, band_rad(1e-4, 1e2), params("two_sided"));
   const std::vector<ExpansionPoint> pts = {point_at_hz(0.05, 3), {Complex(0.0, 0.0), 2}};
   const ReducerResult r = f->reducer->reduce({0, pts});
@@ -325,7 +327,7 @@ TEST(Krylov, TwoSidedMatchesTwiceTheMoments) {
 }
 
 TEST(Krylov, VelocityOutputBuildSoOneAndTwoSided) {
-  const Model model = load("build_so");
+  const Model model = shared_model("build_so");
   const Complex s0 = point_at_hz(1.0).s;  // 6.3 rad/s, near the first resonance (5.1 rad/s)
   auto one = make(model, band_rad(1e-1, 1e3), params());
   const ReducerResult r1 = one->reducer->reduce({0, {{s0, 3}}});
@@ -341,7 +343,7 @@ TEST(Krylov, DescriptorMimoCdplayerAndIss) {
   // iss on its first-order path (structure: first_order): the general descriptor machinery;
   // its second-order structure is tested in the "second-order structure" section below.
   for (const char* name : {"cdplayer", "iss"}) {
-    const Model model = load(name);
+    const Model model = shared_model(name);
     auto f = make(model, band_rad(1e-1, 1e3), first_order(params()));
     const Index m = inputs_of(model);
     const std::vector<ExpansionPoint> pts = {point_at_hz(2.0, 3), {Complex(5.0, 0.0), 2}};
@@ -360,7 +362,7 @@ TEST(Krylov, DescriptorMimoCdplayerAndIss) {
 }
 
 TEST(Krylov, MimoIssSoBlockAndTangential) {
-  const Model model = load("iss_so");
+  const Model model = shared_model("iss_so");
   const Complex s0 = point_at_hz(0.2).s;
   auto f = make(model, band_rad(1e-2, 1e3), params());
   const ReducerResult r = f->reducer->reduce({0, {{s0, 3}}});
@@ -387,7 +389,7 @@ TEST(Krylov, MimoIssSoBlockAndTangential) {
 TEST(Krylov, TwoSidedTangentialIsBitangentialInterpolation) {
   // Gallivan, Vandendorpe & Van Dooren (2004): with right directions v and left directions u,
   // H_j v and u^H H_j match for j < k, and u^H H_j v for j < 2k.
-  const Model model = load("iss");
+  const Model model = shared_model("iss");
   const Complex s0 = point_at_hz(0.2).s;
   ParameterMap p = first_order(params("two_sided"));
   p.set("tangential_directions", 1);
@@ -433,7 +435,7 @@ TEST(Krylov, OneSidedIsStableOnEveryShippedSecondOrderModel) {
     for (const int point_count : {1, 3}) {
       ParameterMap p = params();
       p.set("point_count", point_count);
-      auto f = make(load(c.name), band_rad(c.w_min, c.w_max), p);
+      auto f = make(shared_model(c.name), band_rad(c.w_min, c.w_max), p);
       for (const Index order : c.orders) {
         const ReducerResult r = f->reducer->reduce({order, {}});
         EXPECT_EQ(r.V.cols(), order) << c.name;
@@ -464,7 +466,7 @@ TEST(Krylov, TwoSidedLossOfStabilityIsDetectedAndNamed) {
   // while the one-sided model of the same points is stable.
   ParameterMap p = params("two_sided");
   p.set("point_count", 3);
-  auto f = make(load("iss_so"), band_rad(1e-2, 1e3), p);
+  auto f = make(shared_model("iss_so"), band_rad(1e-2, 1e3), p);
   const ReducerResult r = f->reducer->reduce({12, {}});
   const ComplexVector poles_ref = dense_poles(std::get<ReducedSecondOrderModel>(r.model));
   Index unstable = 0;
@@ -478,7 +480,7 @@ TEST(Krylov, TwoSidedLossOfStabilityIsDetectedAndNamed) {
 
   ParameterMap q = params();
   q.set("point_count", 3);
-  auto g = make(load("iss_so"), band_rad(1e-2, 1e3), q);
+  auto g = make(shared_model("iss_so"), band_rad(1e-2, 1e3), q);
   const ReducerResult r1 = g->reducer->reduce({12, {}});
   EXPECT_LT(max_real_pole(r1.model), 0.0);
   EXPECT_EQ(r1.note.find("lost stability"), std::string::npos) << r1.note;
@@ -496,7 +498,7 @@ Index dense_unstable(const ReducedModel& m) {
 
 TEST(Krylov, StabilityCountIsCertifiedOrComputedAndAgreesWithDensePoles) {
   // Symmetric positive definite M, D, K, one-sided: certified, no eigenvalues computed.
-  const Model tc = load("triplechain_saak09_n451");
+  const Model tc = shared_model("triplechain_saak09_n451");
   auto f = make(tc, band_rad(1e-4, 1e2), params());
   const ReducerResult r =
       f->reducer->reduce({0, {point_at_hz(0.05, 4), point_at_hz(0.3, 3), {Complex(0.0), 2}}});
@@ -508,7 +510,7 @@ TEST(Krylov, StabilityCountIsCertifiedOrComputedAndAgreesWithDensePoles) {
 
   // build_so: K, D slightly unsymmetric, so Kr is not symmetric: the eigenvalues decide, and a
   // model requested again reuses its count.
-  const Model bs = load("build_so");
+  const Model bs = shared_model("build_so");
   auto g = make(bs, band_rad(1e-1, 1e3), params());
   const ReductionRequest request{0, {point_at_hz(1.0, 3), point_at_hz(10.0, 2)}};
   const ReducerResult b1 = g->reducer->reduce(request);
@@ -543,7 +545,7 @@ TEST(Krylov, StabilityCountIsCertifiedOrComputedAndAgreesWithDensePoles) {
 // ---- deflation ----------------------------------------------------------------------------------
 
 TEST(Krylov, RepeatedAndDependentInputsGiveTheSameSubspace) {
-  const Model base = load("iss_so");
+  const Model base = shared_model("iss_so");
   SecondOrderModel dup = std::get<SecondOrderModel>(base);
   const Matrix B = dup.B;
   Matrix B5(B.rows(), 6);
@@ -559,7 +561,7 @@ TEST(Krylov, RepeatedAndDependentInputsGiveTheSameSubspace) {
   EXPECT_GT(rd.diagnostics.at("deflated_vectors"), 0.0);
   EXPECT_LT(rd.diagnostics.at("orthogonality_loss"), 1e-13);
   // SISO with B = [b, b]: the subspace of b alone.
-  const Model tc = load("triplechain_saak09_n451");
+  const Model tc = shared_model("triplechain_saak09_n451");
   SecondOrderModel tc2 = std::get<SecondOrderModel>(tc);
   tc2.B = Matrix(tc2.B.rows(), 2);
   tc2.B << std::get<SecondOrderModel>(tc).B, std::get<SecondOrderModel>(tc).B;
@@ -574,7 +576,7 @@ TEST(Krylov, RepeatedAndDependentInputsGiveTheSameSubspace) {
 // ---- incremental growth and reuse ---------------------------------------------------------------
 
 TEST(Krylov, GrowingMomentsAndPointsIsIncrementalAndReusesFactorizations) {
-  const Model model = load("triplechain_saak09_n451");
+  const Model model = shared_model("triplechain_saak09_n451");
   auto f = make(model, band_rad(1e-4, 1e2), params());
   const ExpansionPoint p1 = point_at_hz(0.05, 2), p2 = point_at_hz(0.3, 3);
   f->reducer->reduce({0, {p1}});
@@ -604,7 +606,7 @@ TEST(Krylov, GrowingMomentsAndPointsIsIncrementalAndReusesFactorizations) {
 }
 
 TEST(Krylov, GrowOrderPathIsNestedExactAndReusesFactorizations) {
-  const Model model = load("triplechain_saak09_n451");
+  const Model model = shared_model("triplechain_saak09_n451");
   ParameterMap p = params();
   p.set("point_count", 2);
   auto f = make(model, band_rad(1e-4, 1e2), p);
@@ -687,7 +689,7 @@ TEST(Krylov, IncrementalProjectionEqualsProjectFromScratch) {
       {"iss_so", 1e-2, 1e3, {point_at_hz(0.2), point_at_hz(2.0), point_at_hz(20.0)}},
       {"cdplayer", 1e-1, 1e3, {point_at_hz(2.0), point_at_hz(20.0), {Complex(5.0, 0.0), 1}}}};
   for (const Case& c : cases) {
-    const Model model = load(c.name);
+    const Model model = shared_model(c.name);
     for (const char* projection : {"one_sided", "two_sided"}) {
       const std::string what = fmt::format("{} {}", c.name, projection);
       auto f = make(model, band_rad(c.w_min, c.w_max), params(projection));
@@ -720,7 +722,7 @@ TEST(Krylov, IncrementalProjectionEqualsProjectFromScratch) {
     }
   }
   // The grow path (no points): V only grows, each order extends the previous projection.
-  const Model tc = load("triplechain_saak09_n451");
+  const Model tc = shared_model("triplechain_saak09_n451");
   for (const char* projection : {"one_sided", "two_sided"}) {
     ParameterMap p = params(projection);
     p.set("point_count", 2);
@@ -735,7 +737,7 @@ TEST(Krylov, IncrementalProjectionEqualsProjectFromScratch) {
 
 TEST(Krylov, OneSidedReducedMatricesOfSymmetricModelsAreExactlySymmetric) {
   // Needed by the stability certificate; project() itself is symmetric only to rounding.
-  const Model model = load("triplechain_saak09_n451");
+  const Model model = shared_model("triplechain_saak09_n451");
   auto f = make(model, band_rad(1e-4, 1e2), params());
   f->reducer->reduce({0, {point_at_hz(0.05, 3)}});
   const ReducerResult r = f->reducer->reduce({0, {point_at_hz(0.05, 3), point_at_hz(0.3, 2)}});
@@ -746,7 +748,7 @@ TEST(Krylov, OneSidedReducedMatricesOfSymmetricModelsAreExactlySymmetric) {
 }
 
 TEST(Krylov, LeastRecentlyUsedCacheBoundsThePointStates) {
-  const Model model = load("triplechain_saak09_n451");
+  const Model model = shared_model("triplechain_saak09_n451");
   ParameterMap p = params();
   p.set("cache_points", 1);
   auto f = make(model, band_rad(1e-4, 1e2), p);
@@ -772,7 +774,7 @@ TEST(Krylov, ARequestNeverEvictsItsOwnPoints) {
   // shipped config 80) grows the cache to its point count, so that rebuilding the same points
   // factorises nothing. Here one more moment at the first point rebuilds the four later points
   // from their cached engines: no factorisation, and one solve (the new step, SISO).
-  const Model model = load("triplechain_saak09_n451");
+  const Model model = shared_model("triplechain_saak09_n451");
   ParameterMap p = params();
   p.set("cache_points", 2);
   auto f = make(model, band_rad(1e-4, 1e2), p);
@@ -795,7 +797,7 @@ TEST(Krylov, ARequestNeverEvictsItsOwnPoints) {
 }
 
 TEST(Krylov, FactorizationsReusedCountsThisRequestOnly) {
-  auto f = make(load("triplechain_saak09_n451"), band_rad(1e-4, 1e2), params());
+  auto f = make(shared_model("triplechain_saak09_n451"), band_rad(1e-4, 1e2), params());
   const ExpansionPoint p1 = point_at_hz(0.05, 2), p2 = point_at_hz(0.3, 2);
   auto reused = [&](const std::vector<ExpansionPoint>& pts) {
     return f->reducer->reduce({0, pts}).diagnostics.at("factorizations_reused");
@@ -811,7 +813,7 @@ TEST(Krylov, RepeatedPointsAreMergedInTheResult) {
   // Optimisers put several points at one frequency (DIRECT-L's first sample is the box centre,
   // BOBYQA pushes points onto a bound): the copies add no columns, and the result reports each
   // point once with the largest moment count, as a fresh request of the distinct points does.
-  const Model model = load("triplechain_saak09_n451");
+  const Model model = shared_model("triplechain_saak09_n451");
   const ExpansionPoint p1 = point_at_hz(0.05, 2), p2 = point_at_hz(0.3, 1);
   auto f = make(model, band_rad(1e-4, 1e2), params());
   const ReducerResult r = f->reducer->reduce({0, {p1, p2, {p1.s, 3}, p2}});
@@ -832,7 +834,7 @@ TEST(Krylov, RepeatedPointsAreMergedInTheResult) {
 }
 
 TEST(Krylov, OrderBeyondTheSubspaceReturnsAllAndSaysSo) {
-  auto f = make(load("lf10"), band_rad(1e2, 1e7), params());
+  auto f = make(shared_model("lf10"), band_rad(1e2, 1e7), params());
   EXPECT_EQ(f->reducer->max_order(), 18);
   const ReducerResult r = f->reducer->reduce({30, {}});
   EXPECT_EQ(r.V.cols(), 18);
@@ -848,7 +850,7 @@ TEST(Krylov, OrderBeyondTheSubspaceReturnsAllAndSaysSo) {
 // fresh reducer. Each solve call of the request fails once, in turn: the start blocks, the first
 // step (which fixes the scaling of the linearisation) and the later steps.
 TEST(Krylov, FailedSolveInsideArnoldiLeavesTheCacheUsable) {
-  const Model model = load("triplechain_saak09_n451");
+  const Model model = shared_model("triplechain_saak09_n451");
   const Band band = band_rad(1e-4, 1e2);
   const std::vector<ExpansionPoint> pts = {point_at_hz(0.05, 4), point_at_hz(0.3, 3)};
   auto ref = make(model, band, params(), true);
@@ -876,7 +878,7 @@ TEST(Krylov, FailedSolveInsideArnoldiLeavesTheCacheUsable) {
 // the output side to W. A failure on the output side must not leave V with columns that no moment
 // block accounts for (a retry would append them again and count them as deflated).
 TEST(Krylov, FailedOutputSideAppendLeavesTheGrowBasesConsistent) {
-  const Model model = load("cdplayer");
+  const Model model = shared_model("cdplayer");
   const Band band = band_rad(1e-1, 1e3);
   ParameterMap p = params("two_sided");
   p.set("point_count", 2);
@@ -908,7 +910,7 @@ TEST(Krylov, FailedOutputSideAppendLeavesTheGrowBasesConsistent) {
 // ---- orthogonality and accuracy ----------------------------------------------------------------
 
 TEST(Krylov, OrthogonalityAtOrder100OnTriplechain1501) {
-  auto f = make(load("triplechain_mess_n1501"), band_rad(1e-4, 1.0), params());
+  auto f = make(shared_model("triplechain_mess_n1501"), band_rad(1e-4, 1.0), params());
   const auto t0 = std::chrono::steady_clock::now();
   const ReducerResult r = f->reducer->reduce({100, {}});
   const double seconds =
@@ -970,7 +972,7 @@ TEST(Krylov, ResponseMatchesTheIndependentReferenceOnTriplechain451) {
     pts.push_back(point_at_hz(0.2 * std::pow(20.0, (i + 0.5) / 12.0) / kTwoPi, 8));
   }
   pts.push_back({Complex(0.0, 0.0), 8});
-  auto f = make(load("triplechain_saak09_n451"), band_rad(1e-4, 1e2), params());
+  auto f = make(shared_model("triplechain_saak09_n451"), band_rad(1e-4, 1e2), params());
   const ReducerResult r = f->reducer->reduce({0, pts});
   EXPECT_EQ(r.V.cols(), 200);
   double worst = 0.0;
@@ -1008,7 +1010,7 @@ SecondOrderModel chain(Index n, bool grounded, double damping) {
 }
 
 TEST(Krylov, BadPointsAreNamed) {
-  auto f = make(load("triplechain_saak09_n451"), band_rad(1e-4, 1e2), params());
+  auto f = make(shared_model("triplechain_saak09_n451"), band_rad(1e-4, 1e2), params());
   std::string msg = message_of<InputError>([&] {
     f->reducer->reduce({0, {{Complex(-1.0, 2.0), 1}}});
   });
@@ -1108,7 +1110,7 @@ TEST(Krylov, InvalidParametersAreNamed) {
 }
 
 TEST(Krylov, ConfiguredPointsAndWeightsAreUsed) {
-  const Model model = load("triplechain_saak09_n451");
+  const Model model = shared_model("triplechain_saak09_n451");
   ParameterMap p = params();
   p.set("points", ParameterValue{std::vector<double>{0.01, 0.2}, {}});
   p.set("real_points", 0.0);
@@ -1128,7 +1130,7 @@ TEST(Krylov, ConfiguredPointsAndWeightsAreUsed) {
 TEST(Krylov, PointMomentsApplyToLogSpacedPoints) {
   // point_count points take point_moments like configured ones: one value for all, or one per
   // point (low to high frequency). Complex SISO points: two columns per block.
-  const Model model = load("triplechain_saak09_n451");
+  const Model model = shared_model("triplechain_saak09_n451");
   ParameterMap p = params();
   p.set("point_count", 2);
   p.set("point_moments", 3);
@@ -1163,7 +1165,7 @@ TEST(Krylov, PointMomentsApplyToLogSpacedPoints) {
 TEST(Krylov, LinearPointSpacingPlacesMidpointsOfEqualSections) {
   // point_spacing: linear puts the p points at f_min + (i + 1/2) (f_max - f_min) / p (i = 0..p-1),
   // low to high; with one moment each a complex SISO point brings two columns.
-  const Model model = load("triplechain_saak09_n451");
+  const Model model = shared_model("triplechain_saak09_n451");
   ParameterMap p = params();
   p.set("point_count", 4);
   p.set("point_spacing", "linear");
@@ -1237,7 +1239,7 @@ const std::string kStructureNote =
     "second-order structure of the first-order model used (x = [q; q'])";
 
 TEST(KrylovStructure, IssResultIsTheProjectionOfTheFirstOrderModelWithBlockDiagonalBases) {
-  const Model model = load("iss");
+  const Model model = shared_model("iss");
   const Index N = size_of(model), n = N / 2;
   for (const char* projection : {"one_sided", "two_sided"}) {
     auto f = make(model, kIssBand, params(projection));
@@ -1283,7 +1285,7 @@ TEST(KrylovStructure, IssResultIsTheProjectionOfTheFirstOrderModelWithBlockDiago
 }
 
 TEST(KrylovStructure, IssStaysStableWhereTheFirstOrderPathDoesNot) {
-  const Model model = load("iss");
+  const Model model = shared_model("iss");
   auto structured = make(model, kIssBand, params());
   auto plain = make(model, kIssBand, first_order(params()));
   for (const auto& pts : iss_point_sets()) {
@@ -1318,7 +1320,7 @@ TEST(KrylovStructure, IssMatchesTheMomentsOfTheFirstOrderModel) {
   // of s0 E - A (270 x 270), compared with those of the reduced first-order model (moments(),
   // kMomentTol: see above; the points here keep cond(s0 E - A) moderate). No point at s0 = 0:
   // with velocity outputs H(0) = 0, and a relative comparison means nothing there.
-  const Model model = load("iss");
+  const Model model = shared_model("iss");
   const std::vector<ExpansionPoint> pts = {
       point_at_hz(0.03, 3), point_at_hz(0.5, 2), point_at_hz(4.0, 2), {Complex(2.0, 0.0), 1}};
   auto f = make(model, kIssBand, params());
@@ -1353,7 +1355,7 @@ TEST(KrylovStructure, NonIdentityE11IsProjectedInBothPlaces) {
   // iss with E11 = A12 = F, a diagonal SPD matrix other than I (F q' = F v still means q' = v, so
   // H is unchanged): the reduced model must use V2' F V2 in Er and in Ar, i.e. still equal the
   // projection of this first-order model, match its moments and stay stable.
-  const Model iss = load("iss");
+  const Model iss = shared_model("iss");
   DescriptorModel m = std::get<DescriptorModel>(iss);
   const Index n = size_of(iss) / 2;
   for (Index i = 0; i < n; ++i) {
@@ -1380,7 +1382,7 @@ TEST(KrylovStructure, NonIdentityE11IsProjectedInBothPlaces) {
 }
 
 TEST(KrylovStructure, OrdersAreEvenAndCapsMapToHalfTheSecondOrderColumns) {
-  const Model model = load("iss");
+  const Model model = shared_model("iss");
   ParameterMap p = params();
   p.set("point_count", 4);
   auto f = make(model, kIssBand, p);
@@ -1412,7 +1414,7 @@ TEST(KrylovStructure, OrdersAreEvenAndCapsMapToHalfTheSecondOrderColumns) {
 TEST(KrylovStructure, SolvesGoThroughTheSharedFirstOrderSolver) {
   // The second-order solves are answered by factorisations of s0 E - A from the driver's solver:
   // one per point, counted there (no private solver whose work the history would not see).
-  const Model model = load("iss");
+  const Model model = shared_model("iss");
   auto f = make(model, kIssBand, params());
   const SolverCounters before = f->solver->counters();
   const ReducerResult r =
@@ -1427,7 +1429,7 @@ TEST(KrylovStructure, FirstOrderKeyAndUnsuitableModelsKeepThePlainPath) {
   const std::vector<ExpansionPoint> pts = {point_at_hz(0.5, 2)};
   // structure: first_order on iss.
   {
-    auto f = make(load("iss"), kIssBand, first_order(params()));
+    auto f = make(shared_model("iss"), kIssBand, first_order(params()));
     const ReducerResult r = f->reducer->reduce({0, pts});
     EXPECT_EQ(r.diagnostics.at("second_order_structure"), 0.0);
     EXPECT_EQ(r.note.find("second-order structure"), std::string::npos) << r.note;
@@ -1437,14 +1439,14 @@ TEST(KrylovStructure, FirstOrderKeyAndUnsuitableModelsKeepThePlainPath) {
   // build: the structure is there, but K and D (those of build_so) are slightly unsymmetric,
   // where the symmetric stability argument does not apply: first-order path under auto.
   {
-    auto f = make(load("build"), band_rad(1e-1, 1e3), params());
+    auto f = make(shared_model("build"), band_rad(1e-1, 1e3), params());
     const ReducerResult r = f->reducer->reduce({0, pts});
     EXPECT_EQ(r.diagnostics.at("second_order_structure"), 0.0);
     EXPECT_EQ(r.V.cols(), 2 * 2);
   }
   // rail_371 (no such structure) and a second-order model.
   for (const char* name : {"rail_371", "iss_so"}) {
-    auto f = make(load(name), kIssBand, params());
+    auto f = make(shared_model(name), kIssBand, params());
     EXPECT_EQ(f->reducer->reduce({0, pts}).diagnostics.at("second_order_structure"), 0.0) << name;
   }
 }

@@ -14,6 +14,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/SparseCholesky>
 
+#include "common/builders.hpp"
 #include "common/dense_reference.hpp"
 #include "common/plugin_registry.hpp"
 #include "ecmor/base/error.hpp"
@@ -23,6 +24,8 @@
 
 namespace ecmor {
 namespace {
+
+using test::shared_model;
 
 // ---- helpers ----------------------------------------------------------------------------------
 
@@ -55,7 +58,6 @@ ParameterMap params(bool static_correction, int batch_size = 20) {
   return p;
 }
 
-Model load(const std::string& name) { return load_model("../shared/models/" + name); }
 
 // Band in Hz from the models' suggested angular band (info.json lists rad/s).
 Band band_rad(double w_min, double w_max) { return {w_min / kTwoPi, w_max / kTwoPi}; }
@@ -170,7 +172,7 @@ SecondOrderModel free_chain(Index n) {
 // ---- eigenpairs -------------------------------------------------------------------------------
 
 TEST(Modal, Lf10AllModesMatchDenseEigenpairs) {
-  auto f = make(load("lf10"), band_rad(1e2, 1e7), params(false));
+  auto f = make(shared_model("lf10"), band_rad(1e2, 1e7), params(false));
   const auto& m = std::get<SecondOrderModel>(f->model);
   Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> dense{Matrix(m.K), Matrix(m.M)};
   const ReducerResult r = f->reducer->reduce({18, {}});
@@ -199,7 +201,7 @@ Band mid_band(const Vector& lambda, Index lo, Index hi) {
 }
 
 TEST(Modal, TriplechainSelectsBandModesLikeTheDenseReference) {
-  const Model model = load("triplechain_saak09_n451");
+  const Model model = shared_model("triplechain_saak09_n451");
   const auto& m0 = std::get<SecondOrderModel>(model);
   Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> dense{Matrix(m0.K), Matrix(m0.M)};
   const Band band = mid_band(dense.eigenvalues(), 150, 170);
@@ -218,7 +220,7 @@ TEST(Modal, TriplechainSelectsBandModesLikeTheDenseReference) {
 
 TEST(Modal, NestedAndIncrementalGrowthEqualsFreshComputation) {
   // A band high in the spectrum: its modes lie many slices above sigma_0.
-  const Model model = load("triplechain_saak09_n451");
+  const Model model = shared_model("triplechain_saak09_n451");
   const auto& m0 = std::get<SecondOrderModel>(model);
   const Band band = mid_band(
       Eigen::GeneralizedSelfAdjointEigenSolver<Matrix>(Matrix(m0.K), Matrix(m0.M), Eigen::EigenvaluesOnly).eigenvalues(),
@@ -294,7 +296,7 @@ TEST(Modal, MultipleEigenvalueEndsTheSlicingWithOnlyTrueModes) {
 
 TEST(Modal, StaticCorrectionReproducesTheStaticResponse) {
   const Band band = band_rad(1e-4, 1e2);
-  const Model model = load("triplechain_saak09_n451");
+  const Model model = shared_model("triplechain_saak09_n451");
   const auto& m = std::get<SecondOrderModel>(model);
   // Independent of the plugin and the shifted solver: Eigen's sparse LDL'.
   const Matrix h0 = m.C * Matrix(Eigen::SimplicialLDLT<SparseMatrix>(m.K).solve(m.B));
@@ -342,7 +344,7 @@ void expect_subset(const std::vector<Complex>& got, const std::vector<Complex>& 
 
 TEST(Modal, BuildDescriptorPetrovGalerkinKeepsTheSelectedPoles) {
   const Band band = band_rad(1e-1, 1e3);
-  auto f = make(load("build"), band, params(true));
+  auto f = make(shared_model("build"), band, params(true));
   const auto& m = std::get<DescriptorModel>(f->model);
   const ReducerResult r = f->reducer->reduce({10, {}});
   ASSERT_GE(r.V.cols(), 9);
@@ -364,7 +366,7 @@ TEST(Modal, BuildDescriptorPetrovGalerkinKeepsTheSelectedPoles) {
 
 TEST(Modal, Rail371SymmetricDescriptorIsGalerkin) {
   const Band band{1e-5, 1e-1};
-  auto f = make(load("rail_371"), band, params(false));
+  auto f = make(shared_model("rail_371"), band, params(false));
   const auto& m = std::get<DescriptorModel>(f->model);
   const ReducerResult r = f->reducer->reduce({15, {}});
   ASSERT_EQ(r.V.cols(), 15);
@@ -386,7 +388,7 @@ TEST(Modal, Rail371SymmetricDescriptorIsGalerkin) {
 }
 
 TEST(Modal, BuildSoUnsymmetricStiffnessUsesTheGeneralEigenproblem) {
-  auto f = make(load("build_so"), band_rad(1e-1, 1e3), params(true));
+  auto f = make(shared_model("build_so"), band_rad(1e-1, 1e3), params(true));
   const auto& m = std::get<SecondOrderModel>(f->model);
   const ReducerResult r = f->reducer->reduce({8, {}});
   ASSERT_GE(r.V.cols(), 7);
@@ -531,7 +533,7 @@ TEST(Modal, DominanceBasesAreNestedAndEqualAFreshComputation) {
 TEST(Modal, DominanceIsRefusedByNameOnTheGeneralPath) {
   ParameterMap p = dominance_params(true);
   try {
-    make(load("build_so"), band_rad(1e-1, 1e3), p);
+    make(shared_model("build_so"), band_rad(1e-1, 1e3), p);
     FAIL() << "expected ConfigError";
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("mode_ranking: dominance needs the symmetric eigenproblem"),
@@ -552,7 +554,7 @@ TEST(Modal, DominanceIsRefusedByNameOnTheGeneralPath) {
 // ---- requests, parameters and bad input ---------------------------------------------------------
 
 TEST(Modal, OrderBeyondNReturnsAllModesAndSaysSo) {
-  auto f = make(load("lf10"), band_rad(1e2, 1e7), params(true));
+  auto f = make(shared_model("lf10"), band_rad(1e2, 1e7), params(true));
   EXPECT_EQ(f->reducer->max_order(), 18);
   const ReducerResult r = f->reducer->reduce({30, {}});
   EXPECT_EQ(r.V.cols(), 18);
@@ -612,7 +614,7 @@ TEST(Modal, InvalidParametersAreNamed) {
               std::string::npos)
         << e.what();
   }
-  auto f = make(load("lf10"), band_rad(1e2, 1e7), params(true));
+  auto f = make(shared_model("lf10"), band_rad(1e2, 1e7), params(true));
   // Order 0 without points is refused at the plugin boundary (reducer_guard.cpp).
   EXPECT_THROW(f->reducer->reduce({0, {}}), ConfigError);
 }

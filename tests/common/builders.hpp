@@ -1,0 +1,38 @@
+#pragma once
+/// \file builders.hpp
+/// Model pieces shared by the test suites: sparse copies of dense matrices, seeded random
+/// matrices, and the shared benchmark models (read relative to the build directory, where ctest
+/// runs the tests).
+
+#include <random>
+#include <string>
+
+#include "ecmor/base/types.hpp"
+#include "ecmor/model/model.hpp"
+#include "ecmor/model/model_io.hpp"
+
+namespace ecmor::test {
+
+/// The nonzero entries of X as a compressed sparse matrix.
+inline SparseMatrix sparse(const Matrix& X) {
+  SparseMatrix S = X.sparseView(0.0, 0.0);
+  S.makeCompressed();
+  return S;
+}
+
+/// Entries uniform in [-1, 1] from a Mersenne twister seeded with `seed`, column by column.
+inline Matrix random_matrix(Index rows, Index cols, unsigned seed) {
+  std::mt19937 gen(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Matrix X(rows, cols);
+  for (Index j = 0; j < cols; ++j)
+    for (Index i = 0; i < rows; ++i) X(i, j) = u(gen);
+  return X;
+}
+
+/// A model of ../shared/models by its directory name.
+inline Model shared_model(const std::string& name) {
+  return load_model("../shared/models/" + name);
+}
+
+}  // namespace ecmor::test
