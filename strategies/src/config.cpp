@@ -141,6 +141,24 @@ class Parser {
   void collect_parameters(const YAML::Node& map, const std::string& sec, ParameterMap& params);
   /// strategy: {name: portfolio, prune: ..., members: [{reducer: {...}, strategy: {...}}, ...]}.
   void parse_portfolio(const YAML::Node& strategy, RunConfig& config);
+
+  /// Reads the YAML into m_root and checks the section names. \throws ConfigError.
+  void load(const std::string& yaml);
+  /// Whether strategy.name is portfolio (whose members name the reducers). Not const, nor is
+  /// require_sections: a const YAML::Node's operator[] makes an invalid node of a missing key.
+  bool names_portfolio();
+  void require_sections(bool portfolio);
+  /// One function per section: reads it into `config`.
+  void parse_model(RunConfig& config);
+  void parse_band(RunConfig& config);
+  void parse_target(RunConfig& config);
+  void parse_strategy(bool portfolio, RunConfig& config);
+  void parse_error(RunConfig& config);
+  void parse_solver(RunConfig& config);
+  void parse_backend(RunConfig& config);
+  void parse_check(RunConfig& config);
+  void parse_output(RunConfig& config);
+  void parse_plugins(RunConfig& config);
   ParameterValue parameter(const YAML::Node& key, const YAML::Node& value,
                            const std::string& full_key);
 
@@ -371,6 +389,24 @@ void Parser::parse_portfolio(const YAML::Node& strategy, RunConfig& config) {
 }
 
 RunConfig Parser::parse(const std::string& yaml) {
+  load(yaml);
+  const bool portfolio = names_portfolio();
+  require_sections(portfolio);
+  RunConfig config;
+  parse_model(config);
+  parse_band(config);
+  parse_target(config);
+  parse_strategy(portfolio, config);
+  parse_error(config);
+  parse_solver(config);
+  parse_backend(config);
+  parse_check(config);
+  parse_output(config);
+  parse_plugins(config);
+  return config;
+}
+
+void Parser::load(const std::string& yaml) {
   try {
     m_root = YAML::Load(yaml);
   } catch (const YAML::ParserException& e) {
@@ -385,11 +421,16 @@ RunConfig Parser::parse(const std::string& yaml) {
     fail(at(m_root), fmt::format("expected a mapping of sections ({}), found {}",
                                  fmt::join(kSections, ", "), node_kind(m_root)));
   check_keys(m_root, "the configuration", kSections);
-  const YAML::Node strategy_node = m_root["strategy"];
+}
+
+bool Parser::names_portfolio() {
+  const YAML::Node strategy = m_root["strategy"];
   // (A missing key reads as an invalid node, whose IsScalar() throws: test IsDefined() first.)
-  const bool portfolio = strategy_node.IsMap() && strategy_node["name"].IsDefined() &&
-                         strategy_node["name"].IsScalar() &&
-                         strategy_node["name"].Scalar() == "portfolio";
+  return strategy.IsMap() && strategy["name"].IsDefined() && strategy["name"].IsScalar() &&
+         strategy["name"].Scalar() == "portfolio";
+}
+
+void Parser::require_sections(bool portfolio) {
   for (const char* required : {"model", "band", "target", "reducer", "output"}) {
     if (portfolio && std::string(required) == "reducer") continue;
     if (!m_root[required].IsDefined())
@@ -399,10 +440,10 @@ RunConfig Parser::parse(const std::string& yaml) {
     fail(key_location(m_root, "reducer"),
          "with strategy 'portfolio' each member names its reducer (strategy.members[k].reducer); "
          "remove the top-level 'reducer' section");
+}
 
-  RunConfig config;
-
-  // model: {dir: D} (Matrix Market files) or {file: F.mat, variables: {M: Mass, ...}}.
+// model: {dir: D} (Matrix Market files) or {file: F.mat, variables: {M: Mass, ...}}.
+void Parser::parse_model(RunConfig& config) {
   const YAML::Node model = section(m_root, "model", {"dir", "file", "variables"});
   const bool by_dir = model["dir"].IsDefined();
   const bool by_file = model["file"].IsDefined();
@@ -418,26 +459,28 @@ RunConfig Parser::parse(const std::string& yaml) {
       fail(at(model["variables"]),
            "model.variables renames the variables of a .mat file (model.file); the files of a "
            "model directory have fixed names");
-  } else {
-    config.model.path = path_value(model, "model", "file");
-    if (!is_mat_file_name(config.model.path))
-      fail(at(model["file"]), fmt::format("model.file = '{}': must name a MATLAB file ending in "
-                                          ".mat (a model directory is model.dir)",
-                                          model["file"].Scalar()));
-    if (const YAML::Node vars = model["variables"]; vars.IsDefined()) {
-      if (!vars.IsMap())
-        fail(vars.IsNull() ? key_location(model, "variables") : at(vars),
-             fmt::format("model.variables must be a mapping from matrix to variable name, e.g. "
-                         "{{M: Mass, K: Stiff}}, found {}",
-                         node_kind(vars)));
-      check_keys(vars, "'model.variables'", model_variable_roles());
-      for (auto it = vars.begin(); it != vars.end(); ++it) {
-        const std::string role = it->first.Scalar();
-        config.model.variables[role] = *text(vars, "model.variables", role, true);
-      }
+    return;
+  }
+  config.model.path = path_value(model, "model", "file");
+  if (!is_mat_file_name(config.model.path))
+    fail(at(model["file"]), fmt::format("model.file = '{}': must name a MATLAB file ending in "
+                                        ".mat (a model directory is model.dir)",
+                                        model["file"].Scalar()));
+  if (const YAML::Node vars = model["variables"]; vars.IsDefined()) {
+    if (!vars.IsMap())
+      fail(vars.IsNull() ? key_location(model, "variables") : at(vars),
+           fmt::format("model.variables must be a mapping from matrix to variable name, e.g. "
+                       "{{M: Mass, K: Stiff}}, found {}",
+                       node_kind(vars)));
+    check_keys(vars, "'model.variables'", model_variable_roles());
+    for (auto it = vars.begin(); it != vars.end(); ++it) {
+      const std::string role = it->first.Scalar();
+      config.model.variables[role] = *text(vars, "model.variables", role, true);
     }
   }
+}
 
+void Parser::parse_band(RunConfig& config) {
   const YAML::Node band = section(m_root, "band", {"f_min_hz", "f_max_hz"});
   config.band.f_min_hz = *number(band, "band", "f_min_hz", true);
   config.band.f_max_hz = *number(band, "band", "f_max_hz", true);
@@ -451,7 +494,9 @@ RunConfig Parser::parse(const std::string& yaml) {
   if (!(config.band.f_max_hz > config.band.f_min_hz))
     fail(at(band["f_max_hz"]), fmt::format("band.f_max_hz = {}: must be > band.f_min_hz = {}",
                                            band["f_max_hz"].Scalar(), band["f_min_hz"].Scalar()));
+}
 
+void Parser::parse_target(RunConfig& config) {
   const YAML::Node target = section(m_root, "target", {"tolerance", "norm"});
   config.tolerance = *number(target, "target", "tolerance", true);
   if (!(config.tolerance > 0.0 && config.tolerance <= 1e3))
@@ -462,7 +507,10 @@ RunConfig Parser::parse(const std::string& yaml) {
           target, "target", "norm",
           {{"spectral", ErrorNorm::Spectral}, {"frobenius", ErrorNorm::Frobenius}}))
     config.norm = *norm;
+}
 
+// strategy (with reducer), or a portfolio's strategy section with its members.
+void Parser::parse_strategy(bool portfolio, RunConfig& config) {
   const YAML::Node strategy = section(m_root, "strategy", {"name"}, true);
   if (portfolio) {
     config.reducer_name = "portfolio";
@@ -484,7 +532,9 @@ RunConfig Parser::parse(const std::string& yaml) {
                        strategy["time_limit_s"].Scalar()));
     config.time_limit_s = *v;
   }
+}
 
+void Parser::parse_error(RunConfig& config) {
   const YAML::Node error =
       section(m_root, "error",
               {"grid_points", "pole_samples", "max_pole_samples", "refine_peaks",
@@ -533,7 +583,9 @@ RunConfig Parser::parse(const std::string& yaml) {
                        *v));
     config.stability_dense_states = *v;
   }
+}
 
+void Parser::parse_solver(RunConfig& config) {
   const YAML::Node solver = section(m_root, "solver",
                                     {"threads", "use_cholesky", "symmetry_tol", "singular_rcond",
                                      "ordering", "complex_symmetric", "ldlt_memory_fraction"});
@@ -576,8 +628,10 @@ RunConfig Parser::parse(const std::string& yaml) {
                        solver["ldlt_memory_fraction"].Scalar()));
     config.solver.ldlt_memory_fraction = *v;
   }
+}
 
-  // backend: {name: suitesparse | petsc}: which shifted solver does the sparse work.
+// backend: {name: suitesparse | petsc}: which shifted solver does the sparse work.
+void Parser::parse_backend(RunConfig& config) {
   const YAML::Node backend = section(m_root, "backend", {"name"});
   if (auto name = text(backend, "backend", "name", false)) {
     if (*name != "suitesparse" && *name != "petsc")
@@ -587,7 +641,9 @@ RunConfig Parser::parse(const std::string& yaml) {
                        *name));
     config.solver.backend = *name;
   }
+}
 
+void Parser::parse_check(RunConfig& config) {
   const YAML::Node check = section(m_root, "check", {"max_order", "max_seconds"});
   if (auto v = integer(check, "check", "max_order", 1)) config.check_max_order = *v;
   if (auto v = number(check, "check", "max_seconds", false)) {
@@ -596,30 +652,34 @@ RunConfig Parser::parse(const std::string& yaml) {
            fmt::format("check.max_seconds = {}: must be > 0", check["max_seconds"].Scalar()));
     config.check_max_seconds = *v;
   }
+}
 
+void Parser::parse_output(RunConfig& config) {
   const YAML::Node output = section(m_root, "output", {"dir", "format"});
   config.output_dir = path_value(output, "output", "dir");
   if (auto format = choice<OutputFormat>(
           output, "output", "format",
           {{"mtx", OutputFormat::Mtx}, {"mat", OutputFormat::Mat}, {"both", OutputFormat::Both}}))
     config.output_format = *format;
+}
 
-  if (const YAML::Node plugins = m_root["plugins"]; plugins.IsDefined() && !plugins.IsNull()) {
-    auto add = [&](const YAML::Node& item) {
-      if (!item.IsScalar() || item.Scalar().empty())
-        fail(at(item), fmt::format("plugins: each entry must be a path, found {}",
-                                   item.IsScalar() ? "an empty string" : node_kind(item)));
-      config.plugins.push_back(std::filesystem::absolute(item.Scalar()).lexically_normal());
-    };
-    if (plugins.IsSequence()) {
-      for (const YAML::Node& item : plugins) add(item);
-    } else if (plugins.IsScalar()) {
-      add(plugins);  // a single path is a list of one
-    } else {
-      fail(at(plugins), "'plugins' must be a list of paths, found " + node_kind(plugins));
-    }
+// plugins: a list of paths, or a single path (a list of one).
+void Parser::parse_plugins(RunConfig& config) {
+  const YAML::Node plugins = m_root["plugins"];
+  if (!plugins.IsDefined() || plugins.IsNull()) return;
+  auto add = [&](const YAML::Node& item) {
+    if (!item.IsScalar() || item.Scalar().empty())
+      fail(at(item), fmt::format("plugins: each entry must be a path, found {}",
+                                 item.IsScalar() ? "an empty string" : node_kind(item)));
+    config.plugins.push_back(std::filesystem::absolute(item.Scalar()).lexically_normal());
+  };
+  if (plugins.IsSequence()) {
+    for (const YAML::Node& item : plugins) add(item);
+  } else if (plugins.IsScalar()) {
+    add(plugins);
+  } else {
+    fail(at(plugins), "'plugins' must be a list of paths, found " + node_kind(plugins));
   }
-  return config;
 }
 
 }  // namespace
