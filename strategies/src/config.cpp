@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "ecmor/base/error.hpp"
+#include "ecmor/base/options.hpp"
 
 namespace ecmor {
 
@@ -23,6 +24,20 @@ namespace {
 const std::vector<std::string> kSections = {"model",    "band",    "target", "reducer",
                                             "strategy", "error",   "solver", "backend",
                                             "output",   "plugins", "check"};
+
+// The keys of a portfolio's strategy section that are not options: `members` (a list of
+// mappings) and the run's time_limit_s.
+const std::vector<std::string> kPortfolioStructure = {"name", "members", "time_limit_s"};
+
+// The portfolio strategy's own options (the defaults are RunConfig's).
+const OptionSpecs<RunConfig>& portfolio_specs() {
+  static const OptionSpecs<RunConfig> specs({
+      option("prune", &RunConfig::portfolio_prune,
+             "stop a grow_order member once its order reaches the smallest order that met the "
+             "target so far without meeting it (it can no longer win)"),
+  });
+  return specs;
+}
 
 std::string node_kind(const YAML::Node& node) {
   switch (node.Type()) {
@@ -137,10 +152,13 @@ class Parser {
                      near.empty() ? std::string() : " (did you mean '" + near + "'?)"));
   }
 
-  /// Every key but `name` becomes a parameter of the reducer/strategy.
-  void collect_parameters(const YAML::Node& map, const std::string& sec, ParameterMap& params);
+  /// Every key but those in `skip` becomes a parameter of the reducer/strategy.
+  void collect_parameters(const YAML::Node& map, const std::string& sec, ParameterMap& params,
+                          const std::vector<std::string>& skip = {"name"});
   /// strategy: {name: portfolio, prune: ..., members: [{reducer: {...}, strategy: {...}}, ...]}.
   void parse_portfolio(const YAML::Node& strategy, RunConfig& config);
+  /// strategy.members[k] (`where`): {reducer: {name: ..., ...}, strategy: {name: ..., ...}}.
+  PortfolioMember parse_member(const YAML::Node& item, const std::string& where);
 
   /// Reads the YAML into m_root and checks the section names. \throws ConfigError.
   void load(const std::string& yaml);
@@ -319,18 +337,23 @@ ParameterValue Parser::parameter(const YAML::Node& key, const YAML::Node& value,
 }
 
 void Parser::collect_parameters(const YAML::Node& map, const std::string& sec,
-                                ParameterMap& params) {
+                                ParameterMap& params, const std::vector<std::string>& skip) {
   for (auto it = map.begin(); it != map.end(); ++it) {
     const std::string& key = it->first.Scalar();
-    // `name`, and the driver's wall-clock budget in the strategy section, are not parameters.
-    if (key == "name" || (sec == "strategy" && key == "time_limit_s")) continue;
+    if (std::find(skip.begin(), skip.end(), key) != skip.end()) continue;
+    // The driver's wall-clock budget in the strategy section is not a strategy parameter.
+    if (sec == "strategy" && key == "time_limit_s") continue;
     params.set(key, parameter(it->first, it->second, sec + "." + key));
   }
 }
 
 void Parser::parse_portfolio(const YAML::Node& strategy, RunConfig& config) {
-  check_keys(strategy, "'strategy' (portfolio)", {"name", "members", "prune", "time_limit_s"});
-  if (auto v = boolean(strategy, "strategy", "prune")) config.portfolio_prune = *v;
+  std::vector<std::string> keys = kPortfolioStructure;
+  for (const std::string& key : portfolio_specs().keys()) keys.push_back(key);
+  check_keys(strategy, "'strategy' (portfolio)", keys);
+  ParameterMap options("strategy 'portfolio'");
+  collect_parameters(strategy, "strategy", options, kPortfolioStructure);
+  portfolio_specs().read_into(options, config);
   const YAML::Node members = strategy["members"];
   const std::string shape =
       "a list of {reducer: {name: ..., <parameters>}, strategy: {name: ..., <parameters>}}";
@@ -339,53 +362,51 @@ void Parser::parse_portfolio(const YAML::Node& strategy, RunConfig& config) {
     fail(members.IsNull() ? key_location(strategy, "members") : at(members),
          fmt::format("strategy.members must be {}, found {}", shape,
                      members.IsSequence() ? "an empty list" : node_kind(members)));
-  for (std::size_t k = 0; k < members.size(); ++k) {
-    const YAML::Node item = members[k];
-    const std::string where = fmt::format("strategy.members[{}]", k + 1);
-    if (!item.IsMap())
-      fail(at(item), fmt::format("{} must be a mapping with 'reducer' (and optionally "
-                                 "'strategy'), found {}",
-                                 where, node_kind(item)));
-    check_keys(item, where, {"reducer", "strategy"});
-    PortfolioMember member;
-    const YAML::Node reducer = item["reducer"];
-    if (!reducer.IsDefined())
-      fail(at(item), fmt::format("missing required key '{}.reducer'", where));
-    if (!reducer.IsMap())
-      fail(reducer.IsNull() ? key_location(item, "reducer") : at(reducer),
-           fmt::format("{}.reducer must be a mapping with 'name' and the reducer's parameters, "
-                       "found {}",
-                       where, node_kind(reducer)));
-    check_keys(reducer, "'" + where + ".reducer'", {});
-    member.reducer_name = *text(reducer, where + ".reducer", "name", true);
-    member.reducer_params =
-        ParameterMap(fmt::format("reducer '{}' ({})", member.reducer_name, where));
-    collect_parameters(reducer, where + ".reducer", member.reducer_params);
-    const YAML::Node inner = item["strategy"];
-    if (inner.IsDefined() && !inner.IsMap())
-      fail(inner.IsNull() ? key_location(item, "strategy") : at(inner),
-           fmt::format("{}.strategy must be a mapping with 'name' and the strategy's parameters, "
-                       "found {}",
-                       where, node_kind(inner)));
-    if (inner.IsDefined()) {
-      check_keys(inner, "'" + where + ".strategy'", {});
-      if (auto name = text(inner, where + ".strategy", "name", false)) member.strategy_name = *name;
-      if (member.strategy_name == "portfolio")
-        fail(at(inner["name"]), where + ".strategy: a portfolio member cannot be a portfolio");
-      if (inner["time_limit_s"].IsDefined())
-        fail(at(inner["time_limit_s"]),
-             where +
-                 ".strategy.time_limit_s: the time limit is the whole portfolio's; give it as "
-                 "strategy.time_limit_s");
-      member.strategy_params =
-          ParameterMap(fmt::format("strategy '{}' ({})", member.strategy_name, where));
-      collect_parameters(inner, where + ".strategy", member.strategy_params);
-    } else {
-      member.strategy_params =
-          ParameterMap(fmt::format("strategy '{}' ({})", member.strategy_name, where));
-    }
-    config.portfolio.push_back(std::move(member));
+  for (std::size_t k = 0; k < members.size(); ++k)
+    config.portfolio.push_back(
+        parse_member(members[k], fmt::format("strategy.members[{}]", k + 1)));
+}
+
+PortfolioMember Parser::parse_member(const YAML::Node& item, const std::string& where) {
+  if (!item.IsMap())
+    fail(at(item), fmt::format("{} must be a mapping with 'reducer' (and optionally "
+                               "'strategy'), found {}",
+                               where, node_kind(item)));
+  check_keys(item, where, {"reducer", "strategy"});
+  PortfolioMember member;
+  const YAML::Node reducer = item["reducer"];
+  if (!reducer.IsDefined()) fail(at(item), fmt::format("missing required key '{}.reducer'", where));
+  if (!reducer.IsMap())
+    fail(reducer.IsNull() ? key_location(item, "reducer") : at(reducer),
+         fmt::format("{}.reducer must be a mapping with 'name' and the reducer's parameters, "
+                     "found {}",
+                     where, node_kind(reducer)));
+  check_keys(reducer, "'" + where + ".reducer'", {});
+  member.reducer_name = *text(reducer, where + ".reducer", "name", true);
+  member.reducer_params =
+      ParameterMap(fmt::format("reducer '{}' ({})", member.reducer_name, where));
+  collect_parameters(reducer, where + ".reducer", member.reducer_params);
+  const YAML::Node inner = item["strategy"];
+  if (inner.IsDefined() && !inner.IsMap())
+    fail(inner.IsNull() ? key_location(item, "strategy") : at(inner),
+         fmt::format("{}.strategy must be a mapping with 'name' and the strategy's parameters, "
+                     "found {}",
+                     where, node_kind(inner)));
+  if (inner.IsDefined()) {
+    check_keys(inner, "'" + where + ".strategy'", {});
+    if (auto name = text(inner, where + ".strategy", "name", false)) member.strategy_name = *name;
+    if (member.strategy_name == "portfolio")
+      fail(at(inner["name"]), where + ".strategy: a portfolio member cannot be a portfolio");
+    if (inner["time_limit_s"].IsDefined())
+      fail(at(inner["time_limit_s"]),
+           where +
+               ".strategy.time_limit_s: the time limit is the whole portfolio's; give it as "
+               "strategy.time_limit_s");
   }
+  member.strategy_params =
+      ParameterMap(fmt::format("strategy '{}' ({})", member.strategy_name, where));
+  if (inner.IsDefined()) collect_parameters(inner, where + ".strategy", member.strategy_params);
+  return member;
 }
 
 RunConfig Parser::parse(const std::string& yaml) {
@@ -683,6 +704,8 @@ void Parser::parse_plugins(RunConfig& config) {
 }
 
 }  // namespace
+
+std::vector<ParameterDoc> portfolio_options() { return portfolio_specs().docs(); }
 
 RunConfig parse_run_config(const std::string& yaml, const std::string& name) {
   return Parser(name).parse(yaml);
