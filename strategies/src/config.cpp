@@ -13,6 +13,8 @@
 #include <map>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
+#include <utility>
 
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/options.hpp"
@@ -37,6 +39,150 @@ const OptionSpecs<RunConfig>& portfolio_specs() {
              "target so far without meeting it (it can no longer win)"),
   });
   return specs;
+}
+
+// The error section: the band error estimator's options and the run's checks of the reported
+// model (the defaults are RunConfig's and BandErrorOptions').
+const OptionSpecs<RunConfig>& error_specs() {
+  using E = BandErrorOptions;
+  using C = RunConfig;
+  static const OptionSpecs<C> specs = [] {
+    const OptionSpecs<E> estimator({
+        option("grid_points", &E::grid_points, "initial log-spaced frequencies over the band")
+            .range(Range::closed(2, 1e6)),
+        option("pole_samples", &E::pole_samples,
+               "also sample at Im(p)/2π of the reduced poles inside the band (resonances)"),
+        option("max_pole_samples", &E::max_pole_samples,
+               "at most this many pole samples, least damped first")
+            .range(Range::at_least(0)),
+        option("refine_peaks", &E::refine_peaks,
+               "local maxima of the error refined per evaluation")
+            .range(Range::at_least(0)),
+        option("refine_evaluations", &E::refine_evaluations,
+               "golden-section steps per refined peak at most; a peak stops earlier when its "
+               "value has not risen for 6 steps")
+            .range(Range::closed(0, 200)),
+        option("zero_threshold", &E::zero_threshold,
+               "`‖H(f)‖ <= zero_threshold · max_f ‖H‖` counts as \"H vanishes\": relative error "
+               "undefined there, excluded and reported")
+            .range(Range::closed_open(0, 1)),
+        // Mapped here rather than by parse_error_verify (band_error.cpp): the config reader
+        // stays free of the error engine (the fuzz build links the readers alone).
+        choice("verify", &E::verify,
+               {{"dense", ErrorVerify::Dense},
+                {"estimate", ErrorVerify::Estimate},
+                {"auto", ErrorVerify::Auto}},
+               "how the full model's H is obtained: `dense` = a full-model solve (sparse "
+               "factorisation) at every sample; `estimate` = a reference model grown from the "
+               "run's full solves stands in for H, and full solves are made only where the "
+               "estimate peaks, at random and at the band edges; `auto` = `dense` up to "
+               "`dense_max_states`, else `estimate` until its reference model has cost more than "
+               "the dense sampling would (counted in flops, so every run decides alike), then "
+               "`dense` ([error-measures.md](error-measures.md#the-estimator-error-control-"
+               "without-a-full-solve-per-frequency-errorverify))"),
+        option("dense_max_states", &E::dense_max_states,
+               "`auto` chooses `dense` for full models with at most this many states N")
+            .range(Range::at_least(0)),
+        option("estimate_points", &E::estimate_points,
+               "estimate mode: log-spaced samples of the estimate (no full solve each)")
+            .range(Range::closed(2, 1e6)),
+        option("reference_points", &E::reference_points,
+               "estimate mode: full solves that seed the reference model: the band edges and "
+               "golden-ratio points in log f between them")
+            .range(Range::closed(2, 10000)),
+        option("check_peaks", &E::check_peaks,
+               "estimate mode: largest local maxima of the estimate solved per round of the "
+               "re-check")
+            .range(Range::at_least(1)),
+        option("random_checks", &E::random_checks,
+               "estimate mode: log-uniform random frequencies solved per re-check (fixed seed)")
+            .range(Range::at_least(0)),
+        option("check_rounds", &E::check_rounds,
+               "estimate mode: rounds of (estimate, solve its peaks) per re-check")
+            .range(Range::at_least(1)),
+        option("probe_solves", &E::probe_solves,
+               "estimate mode: full solves per evaluation at the estimate's peak when it has none "
+               "there")
+            .range(Range::at_least(0)),
+    });
+    std::vector<Option<C>> options;
+    for (const auto& o : estimator.options()) options.push_back(o.nested(&C::error));
+    // The re-check grid must be denser than the estimator's to be a check at all.
+    options.push_back(option("verify_factor", &C::verify_factor,
+                             "dense mode: the independent re-check grid is this many times "
+                             "denser than `grid_points`")
+                          .range(Range::at_least(2)));
+    // Both bounds keep the dense eigenproblems to seconds.
+    options.push_back(
+        option("hinf_dense_states", &C::hinf_dense_states,
+               "full models with at most this many first-order states (2N for second order) get "
+               "the reported model's error H∞ norm over all frequencies by the dense level-set "
+               "method (certified); larger ones the sampled band supremum. `summary.json`'s "
+               "`hinf_error` says which")
+            .range(Range::closed(0, 6000)));
+    options.push_back(
+        option("stability_dense_states", &C::stability_dense_states,
+               "the full model's stability (`summary.json` `full_model_stability`): symmetric "
+               "second-order models by the inertia of K and D first (sparse Cholesky: K not "
+               "positive definite means a pole at 0 or in the right half-plane, K and D positive "
+               "definite asymptotic stability); where that cannot decide (unsymmetric K or D, D "
+               "semidefinite) and for descriptor models, the dense eigenvalues up to this many "
+               "first-order states (about 3 s at 900; QZ for singular E); above, `unknown`. 0: "
+               "never dense")
+            .range(Range::closed(0, 6000)));
+    return OptionSpecs<C>(std::move(options));
+  }();
+  return specs;
+}
+
+// The solver section: the sparse shifted solver (SolverOptions) and the run's threads.
+const OptionSpecs<RunConfig>& solver_specs() {
+  using S = SolverOptions;
+  using C = RunConfig;
+  static const OptionSpecs<C> specs = [] {
+    const OptionSpecs<S> solver({
+        option("use_cholesky", &S::use_cholesky,
+               "try CHOLMOD for real symmetric combinations (else UMFPACK LU)"),
+        option("symmetry_tol", &S::symmetry_tol,
+               "relative asymmetry below which a coefficient matrix counts as symmetric")
+            .range(Range::closed_open(0, 1)),
+        option("singular_rcond", &S::singular_rcond,
+               "a factorisation whose reciprocal condition estimate is below this is reported "
+               "singular")
+            .range(Range::closed_open(0, 1)),
+        choice("ordering", &S::ordering,
+               {{"auto", "auto"}, {"amd", "amd"}, {"metis", "metis"}},
+               "fill-reducing ordering: `auto` takes AMD, or METIS nested dissection where AMD's "
+               "predicted fill is large (3-D solids); the choice is made once per model from the "
+               "symbolic analyses"),
+        choice("complex_symmetric", &S::complex_symmetric,
+               {{"auto", "auto"}, {"ldlt", "ldlt"}, {"lu", "lu"}},
+               "complex shifts of symmetric M, D, K (or E, A): `ldlt` = MUMPS's LDL^T (about half "
+               "the memory and flops of an LU; one factorisation at a time, using the cores "
+               "inside it, so the loops over frequencies run serially), `lu` = UMFPACK (several "
+               "at once, one per thread), `auto` = `lu` while the LUs of all threads fit in "
+               "`ldlt_memory_fraction` of the physical memory (predicted from the symbolic "
+               "analysis), `ldlt` above ([benchmarks.md](benchmarks.md#sparse-factorisation-of-"
+               "3-d-solids-issue-27))"),
+        option("ldlt_memory_fraction", &S::ldlt_memory_fraction, "see `complex_symmetric`")
+            .range(Range::closed(0, 1)),
+    });
+    std::vector<Option<C>> options = {
+        option("threads", &C::threads,
+               "threads for the full model's frequency response; 0 = OpenMP default")
+            .range(Range::closed(0, 65536)),
+    };
+    for (const auto& o : solver.options()) options.push_back(o.nested(&C::solver));
+    return OptionSpecs<C>(std::move(options));
+  }();
+  return specs;
+}
+
+// The sections of plain key/value options, read through their specs.
+const std::vector<std::pair<std::string, const OptionSpecs<RunConfig>*>>& option_sections() {
+  static const std::vector<std::pair<std::string, const OptionSpecs<RunConfig>*>> sections = {
+      {"error", &error_specs()}, {"solver", &solver_specs()}};
+  return sections;
 }
 
 std::string node_kind(const YAML::Node& node) {
@@ -128,8 +274,6 @@ class Parser {
                                const std::string& key, bool required);
   std::optional<long long> integer(const YAML::Node& map, const std::string& sec,
                                    const std::string& key, long long min);
-  std::optional<bool> boolean(const YAML::Node& map, const std::string& sec,
-                              const std::string& key);
   std::optional<std::string> text(const YAML::Node& map, const std::string& sec,
                                   const std::string& key, bool required);
   std::filesystem::path path_value(const YAML::Node& map, const std::string& sec,
@@ -171,11 +315,12 @@ class Parser {
   void parse_band(RunConfig& config);
   void parse_target(RunConfig& config);
   void parse_strategy(bool portfolio, RunConfig& config);
-  void parse_error(RunConfig& config);
-  void parse_solver(RunConfig& config);
   void parse_backend(RunConfig& config);
   void parse_check(RunConfig& config);
   void parse_output(RunConfig& config);
+  /// A section of plain key/value options (error, solver), read through its specs.
+  void read_section(const std::string& name, const OptionSpecs<RunConfig>& specs,
+                    RunConfig& config);
   void parse_plugins(RunConfig& config);
   ParameterValue parameter(const YAML::Node& key, const YAML::Node& value,
                            const std::string& full_key);
@@ -270,15 +415,6 @@ std::optional<long long> Parser::integer(const YAML::Node& map, const std::strin
   if (result < min)
     fail(at(v->second), fmt::format("{}.{} = {}: must be >= {}", sec, key, result, min));
   return result;
-}
-
-std::optional<bool> Parser::boolean(const YAML::Node& map, const std::string& sec,
-                                    const std::string& key) {
-  auto v = scalar(map, sec, key, false);
-  if (!v) return std::nullopt;
-  if (const bool* b = std::get_if<bool>(&v->first)) return *b;
-  fail(at(v->second),
-       fmt::format("{}.{} = {}: must be true or false", sec, key, v->second.Scalar()));
 }
 
 std::optional<std::string> Parser::text(const YAML::Node& map, const std::string& sec,
@@ -418,8 +554,8 @@ RunConfig Parser::parse(const std::string& yaml) {
   parse_band(config);
   parse_target(config);
   parse_strategy(portfolio, config);
-  parse_error(config);
-  parse_solver(config);
+  config.error.norm = config.norm;
+  for (const auto& [name, specs] : option_sections()) read_section(name, *specs, config);
   parse_backend(config);
   parse_check(config);
   parse_output(config);
@@ -555,100 +691,12 @@ void Parser::parse_strategy(bool portfolio, RunConfig& config) {
   }
 }
 
-void Parser::parse_error(RunConfig& config) {
-  const YAML::Node error =
-      section(m_root, "error",
-              {"grid_points", "pole_samples", "max_pole_samples", "refine_peaks",
-               "refine_evaluations", "zero_threshold", "verify_factor", "hinf_dense_states",
-               "stability_dense_states", "verify", "dense_max_states", "estimate_points",
-               "reference_points", "check_peaks", "random_checks", "check_rounds", "probe_solves"});
-  BandErrorOptions& eo = config.error;
-  eo.norm = config.norm;
-  if (auto v = integer(error, "error", "grid_points", 2)) eo.grid_points = *v;
-  if (auto v = boolean(error, "error", "pole_samples")) eo.pole_samples = *v;
-  if (auto v = integer(error, "error", "max_pole_samples", 0)) eo.max_pole_samples = *v;
-  if (auto v = integer(error, "error", "refine_peaks", 0)) eo.refine_peaks = *v;
-  if (auto v = integer(error, "error", "refine_evaluations", 0)) eo.refine_evaluations = *v;
-  if (auto v = number(error, "error", "zero_threshold", false)) {
-    if (!(*v >= 0.0 && *v < 1.0))
-      fail(at(error["zero_threshold"]), fmt::format("error.zero_threshold = {}: must be in [0, 1)",
-                                                    error["zero_threshold"].Scalar()));
-    eo.zero_threshold = *v;
-  }
-  // Mapped here rather than by parse_error_verify (band_error.cpp): the config reader stays free
-  // of the error engine (the fuzz build links the readers alone).
-  if (auto verify = choice<ErrorVerify>(error, "error", "verify",
-                                        {{"dense", ErrorVerify::Dense},
-                                         {"estimate", ErrorVerify::Estimate},
-                                         {"auto", ErrorVerify::Auto}}))
-    eo.verify = *verify;
-  if (auto v = integer(error, "error", "dense_max_states", 0)) eo.dense_max_states = *v;
-  if (auto v = integer(error, "error", "estimate_points", 2)) eo.estimate_points = *v;
-  if (auto v = integer(error, "error", "reference_points", 2)) eo.reference_points = *v;
-  if (auto v = integer(error, "error", "check_peaks", 1)) eo.check_peaks = *v;
-  if (auto v = integer(error, "error", "random_checks", 0)) eo.random_checks = *v;
-  if (auto v = integer(error, "error", "check_rounds", 1)) eo.check_rounds = *v;
-  if (auto v = integer(error, "error", "probe_solves", 0)) eo.probe_solves = *v;
-  // The re-check grid must be denser than the estimator's to be a check at all.
-  if (auto v = integer(error, "error", "verify_factor", 2)) config.verify_factor = *v;
-  if (auto v = integer(error, "error", "hinf_dense_states", 0)) {
-    if (*v > 6000)
-      fail(at(error["hinf_dense_states"]),
-           fmt::format("error.hinf_dense_states = {}: must be <= 6000 (dense eigenproblems)", *v));
-    config.hinf_dense_states = *v;
-  }
-  if (auto v = integer(error, "error", "stability_dense_states", 0)) {
-    if (*v > 6000)
-      fail(at(error["stability_dense_states"]),
-           fmt::format("error.stability_dense_states = {}: must be <= 6000 (dense eigenproblems)",
-                       *v));
-    config.stability_dense_states = *v;
-  }
-}
-
-void Parser::parse_solver(RunConfig& config) {
-  const YAML::Node solver = section(m_root, "solver",
-                                    {"threads", "use_cholesky", "symmetry_tol", "singular_rcond",
-                                     "ordering", "complex_symmetric", "ldlt_memory_fraction"});
-  if (auto v = integer(solver, "solver", "threads", 0)) {
-    if (*v > 1 << 16)
-      fail(at(solver["threads"]), fmt::format("solver.threads = {}: must be <= 65536", *v));
-    config.threads = static_cast<int>(*v);
-  }
-  if (auto v = boolean(solver, "solver", "use_cholesky")) config.solver.use_cholesky = *v;
-  for (const char* key : {"symmetry_tol", "singular_rcond"}) {
-    if (auto v = number(solver, "solver", key, false)) {
-      if (!(*v >= 0.0 && *v < 1.0))
-        fail(at(solver[key]),
-             fmt::format("solver.{} = {}: must be in [0, 1)", key, solver[key].Scalar()));
-      (std::string(key) == "symmetry_tol" ? config.solver.symmetry_tol
-                                          : config.solver.singular_rcond) = *v;
-    }
-  }
-
-  auto one_of = [&](const char* key, std::initializer_list<const char*> allowed,
-                    std::string& field) {
-    const auto v = text(solver, "solver", key, false);
-    if (!v) return;
-    std::string list;
-    for (const char* a : allowed) {
-      if (*v == a) {
-        field = *v;
-        return;
-      }
-      list += (list.empty() ? "'" : ", '") + std::string(a) + "'";
-    }
-    fail(at(solver[key]), fmt::format("solver.{} = '{}': must be one of {}", key, *v, list));
-  };
-  one_of("ordering", {"auto", "amd", "metis"}, config.solver.ordering);
-  one_of("complex_symmetric", {"auto", "ldlt", "lu"}, config.solver.complex_symmetric);
-  if (auto v = number(solver, "solver", "ldlt_memory_fraction", false)) {
-    if (!(*v >= 0.0 && *v <= 1.0))
-      fail(at(solver["ldlt_memory_fraction"]),
-           fmt::format("solver.ldlt_memory_fraction = {}: must be in [0, 1]",
-                       solver["ldlt_memory_fraction"].Scalar()));
-    config.solver.ldlt_memory_fraction = *v;
-  }
+void Parser::read_section(const std::string& name, const OptionSpecs<RunConfig>& specs,
+                          RunConfig& config) {
+  const YAML::Node node = section(m_root, name, specs.keys());
+  ParameterMap options("section '" + name + "'");
+  if (node.IsMap()) collect_parameters(node, name, options, {});
+  specs.read_into(options, config);
 }
 
 // backend: {name: suitesparse | petsc}: which shifted solver does the sparse work.
@@ -664,6 +712,8 @@ void Parser::parse_backend(RunConfig& config) {
   }
 }
 
+// check: budgets of `ecmor check`. Not read through option specs: the defaults (0: no budget)
+// lie outside the valid values, and a spec's range holds for its default too.
 void Parser::parse_check(RunConfig& config) {
   const YAML::Node check = section(m_root, "check", {"max_order", "max_seconds"});
   if (auto v = integer(check, "check", "max_order", 1)) config.check_max_order = *v;
@@ -706,6 +756,12 @@ void Parser::parse_plugins(RunConfig& config) {
 }  // namespace
 
 std::vector<ParameterDoc> portfolio_options() { return portfolio_specs().docs(); }
+
+std::vector<ParameterDoc> section_options(const std::string& section) {
+  for (const auto& [name, specs] : option_sections())
+    if (name == section) return specs->docs();
+  throw std::invalid_argument("section_options: '" + section + "' is no section of options");
+}
 
 RunConfig parse_run_config(const std::string& yaml, const std::string& name) {
   return Parser(name).parse(yaml);

@@ -142,6 +142,25 @@ TEST(OptionDocs, StrategyGuidePrintsTheSpecs) {
   expect_table(file, "portfolio", strategy_parameters("portfolio"));
 }
 
+// The configuration's sections of plain options: their tables in the user guide, and each
+// documented key, given its documented default, is read.
+TEST(OptionDocs, UserGuidePrintsTheSectionSpecs) {
+  const std::string head =
+      "model: {dir: m}\nband: {f_min_hz: 1, f_max_hz: 10}\ntarget: {tolerance: 1.0e-3}\n"
+      "reducer: {name: modal}\noutput: {dir: o}\n";
+  for (const std::string section : {"error", "solver"}) {
+    const auto docs = section_options(section);
+    ASSERT_FALSE(docs.empty()) << section;
+    expect_table("docs/user-guide.md", section, docs);
+    for (const auto& doc : docs) {
+      EXPECT_NO_THROW(parse_run_config(
+          head + section + ":\n  " + doc.name + ": " + doc.default_value + "\n", "run.yaml"))
+          << section << "." << doc.name;
+    }
+  }
+  EXPECT_THROW(section_options("check"), std::invalid_argument);
+}
+
 TEST(OptionDocs, EveryDocumentedReducerKeyIsRead) {
   for (const Plugin& plugin : kPlugins) {
     Registry& registry = test::plugin_registry(plugin.library);

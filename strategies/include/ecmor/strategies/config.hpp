@@ -109,4 +109,9 @@ RunConfig parse_run_config(const std::string& yaml, const std::string& name);
 /// `ecmor plugins` and docs/strategies.md print.
 std::vector<ParameterDoc> portfolio_options();
 
+/// The documented options of a section of plain key/value options ("error", "solver"),
+/// from the option specs the reader uses: what docs/user-guide.md prints.
+/// \throws std::invalid_argument for any other name.
+std::vector<ParameterDoc> section_options(const std::string& section);
+
 }  // namespace ecmor
