@@ -13,8 +13,11 @@
 #include <map>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
+#include <utility>
 
 #include "ecmor/base/error.hpp"
+#include "ecmor/base/options.hpp"
 
 namespace ecmor {
 
@@ -23,6 +26,164 @@ namespace {
 const std::vector<std::string> kSections = {"model",    "band",    "target", "reducer",
                                             "strategy", "error",   "solver", "backend",
                                             "output",   "plugins", "check"};
+
+// The keys of a portfolio's strategy section that are not options: `members` (a list of
+// mappings) and the run's time_limit_s.
+const std::vector<std::string> kPortfolioStructure = {"name", "members", "time_limit_s"};
+
+// The portfolio strategy's own options (the defaults are RunConfig's).
+const OptionSpecs<RunConfig>& portfolio_specs() {
+  static const OptionSpecs<RunConfig> specs({
+      option("prune", &RunConfig::portfolio_prune,
+             "stop a grow_order member once its order reaches the smallest order that met the "
+             "target so far without meeting it (it can no longer win)"),
+  });
+  return specs;
+}
+
+// The error section: the band error estimator's options and the run's checks of the reported
+// model (the defaults are RunConfig's and BandErrorOptions').
+const OptionSpecs<RunConfig>& error_specs() {
+  using E = BandErrorOptions;
+  using C = RunConfig;
+  static const OptionSpecs<C> specs = [] {
+    const OptionSpecs<E> estimator({
+        option("grid_points", &E::grid_points, "initial log-spaced frequencies over the band")
+            .range(Range::closed(2, 1e6)),
+        option("pole_samples", &E::pole_samples,
+               "also sample at Im(p)/2π of the reduced poles inside the band (resonances)"),
+        option("max_pole_samples", &E::max_pole_samples,
+               "at most this many pole samples, least damped first")
+            .range(Range::at_least(0)),
+        option("refine_peaks", &E::refine_peaks,
+               "local maxima of the error refined per evaluation")
+            .range(Range::at_least(0)),
+        option("refine_evaluations", &E::refine_evaluations,
+               "golden-section steps per refined peak at most; a peak stops earlier when its "
+               "value has not risen for 6 steps")
+            .range(Range::closed(0, 200)),
+        option("zero_threshold", &E::zero_threshold,
+               "`‖H(f)‖ <= zero_threshold · max_f ‖H‖` counts as \"H vanishes\": relative error "
+               "undefined there, excluded and reported")
+            .range(Range::closed_open(0, 1)),
+        // Mapped here rather than by parse_error_verify (band_error.cpp): the config reader
+        // stays free of the error engine (the fuzz build links the readers alone).
+        choice("verify", &E::verify,
+               {{"dense", ErrorVerify::Dense},
+                {"estimate", ErrorVerify::Estimate},
+                {"auto", ErrorVerify::Auto}},
+               "how the full model's H is obtained: `dense` = a full-model solve (sparse "
+               "factorisation) at every sample; `estimate` = a reference model grown from the "
+               "run's full solves stands in for H, and full solves are made only where the "
+               "estimate peaks, at random and at the band edges; `auto` = `dense` up to "
+               "`dense_max_states`, else `estimate` until its reference model has cost more than "
+               "the dense sampling would (counted in flops, so every run decides alike), then "
+               "`dense` ([error-measures.md](error-measures.md#the-estimator-error-control-"
+               "without-a-full-solve-per-frequency-errorverify))"),
+        option("dense_max_states", &E::dense_max_states,
+               "`auto` chooses `dense` for full models with at most this many states N")
+            .range(Range::at_least(0)),
+        option("estimate_points", &E::estimate_points,
+               "estimate mode: log-spaced samples of the estimate (no full solve each)")
+            .range(Range::closed(2, 1e6)),
+        option("reference_points", &E::reference_points,
+               "estimate mode: full solves that seed the reference model: the band edges and "
+               "golden-ratio points in log f between them")
+            .range(Range::closed(2, 10000)),
+        option("check_peaks", &E::check_peaks,
+               "estimate mode: largest local maxima of the estimate solved per round of the "
+               "re-check")
+            .range(Range::at_least(1)),
+        option("random_checks", &E::random_checks,
+               "estimate mode: log-uniform random frequencies solved per re-check (fixed seed)")
+            .range(Range::at_least(0)),
+        option("check_rounds", &E::check_rounds,
+               "estimate mode: rounds of (estimate, solve its peaks) per re-check")
+            .range(Range::at_least(1)),
+        option("probe_solves", &E::probe_solves,
+               "estimate mode: full solves per evaluation at the estimate's peak when it has none "
+               "there")
+            .range(Range::at_least(0)),
+    });
+    std::vector<Option<C>> options;
+    for (const auto& o : estimator.options()) options.push_back(o.nested(&C::error));
+    // The re-check grid must be denser than the estimator's to be a check at all.
+    options.push_back(option("verify_factor", &C::verify_factor,
+                             "dense mode: the independent re-check grid is this many times "
+                             "denser than `grid_points`")
+                          .range(Range::at_least(2)));
+    // Both bounds keep the dense eigenproblems to seconds.
+    options.push_back(
+        option("hinf_dense_states", &C::hinf_dense_states,
+               "full models with at most this many first-order states (2N for second order) get "
+               "the reported model's error H∞ norm over all frequencies by the dense level-set "
+               "method (certified); larger ones the sampled band supremum. `summary.json`'s "
+               "`hinf_error` says which")
+            .range(Range::closed(0, 6000)));
+    options.push_back(
+        option("stability_dense_states", &C::stability_dense_states,
+               "the full model's stability (`summary.json` `full_model_stability`): symmetric "
+               "second-order models by the inertia of K and D first (sparse Cholesky: K not "
+               "positive definite means a pole at 0 or in the right half-plane, K and D positive "
+               "definite asymptotic stability); where that cannot decide (unsymmetric K or D, D "
+               "semidefinite) and for descriptor models, the dense eigenvalues up to this many "
+               "first-order states (about 3 s at 900; QZ for singular E); above, `unknown`. 0: "
+               "never dense")
+            .range(Range::closed(0, 6000)));
+    return OptionSpecs<C>(std::move(options));
+  }();
+  return specs;
+}
+
+// The solver section: the sparse shifted solver (SolverOptions) and the run's threads.
+const OptionSpecs<RunConfig>& solver_specs() {
+  using S = SolverOptions;
+  using C = RunConfig;
+  static const OptionSpecs<C> specs = [] {
+    const OptionSpecs<S> solver({
+        option("use_cholesky", &S::use_cholesky,
+               "try CHOLMOD for real symmetric combinations (else UMFPACK LU)"),
+        option("symmetry_tol", &S::symmetry_tol,
+               "relative asymmetry below which a coefficient matrix counts as symmetric")
+            .range(Range::closed_open(0, 1)),
+        option("singular_rcond", &S::singular_rcond,
+               "a factorisation whose reciprocal condition estimate is below this is reported "
+               "singular")
+            .range(Range::closed_open(0, 1)),
+        choice("ordering", &S::ordering,
+               {{"auto", "auto"}, {"amd", "amd"}, {"metis", "metis"}},
+               "fill-reducing ordering: `auto` takes AMD, or METIS nested dissection where AMD's "
+               "predicted fill is large (3-D solids); the choice is made once per model from the "
+               "symbolic analyses"),
+        choice("complex_symmetric", &S::complex_symmetric,
+               {{"auto", "auto"}, {"ldlt", "ldlt"}, {"lu", "lu"}},
+               "complex shifts of symmetric M, D, K (or E, A): `ldlt` = MUMPS's LDL^T (about half "
+               "the memory and flops of an LU; one factorisation at a time, using the cores "
+               "inside it, so the loops over frequencies run serially), `lu` = UMFPACK (several "
+               "at once, one per thread), `auto` = `lu` while the LUs of all threads fit in "
+               "`ldlt_memory_fraction` of the physical memory (predicted from the symbolic "
+               "analysis), `ldlt` above ([benchmarks.md](benchmarks.md#sparse-factorisation-of-"
+               "3-d-solids-issue-27))"),
+        option("ldlt_memory_fraction", &S::ldlt_memory_fraction, "see `complex_symmetric`")
+            .range(Range::closed(0, 1)),
+    });
+    std::vector<Option<C>> options = {
+        option("threads", &C::threads,
+               "threads for the full model's frequency response; 0 = OpenMP default")
+            .range(Range::closed(0, 65536)),
+    };
+    for (const auto& o : solver.options()) options.push_back(o.nested(&C::solver));
+    return OptionSpecs<C>(std::move(options));
+  }();
+  return specs;
+}
+
+// The sections of plain key/value options, read through their specs.
+const std::vector<std::pair<std::string, const OptionSpecs<RunConfig>*>>& option_sections() {
+  static const std::vector<std::pair<std::string, const OptionSpecs<RunConfig>*>> sections = {
+      {"error", &error_specs()}, {"solver", &solver_specs()}};
+  return sections;
+}
 
 std::string node_kind(const YAML::Node& node) {
   switch (node.Type()) {
@@ -113,8 +274,6 @@ class Parser {
                                const std::string& key, bool required);
   std::optional<long long> integer(const YAML::Node& map, const std::string& sec,
                                    const std::string& key, long long min);
-  std::optional<bool> boolean(const YAML::Node& map, const std::string& sec,
-                              const std::string& key);
   std::optional<std::string> text(const YAML::Node& map, const std::string& sec,
                                   const std::string& key, bool required);
   std::filesystem::path path_value(const YAML::Node& map, const std::string& sec,
@@ -137,10 +296,32 @@ class Parser {
                      near.empty() ? std::string() : " (did you mean '" + near + "'?)"));
   }
 
-  /// Every key but `name` becomes a parameter of the reducer/strategy.
-  void collect_parameters(const YAML::Node& map, const std::string& sec, ParameterMap& params);
+  /// Every key but those in `skip` becomes a parameter of the reducer/strategy.
+  void collect_parameters(const YAML::Node& map, const std::string& sec, ParameterMap& params,
+                          const std::vector<std::string>& skip = {"name"});
   /// strategy: {name: portfolio, prune: ..., members: [{reducer: {...}, strategy: {...}}, ...]}.
   void parse_portfolio(const YAML::Node& strategy, RunConfig& config);
+  /// strategy.members[k] (`where`): {reducer: {name: ..., ...}, strategy: {name: ..., ...}}.
+  PortfolioMember parse_member(const YAML::Node& item, const std::string& where);
+
+  /// Reads the YAML into m_root and checks the section names. \throws ConfigError.
+  void load(const std::string& yaml);
+  /// Whether strategy.name is portfolio (whose members name the reducers). Not const, nor is
+  /// require_sections: a const YAML::Node's operator[] makes an invalid node of a missing key.
+  bool names_portfolio();
+  void require_sections(bool portfolio);
+  /// One function per section: reads it into `config`.
+  void parse_model(RunConfig& config);
+  void parse_band(RunConfig& config);
+  void parse_target(RunConfig& config);
+  void parse_strategy(bool portfolio, RunConfig& config);
+  void parse_backend(RunConfig& config);
+  void parse_check(RunConfig& config);
+  void parse_output(RunConfig& config);
+  /// A section of plain key/value options (error, solver), read through its specs.
+  void read_section(const std::string& name, const OptionSpecs<RunConfig>& specs,
+                    RunConfig& config);
+  void parse_plugins(RunConfig& config);
   ParameterValue parameter(const YAML::Node& key, const YAML::Node& value,
                            const std::string& full_key);
 
@@ -236,15 +417,6 @@ std::optional<long long> Parser::integer(const YAML::Node& map, const std::strin
   return result;
 }
 
-std::optional<bool> Parser::boolean(const YAML::Node& map, const std::string& sec,
-                                    const std::string& key) {
-  auto v = scalar(map, sec, key, false);
-  if (!v) return std::nullopt;
-  if (const bool* b = std::get_if<bool>(&v->first)) return *b;
-  fail(at(v->second),
-       fmt::format("{}.{} = {}: must be true or false", sec, key, v->second.Scalar()));
-}
-
 std::optional<std::string> Parser::text(const YAML::Node& map, const std::string& sec,
                                         const std::string& key, bool required) {
   auto v = scalar(map, sec, key, required);
@@ -301,18 +473,23 @@ ParameterValue Parser::parameter(const YAML::Node& key, const YAML::Node& value,
 }
 
 void Parser::collect_parameters(const YAML::Node& map, const std::string& sec,
-                                ParameterMap& params) {
+                                ParameterMap& params, const std::vector<std::string>& skip) {
   for (auto it = map.begin(); it != map.end(); ++it) {
     const std::string& key = it->first.Scalar();
-    // `name`, and the driver's wall-clock budget in the strategy section, are not parameters.
-    if (key == "name" || (sec == "strategy" && key == "time_limit_s")) continue;
+    if (std::find(skip.begin(), skip.end(), key) != skip.end()) continue;
+    // The driver's wall-clock budget in the strategy section is not a strategy parameter.
+    if (sec == "strategy" && key == "time_limit_s") continue;
     params.set(key, parameter(it->first, it->second, sec + "." + key));
   }
 }
 
 void Parser::parse_portfolio(const YAML::Node& strategy, RunConfig& config) {
-  check_keys(strategy, "'strategy' (portfolio)", {"name", "members", "prune", "time_limit_s"});
-  if (auto v = boolean(strategy, "strategy", "prune")) config.portfolio_prune = *v;
+  std::vector<std::string> keys = kPortfolioStructure;
+  for (const std::string& key : portfolio_specs().keys()) keys.push_back(key);
+  check_keys(strategy, "'strategy' (portfolio)", keys);
+  ParameterMap options("strategy 'portfolio'");
+  collect_parameters(strategy, "strategy", options, kPortfolioStructure);
+  portfolio_specs().read_into(options, config);
   const YAML::Node members = strategy["members"];
   const std::string shape =
       "a list of {reducer: {name: ..., <parameters>}, strategy: {name: ..., <parameters>}}";
@@ -321,56 +498,72 @@ void Parser::parse_portfolio(const YAML::Node& strategy, RunConfig& config) {
     fail(members.IsNull() ? key_location(strategy, "members") : at(members),
          fmt::format("strategy.members must be {}, found {}", shape,
                      members.IsSequence() ? "an empty list" : node_kind(members)));
-  for (std::size_t k = 0; k < members.size(); ++k) {
-    const YAML::Node item = members[k];
-    const std::string where = fmt::format("strategy.members[{}]", k + 1);
-    if (!item.IsMap())
-      fail(at(item), fmt::format("{} must be a mapping with 'reducer' (and optionally "
-                                 "'strategy'), found {}",
-                                 where, node_kind(item)));
-    check_keys(item, where, {"reducer", "strategy"});
-    PortfolioMember member;
-    const YAML::Node reducer = item["reducer"];
-    if (!reducer.IsDefined())
-      fail(at(item), fmt::format("missing required key '{}.reducer'", where));
-    if (!reducer.IsMap())
-      fail(reducer.IsNull() ? key_location(item, "reducer") : at(reducer),
-           fmt::format("{}.reducer must be a mapping with 'name' and the reducer's parameters, "
-                       "found {}",
-                       where, node_kind(reducer)));
-    check_keys(reducer, "'" + where + ".reducer'", {});
-    member.reducer_name = *text(reducer, where + ".reducer", "name", true);
-    member.reducer_params =
-        ParameterMap(fmt::format("reducer '{}' ({})", member.reducer_name, where));
-    collect_parameters(reducer, where + ".reducer", member.reducer_params);
-    const YAML::Node inner = item["strategy"];
-    if (inner.IsDefined() && !inner.IsMap())
-      fail(inner.IsNull() ? key_location(item, "strategy") : at(inner),
-           fmt::format("{}.strategy must be a mapping with 'name' and the strategy's parameters, "
-                       "found {}",
-                       where, node_kind(inner)));
-    if (inner.IsDefined()) {
-      check_keys(inner, "'" + where + ".strategy'", {});
-      if (auto name = text(inner, where + ".strategy", "name", false)) member.strategy_name = *name;
-      if (member.strategy_name == "portfolio")
-        fail(at(inner["name"]), where + ".strategy: a portfolio member cannot be a portfolio");
-      if (inner["time_limit_s"].IsDefined())
-        fail(at(inner["time_limit_s"]),
-             where +
-                 ".strategy.time_limit_s: the time limit is the whole portfolio's; give it as "
-                 "strategy.time_limit_s");
-      member.strategy_params =
-          ParameterMap(fmt::format("strategy '{}' ({})", member.strategy_name, where));
-      collect_parameters(inner, where + ".strategy", member.strategy_params);
-    } else {
-      member.strategy_params =
-          ParameterMap(fmt::format("strategy '{}' ({})", member.strategy_name, where));
-    }
-    config.portfolio.push_back(std::move(member));
+  for (std::size_t k = 0; k < members.size(); ++k)
+    config.portfolio.push_back(
+        parse_member(members[k], fmt::format("strategy.members[{}]", k + 1)));
+}
+
+PortfolioMember Parser::parse_member(const YAML::Node& item, const std::string& where) {
+  if (!item.IsMap())
+    fail(at(item), fmt::format("{} must be a mapping with 'reducer' (and optionally "
+                               "'strategy'), found {}",
+                               where, node_kind(item)));
+  check_keys(item, where, {"reducer", "strategy"});
+  PortfolioMember member;
+  const YAML::Node reducer = item["reducer"];
+  if (!reducer.IsDefined()) fail(at(item), fmt::format("missing required key '{}.reducer'", where));
+  if (!reducer.IsMap())
+    fail(reducer.IsNull() ? key_location(item, "reducer") : at(reducer),
+         fmt::format("{}.reducer must be a mapping with 'name' and the reducer's parameters, "
+                     "found {}",
+                     where, node_kind(reducer)));
+  check_keys(reducer, "'" + where + ".reducer'", {});
+  member.reducer_name = *text(reducer, where + ".reducer", "name", true);
+  member.reducer_params =
+      ParameterMap(fmt::format("reducer '{}' ({})", member.reducer_name, where));
+  collect_parameters(reducer, where + ".reducer", member.reducer_params);
+  const YAML::Node inner = item["strategy"];
+  if (inner.IsDefined() && !inner.IsMap())
+    fail(inner.IsNull() ? key_location(item, "strategy") : at(inner),
+         fmt::format("{}.strategy must be a mapping with 'name' and the strategy's parameters, "
+                     "found {}",
+                     where, node_kind(inner)));
+  if (inner.IsDefined()) {
+    check_keys(inner, "'" + where + ".strategy'", {});
+    if (auto name = text(inner, where + ".strategy", "name", false)) member.strategy_name = *name;
+    if (member.strategy_name == "portfolio")
+      fail(at(inner["name"]), where + ".strategy: a portfolio member cannot be a portfolio");
+    if (inner["time_limit_s"].IsDefined())
+      fail(at(inner["time_limit_s"]),
+           where +
+               ".strategy.time_limit_s: the time limit is the whole portfolio's; give it as "
+               "strategy.time_limit_s");
   }
+  member.strategy_params =
+      ParameterMap(fmt::format("strategy '{}' ({})", member.strategy_name, where));
+  if (inner.IsDefined()) collect_parameters(inner, where + ".strategy", member.strategy_params);
+  return member;
 }
 
 RunConfig Parser::parse(const std::string& yaml) {
+  load(yaml);
+  const bool portfolio = names_portfolio();
+  require_sections(portfolio);
+  RunConfig config;
+  parse_model(config);
+  parse_band(config);
+  parse_target(config);
+  parse_strategy(portfolio, config);
+  config.error.norm = config.norm;
+  for (const auto& [name, specs] : option_sections()) read_section(name, *specs, config);
+  parse_backend(config);
+  parse_check(config);
+  parse_output(config);
+  parse_plugins(config);
+  return config;
+}
+
+void Parser::load(const std::string& yaml) {
   try {
     m_root = YAML::Load(yaml);
   } catch (const YAML::ParserException& e) {
@@ -385,11 +578,16 @@ RunConfig Parser::parse(const std::string& yaml) {
     fail(at(m_root), fmt::format("expected a mapping of sections ({}), found {}",
                                  fmt::join(kSections, ", "), node_kind(m_root)));
   check_keys(m_root, "the configuration", kSections);
-  const YAML::Node strategy_node = m_root["strategy"];
+}
+
+bool Parser::names_portfolio() {
+  const YAML::Node strategy = m_root["strategy"];
   // (A missing key reads as an invalid node, whose IsScalar() throws: test IsDefined() first.)
-  const bool portfolio = strategy_node.IsMap() && strategy_node["name"].IsDefined() &&
-                         strategy_node["name"].IsScalar() &&
-                         strategy_node["name"].Scalar() == "portfolio";
+  return strategy.IsMap() && strategy["name"].IsDefined() && strategy["name"].IsScalar() &&
+         strategy["name"].Scalar() == "portfolio";
+}
+
+void Parser::require_sections(bool portfolio) {
   for (const char* required : {"model", "band", "target", "reducer", "output"}) {
     if (portfolio && std::string(required) == "reducer") continue;
     if (!m_root[required].IsDefined())
@@ -399,10 +597,10 @@ RunConfig Parser::parse(const std::string& yaml) {
     fail(key_location(m_root, "reducer"),
          "with strategy 'portfolio' each member names its reducer (strategy.members[k].reducer); "
          "remove the top-level 'reducer' section");
+}
 
-  RunConfig config;
-
-  // model: {dir: D} (Matrix Market files) or {file: F.mat, variables: {M: Mass, ...}}.
+// model: {dir: D} (Matrix Market files) or {file: F.mat, variables: {M: Mass, ...}}.
+void Parser::parse_model(RunConfig& config) {
   const YAML::Node model = section(m_root, "model", {"dir", "file", "variables"});
   const bool by_dir = model["dir"].IsDefined();
   const bool by_file = model["file"].IsDefined();
@@ -418,26 +616,28 @@ RunConfig Parser::parse(const std::string& yaml) {
       fail(at(model["variables"]),
            "model.variables renames the variables of a .mat file (model.file); the files of a "
            "model directory have fixed names");
-  } else {
-    config.model.path = path_value(model, "model", "file");
-    if (!is_mat_file_name(config.model.path))
-      fail(at(model["file"]), fmt::format("model.file = '{}': must name a MATLAB file ending in "
-                                          ".mat (a model directory is model.dir)",
-                                          model["file"].Scalar()));
-    if (const YAML::Node vars = model["variables"]; vars.IsDefined()) {
-      if (!vars.IsMap())
-        fail(vars.IsNull() ? key_location(model, "variables") : at(vars),
-             fmt::format("model.variables must be a mapping from matrix to variable name, e.g. "
-                         "{{M: Mass, K: Stiff}}, found {}",
-                         node_kind(vars)));
-      check_keys(vars, "'model.variables'", model_variable_roles());
-      for (auto it = vars.begin(); it != vars.end(); ++it) {
-        const std::string role = it->first.Scalar();
-        config.model.variables[role] = *text(vars, "model.variables", role, true);
-      }
+    return;
+  }
+  config.model.path = path_value(model, "model", "file");
+  if (!is_mat_file_name(config.model.path))
+    fail(at(model["file"]), fmt::format("model.file = '{}': must name a MATLAB file ending in "
+                                        ".mat (a model directory is model.dir)",
+                                        model["file"].Scalar()));
+  if (const YAML::Node vars = model["variables"]; vars.IsDefined()) {
+    if (!vars.IsMap())
+      fail(vars.IsNull() ? key_location(model, "variables") : at(vars),
+           fmt::format("model.variables must be a mapping from matrix to variable name, e.g. "
+                       "{{M: Mass, K: Stiff}}, found {}",
+                       node_kind(vars)));
+    check_keys(vars, "'model.variables'", model_variable_roles());
+    for (auto it = vars.begin(); it != vars.end(); ++it) {
+      const std::string role = it->first.Scalar();
+      config.model.variables[role] = *text(vars, "model.variables", role, true);
     }
   }
+}
 
+void Parser::parse_band(RunConfig& config) {
   const YAML::Node band = section(m_root, "band", {"f_min_hz", "f_max_hz"});
   config.band.f_min_hz = *number(band, "band", "f_min_hz", true);
   config.band.f_max_hz = *number(band, "band", "f_max_hz", true);
@@ -451,7 +651,9 @@ RunConfig Parser::parse(const std::string& yaml) {
   if (!(config.band.f_max_hz > config.band.f_min_hz))
     fail(at(band["f_max_hz"]), fmt::format("band.f_max_hz = {}: must be > band.f_min_hz = {}",
                                            band["f_max_hz"].Scalar(), band["f_min_hz"].Scalar()));
+}
 
+void Parser::parse_target(RunConfig& config) {
   const YAML::Node target = section(m_root, "target", {"tolerance", "norm"});
   config.tolerance = *number(target, "target", "tolerance", true);
   if (!(config.tolerance > 0.0 && config.tolerance <= 1e3))
@@ -462,7 +664,10 @@ RunConfig Parser::parse(const std::string& yaml) {
           target, "target", "norm",
           {{"spectral", ErrorNorm::Spectral}, {"frobenius", ErrorNorm::Frobenius}}))
     config.norm = *norm;
+}
 
+// strategy (with reducer), or a portfolio's strategy section with its members.
+void Parser::parse_strategy(bool portfolio, RunConfig& config) {
   const YAML::Node strategy = section(m_root, "strategy", {"name"}, true);
   if (portfolio) {
     config.reducer_name = "portfolio";
@@ -484,100 +689,18 @@ RunConfig Parser::parse(const std::string& yaml) {
                        strategy["time_limit_s"].Scalar()));
     config.time_limit_s = *v;
   }
+}
 
-  const YAML::Node error =
-      section(m_root, "error",
-              {"grid_points", "pole_samples", "max_pole_samples", "refine_peaks",
-               "refine_evaluations", "zero_threshold", "verify_factor", "hinf_dense_states",
-               "stability_dense_states", "verify", "dense_max_states", "estimate_points",
-               "reference_points", "check_peaks", "random_checks", "check_rounds", "probe_solves"});
-  BandErrorOptions& eo = config.error;
-  eo.norm = config.norm;
-  if (auto v = integer(error, "error", "grid_points", 2)) eo.grid_points = *v;
-  if (auto v = boolean(error, "error", "pole_samples")) eo.pole_samples = *v;
-  if (auto v = integer(error, "error", "max_pole_samples", 0)) eo.max_pole_samples = *v;
-  if (auto v = integer(error, "error", "refine_peaks", 0)) eo.refine_peaks = *v;
-  if (auto v = integer(error, "error", "refine_evaluations", 0)) eo.refine_evaluations = *v;
-  if (auto v = number(error, "error", "zero_threshold", false)) {
-    if (!(*v >= 0.0 && *v < 1.0))
-      fail(at(error["zero_threshold"]), fmt::format("error.zero_threshold = {}: must be in [0, 1)",
-                                                    error["zero_threshold"].Scalar()));
-    eo.zero_threshold = *v;
-  }
-  // Mapped here rather than by parse_error_verify (band_error.cpp): the config reader stays free
-  // of the error engine (the fuzz build links the readers alone).
-  if (auto verify = choice<ErrorVerify>(error, "error", "verify",
-                                        {{"dense", ErrorVerify::Dense},
-                                         {"estimate", ErrorVerify::Estimate},
-                                         {"auto", ErrorVerify::Auto}}))
-    eo.verify = *verify;
-  if (auto v = integer(error, "error", "dense_max_states", 0)) eo.dense_max_states = *v;
-  if (auto v = integer(error, "error", "estimate_points", 2)) eo.estimate_points = *v;
-  if (auto v = integer(error, "error", "reference_points", 2)) eo.reference_points = *v;
-  if (auto v = integer(error, "error", "check_peaks", 1)) eo.check_peaks = *v;
-  if (auto v = integer(error, "error", "random_checks", 0)) eo.random_checks = *v;
-  if (auto v = integer(error, "error", "check_rounds", 1)) eo.check_rounds = *v;
-  if (auto v = integer(error, "error", "probe_solves", 0)) eo.probe_solves = *v;
-  // The re-check grid must be denser than the estimator's to be a check at all.
-  if (auto v = integer(error, "error", "verify_factor", 2)) config.verify_factor = *v;
-  if (auto v = integer(error, "error", "hinf_dense_states", 0)) {
-    if (*v > 6000)
-      fail(at(error["hinf_dense_states"]),
-           fmt::format("error.hinf_dense_states = {}: must be <= 6000 (dense eigenproblems)", *v));
-    config.hinf_dense_states = *v;
-  }
-  if (auto v = integer(error, "error", "stability_dense_states", 0)) {
-    if (*v > 6000)
-      fail(at(error["stability_dense_states"]),
-           fmt::format("error.stability_dense_states = {}: must be <= 6000 (dense eigenproblems)",
-                       *v));
-    config.stability_dense_states = *v;
-  }
+void Parser::read_section(const std::string& name, const OptionSpecs<RunConfig>& specs,
+                          RunConfig& config) {
+  const YAML::Node node = section(m_root, name, specs.keys());
+  ParameterMap options("section '" + name + "'");
+  if (node.IsMap()) collect_parameters(node, name, options, {});
+  specs.read_into(options, config);
+}
 
-  const YAML::Node solver = section(m_root, "solver",
-                                    {"threads", "use_cholesky", "symmetry_tol", "singular_rcond",
-                                     "ordering", "complex_symmetric", "ldlt_memory_fraction"});
-  if (auto v = integer(solver, "solver", "threads", 0)) {
-    if (*v > 1 << 16)
-      fail(at(solver["threads"]), fmt::format("solver.threads = {}: must be <= 65536", *v));
-    config.threads = static_cast<int>(*v);
-  }
-  if (auto v = boolean(solver, "solver", "use_cholesky")) config.solver.use_cholesky = *v;
-  for (const char* key : {"symmetry_tol", "singular_rcond"}) {
-    if (auto v = number(solver, "solver", key, false)) {
-      if (!(*v >= 0.0 && *v < 1.0))
-        fail(at(solver[key]),
-             fmt::format("solver.{} = {}: must be in [0, 1)", key, solver[key].Scalar()));
-      (std::string(key) == "symmetry_tol" ? config.solver.symmetry_tol
-                                          : config.solver.singular_rcond) = *v;
-    }
-  }
-
-  auto one_of = [&](const char* key, std::initializer_list<const char*> allowed,
-                    std::string& field) {
-    const auto v = text(solver, "solver", key, false);
-    if (!v) return;
-    std::string list;
-    for (const char* a : allowed) {
-      if (*v == a) {
-        field = *v;
-        return;
-      }
-      list += (list.empty() ? "'" : ", '") + std::string(a) + "'";
-    }
-    fail(at(solver[key]), fmt::format("solver.{} = '{}': must be one of {}", key, *v, list));
-  };
-  one_of("ordering", {"auto", "amd", "metis"}, config.solver.ordering);
-  one_of("complex_symmetric", {"auto", "ldlt", "lu"}, config.solver.complex_symmetric);
-  if (auto v = number(solver, "solver", "ldlt_memory_fraction", false)) {
-    if (!(*v >= 0.0 && *v <= 1.0))
-      fail(at(solver["ldlt_memory_fraction"]),
-           fmt::format("solver.ldlt_memory_fraction = {}: must be in [0, 1]",
-                       solver["ldlt_memory_fraction"].Scalar()));
-    config.solver.ldlt_memory_fraction = *v;
-  }
-
-  // backend: {name: suitesparse | petsc}: which shifted solver does the sparse work.
+// backend: {name: suitesparse | petsc}: which shifted solver does the sparse work.
+void Parser::parse_backend(RunConfig& config) {
   const YAML::Node backend = section(m_root, "backend", {"name"});
   if (auto name = text(backend, "backend", "name", false)) {
     if (*name != "suitesparse" && *name != "petsc")
@@ -587,7 +710,11 @@ RunConfig Parser::parse(const std::string& yaml) {
                        *name));
     config.solver.backend = *name;
   }
+}
 
+// check: budgets of `ecmor check`. Not read through option specs: the defaults (0: no budget)
+// lie outside the valid values, and a spec's range holds for its default too.
+void Parser::parse_check(RunConfig& config) {
   const YAML::Node check = section(m_root, "check", {"max_order", "max_seconds"});
   if (auto v = integer(check, "check", "max_order", 1)) config.check_max_order = *v;
   if (auto v = number(check, "check", "max_seconds", false)) {
@@ -596,33 +723,45 @@ RunConfig Parser::parse(const std::string& yaml) {
            fmt::format("check.max_seconds = {}: must be > 0", check["max_seconds"].Scalar()));
     config.check_max_seconds = *v;
   }
+}
 
+void Parser::parse_output(RunConfig& config) {
   const YAML::Node output = section(m_root, "output", {"dir", "format"});
   config.output_dir = path_value(output, "output", "dir");
   if (auto format = choice<OutputFormat>(
           output, "output", "format",
           {{"mtx", OutputFormat::Mtx}, {"mat", OutputFormat::Mat}, {"both", OutputFormat::Both}}))
     config.output_format = *format;
+}
 
-  if (const YAML::Node plugins = m_root["plugins"]; plugins.IsDefined() && !plugins.IsNull()) {
-    auto add = [&](const YAML::Node& item) {
-      if (!item.IsScalar() || item.Scalar().empty())
-        fail(at(item), fmt::format("plugins: each entry must be a path, found {}",
-                                   item.IsScalar() ? "an empty string" : node_kind(item)));
-      config.plugins.push_back(std::filesystem::absolute(item.Scalar()).lexically_normal());
-    };
-    if (plugins.IsSequence()) {
-      for (const YAML::Node& item : plugins) add(item);
-    } else if (plugins.IsScalar()) {
-      add(plugins);  // a single path is a list of one
-    } else {
-      fail(at(plugins), "'plugins' must be a list of paths, found " + node_kind(plugins));
-    }
+// plugins: a list of paths, or a single path (a list of one).
+void Parser::parse_plugins(RunConfig& config) {
+  const YAML::Node plugins = m_root["plugins"];
+  if (!plugins.IsDefined() || plugins.IsNull()) return;
+  auto add = [&](const YAML::Node& item) {
+    if (!item.IsScalar() || item.Scalar().empty())
+      fail(at(item), fmt::format("plugins: each entry must be a path, found {}",
+                                 item.IsScalar() ? "an empty string" : node_kind(item)));
+    config.plugins.push_back(std::filesystem::absolute(item.Scalar()).lexically_normal());
+  };
+  if (plugins.IsSequence()) {
+    for (const YAML::Node& item : plugins) add(item);
+  } else if (plugins.IsScalar()) {
+    add(plugins);
+  } else {
+    fail(at(plugins), "'plugins' must be a list of paths, found " + node_kind(plugins));
   }
-  return config;
 }
 
 }  // namespace
+
+std::vector<ParameterDoc> portfolio_options() { return portfolio_specs().docs(); }
+
+std::vector<ParameterDoc> section_options(const std::string& section) {
+  for (const auto& [name, specs] : option_sections())
+    if (name == section) return specs->docs();
+  throw std::invalid_argument("section_options: '" + section + "' is no section of options");
+}
 
 RunConfig parse_run_config(const std::string& yaml, const std::string& name) {
   return Parser(name).parse(yaml);

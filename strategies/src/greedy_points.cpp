@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <optional>
 #include <sstream>
 
 #include "ecmor/base/error.hpp"
@@ -62,6 +64,236 @@ double next_target(const BandError& error, const std::vector<double>& blocked) {
   return best_f;
 }
 
+// The starting points: initial_points (default: the band centre), each inside the band and
+// farther than `separation` in |ln f| from the others. \throws ConfigError naming the point.
+std::vector<ExpansionPoint> start_points(const GreedyPointsOptions& o, const Band& band,
+                                         double separation) {
+  std::vector<double> start = o.initial_points_hz;
+  if (start.empty()) start.push_back(strategy_support::band_centre_hz(band));
+  std::vector<ExpansionPoint> points;
+  for (std::size_t i = 0; i < start.size(); ++i) {
+    const double f = start[i];
+    if (f < band.f_min_hz || f > band.f_max_hz) {
+      throw ConfigError(std::string("strategy '") + kStrategy + "': initial_points[" +
+                        std::to_string(i) + "] = " + number(f) + " Hz lies outside the band [" +
+                        number(band.f_min_hz) + ", " + number(band.f_max_hz) +
+                        "] Hz: points must lie in the band");
+    }
+    for (std::size_t j = 0; j < i; ++j) {
+      if (std::abs(std::log(f / start[j])) <= separation) {
+        throw ConfigError(
+            std::string("strategy '") + kStrategy + "': initial_points[" + std::to_string(i) +
+            "] = " + number(f) + " Hz and initial_points[" + std::to_string(j) +
+            "] = " + number(start[j]) +
+            " Hz are closer than min_separation = " + number(o.min_separation) +
+            " of the band in log f: give one point with more moments instead");
+      }
+    }
+    points.push_back(point_at_hz(f, o.moments));
+  }
+  return points;
+}
+
+// One growth step: the point set with a moment or a point more.
+struct Step {
+  std::vector<ExpansionPoint> points;
+  bool adds_point = false;
+  std::string phase;  // "add_moment" or "add_point"
+  std::string what;   // "a point at 1.2e+01 Hz", for messages
+  std::map<std::string, double> extra;
+};
+
+// The step toward the frequency f: a moment more at the nearest point when f lies within
+// `separation` of it, else a new point at f with `moments` moments.
+Step step_toward(const std::vector<ExpansionPoint>& points, double f, double separation,
+                 Index moments) {
+  std::size_t nearest = 0;
+  double distance = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const double d = std::abs(std::log(f / hz_of(points[i])));
+    if (d < distance) {
+      distance = d;
+      nearest = i;
+    }
+  }
+  Step step;
+  step.points = points;
+  if (distance <= separation) {
+    // The peak sits on an existing point: interpolating there again would add nothing, a higher
+    // moment improves the match around it.
+    ExpansionPoint& p = step.points[nearest];
+    p.moments += 1;
+    step.phase = "add_moment";
+    step.what = "a moment at " + hz_text(hz_of(p)) + " (now " + std::to_string(p.moments) + ")";
+    step.extra["added_moment_hz"] = hz_of(p);
+  } else {
+    step.points.push_back(point_at_hz(f, moments));
+    step.adds_point = true;
+    step.phase = "add_point";
+    step.what = "a point at " + hz_text(f);
+    step.extra["added_point_hz"] = f;
+  }
+  return step;
+}
+
+using strategy_support::Candidate;
+using strategy_support::sci;
+using strategy_support::Stagnation;
+
+// The run's result when it ends; none while it goes on.
+using End = std::optional<StrategyResult>;
+
+// Phase 1: from the start points, add a point (or a moment) where the error peaks until a model
+// passes, or end the run with the reason why not.
+class Growth {
+ public:
+  Growth(const GreedyPointsOptions& options, strategy_support::StrategyRun& run, const Band& band,
+         double separation)
+      : m_o(options),
+        m_run(run),
+        m_band(band),
+        m_separation(separation),
+        m_reducer(*run.context().reducer),
+        m_max_order(std::min(options.max_order, m_reducer.max_order())),
+        m_reducer_caps(m_reducer.max_order() <= options.max_order),
+        m_stagnation(options.stagnation_window, options.stagnation_ratio) {}
+
+  // None once a model passed (points() and passed() are then its set and candidate).
+  End grow(std::vector<ExpansionPoint> start) {
+    ReducerResult first = strategy_support::reduce_at(m_reducer, start);
+    m_points = std::move(start);
+    m_order = first.V.cols();
+    if (m_order > m_max_order) {
+      return over_budget(m_order, std::to_string(m_points.size()) + " initial points");
+    }
+    m_c = m_run.assess(std::move(first), "initial",
+                       {{"points", static_cast<double>(m_points.size())}});
+    while (true) {
+      if (m_run.stopped()) {
+        return m_run.finish(Termination::Interrupted,
+                            "stopped by request at order " + std::to_string(m_c.order()) +
+                                " with " + std::to_string(m_points.size()) +
+                                " points; best band error " + sci(m_run.best_error()) +
+                                ", tolerance " + sci(tolerance()));
+      }
+      if (m_c.passed) return std::nullopt;
+      if (End end = out_of_budget()) return end;
+      // Where the error is worst (the re-check's peak when it found a larger error).
+      const double f = next_target(m_c.error, m_blocked);
+      if (End end = no_target(f)) return end;
+      const double at = std::clamp(f, m_band.f_min_hz, m_band.f_max_hz);
+      if (End end = take(step_toward(m_points, at, m_separation, m_o.moments), at)) return end;
+    }
+  }
+
+  const std::vector<ExpansionPoint>& points() const { return m_points; }
+  const Candidate& passed() const { return m_c; }
+
+ private:
+  double tolerance() { return m_run.context().tolerance; }
+
+  // Stagnation or the iteration budget, checked before each step.
+  End out_of_budget() {
+    if (m_stagnation.record(m_run.best_error())) {
+      return m_run.finish(Termination::Stagnated,
+                          "band error stagnated at " + sci(m_stagnation.last()) +
+                              " over the last " + std::to_string(m_stagnation.window()) +
+                              " additions (was " + sci(m_stagnation.before()) + "; order " +
+                              std::to_string(m_c.order()) + ", " +
+                              std::to_string(m_points.size()) + " points); tolerance " +
+                              sci(tolerance()));
+    }
+    if (m_run.iterations() >= m_o.max_iterations) {
+      return m_run.finish(Termination::IterationLimit,
+                          "iteration budget max_iterations = " +
+                              std::to_string(m_o.max_iterations) + " used up at order " +
+                              std::to_string(m_c.order()) + " with " +
+                              std::to_string(m_points.size()) + " points; " + m_run.shortfall());
+    }
+    return std::nullopt;
+  }
+
+  // The end of the run when next_target found no frequency f to place a point at.
+  // \throws NumericalError when the error has no finite peak at all.
+  End no_target(double f) {
+    if (std::isnan(f) && !m_blocked.empty()) {
+      return m_run.finish(Termination::Stagnated,
+                          "every frequency left to place a point at spoiled the model (a "
+                          "spurious pole on the band; " +
+                              std::to_string(m_blocked.size()) + " tried, e.g. " +
+                              hz_text(m_blocked.front()) + "); order " +
+                              std::to_string(m_c.order()) + "; " + m_run.shortfall());
+    }
+    if (!std::isfinite(f) || f <= 0.0) {
+      throw NumericalError(std::string("strategy '") + kStrategy + "': the band error " +
+                           sci(m_c.error.sup_relative) +
+                           " has no finite peak frequency (f_peak = " + number(f) +
+                           " Hz): cannot place a point");
+    }
+    return std::nullopt;
+  }
+
+  // Reduces and assesses the step toward f; keeps it unless it spoiled the model (then f is
+  // blocked and growth goes on from the model before it).
+  End take(Step step, double f) {
+    if (step.adds_point && static_cast<Index>(m_points.size()) >= m_o.max_points) {
+      return m_run.finish(Termination::MaxOrderReached,
+                          "point budget max_points = " + std::to_string(m_o.max_points) +
+                              " reached (the error peaks at " + hz_text(f) +
+                              ", away from every point; order " + std::to_string(m_c.order()) +
+                              "); " + m_run.shortfall());
+    }
+    ReducerResult r = strategy_support::reduce_at(m_reducer, step.points);
+    const Index delivered = r.V.cols();
+    if (delivered <= m_order) {
+      return m_run.finish(Termination::ReducerExhausted,
+                          "the reducer returned no new columns for " + step.what + " (order " +
+                              std::to_string(delivered) + ", was " + std::to_string(m_order) +
+                              "); " + m_run.shortfall());
+    }
+    if (delivered > m_max_order) return over_budget(delivered, "adding " + step.what);
+    step.extra["points"] = static_cast<double>(step.points.size());
+    Candidate trial = m_run.assess(std::move(r), step.phase, step.extra);
+    if (spoiled(trial.error, m_c.error)) {
+      // A spurious pole on the band: keep the model before the step and aim elsewhere.
+      m_blocked.push_back(f);
+      return std::nullopt;
+    }
+    m_points = std::move(step.points);
+    m_order = delivered;
+    m_c = std::move(trial);
+    return std::nullopt;
+  }
+
+  StrategyResult over_budget(Index delivered, const std::string& what) {
+    if (m_reducer_caps) {
+      return m_run.finish(Termination::ReducerExhausted,
+                          "the reducer delivers at most order " + std::to_string(m_max_order) +
+                              ", " + what + " gave order " + std::to_string(delivered) + "; " +
+                              m_run.shortfall());
+    }
+    return m_run.finish(Termination::MaxOrderReached,
+                        "order budget max_order = " + std::to_string(m_max_order) +
+                            " reached: " + what + " gave order " + std::to_string(delivered) +
+                            "; " + m_run.shortfall());
+  }
+
+  const GreedyPointsOptions& m_o;
+  strategy_support::StrategyRun& m_run;
+  const Band m_band;
+  const double m_separation;  // frequencies closer than this in |ln f| are one point
+  Reducer& m_reducer;
+  const Index m_max_order;
+  const bool m_reducer_caps;  // the reducer's own maximum is the lower cap
+  Stagnation m_stagnation;
+  std::vector<ExpansionPoint> m_points;
+  Index m_order = 0;  // of the model at m_points
+  Candidate m_c;      // the model at m_points, assessed
+  // Frequencies where a new point or moment spoiled the model (a spurious pole on the band):
+  // such a step is not taken again; growth backs off to the model before it and aims elsewhere.
+  std::vector<double> m_blocked;
+};
+
 }  // namespace
 
 const OptionSpecs<GreedyPointsOptions>& GreedyPointsOptions::specs() {
@@ -103,10 +335,6 @@ const OptionSpecs<GreedyPointsOptions>& GreedyPointsOptions::specs() {
   return specs;
 }
 
-using strategy_support::Candidate;
-using strategy_support::sci;
-using strategy_support::Stagnation;
-
 StrategyResult GreedyPoints::run(StrategyContext& ctx) {
   // Configuration problems are the caller's to fix: they throw before any work is done.
   strategy_support::require_point_reducer(ctx, kStrategy);
@@ -116,163 +344,21 @@ StrategyResult GreedyPoints::run(StrategyContext& ctx) {
   const Band band = ctx.estimator->band();
   // Frequencies closer than this in |ln f1 - ln f2| are one point.
   const double separation = m_options.min_separation * std::log(band.f_max_hz / band.f_min_hz);
-  std::vector<ExpansionPoint> points;
-  {
-    std::vector<double> start = m_options.initial_points_hz;
-    if (start.empty()) start.push_back(strategy_support::band_centre_hz(band));
-    for (std::size_t i = 0; i < start.size(); ++i) {
-      const double f = start[i];
-      if (f < band.f_min_hz || f > band.f_max_hz) {
-        throw ConfigError(std::string("strategy '") + kStrategy + "': initial_points[" +
-                          std::to_string(i) + "] = " + number(f) + " Hz lies outside the band [" +
-                          number(band.f_min_hz) + ", " + number(band.f_max_hz) +
-                          "] Hz: points must lie in the band");
-      }
-      for (std::size_t j = 0; j < i; ++j) {
-        if (std::abs(std::log(f / start[j])) <= separation) {
-          throw ConfigError(
-              std::string("strategy '") + kStrategy + "': initial_points[" + std::to_string(i) +
-              "] = " + number(f) + " Hz and initial_points[" + std::to_string(j) +
-              "] = " + number(start[j]) +
-              " Hz are closer than min_separation = " + number(m_options.min_separation) +
-              " of the band in log f: give one point with more moments instead");
-        }
-      }
-      points.push_back(point_at_hz(f, m_options.moments));
-    }
-  }
+  std::vector<ExpansionPoint> points = start_points(m_options, band, separation);
 
   strategy_support::StrategyRun run(ctx);
-  Reducer& reducer = *ctx.reducer;
-  const Index max_order = std::min(m_options.max_order, reducer.max_order());
-  const bool reducer_caps = reducer.max_order() <= m_options.max_order;
-  const Index max_iterations = m_options.max_iterations;
-
-  auto reduce = [&](const std::vector<ExpansionPoint>& pts) {
-    return strategy_support::reduce_at(reducer, pts);
-  };
-  auto shortfall = [&]() { return run.shortfall(); };
-  auto over_budget = [&](Index delivered, const std::string& what) {
-    if (reducer_caps) {
-      return run.finish(Termination::ReducerExhausted,
-                        "the reducer delivers at most order " + std::to_string(max_order) + ", " +
-                            what + " gave order " + std::to_string(delivered) + "; " + shortfall());
-    }
-    return run.finish(Termination::MaxOrderReached,
-                      "order budget max_order = " + std::to_string(max_order) + " reached: " +
-                          what + " gave order " + std::to_string(delivered) + "; " + shortfall());
-  };
-
   return strategy_support::guarded(run, [&]() -> StrategyResult {
-    // Phase 1: add points (or moments) where the error peaks until a verified, stable pass.
-    ReducerResult first = reduce(points);
-    Index previous = first.V.cols();
-    if (previous > max_order) {
-      return over_budget(previous, std::to_string(points.size()) + " initial points");
-    }
-    Candidate c =
-        run.assess(std::move(first), "initial", {{"points", static_cast<double>(points.size())}});
-    Stagnation stagnation(m_options.stagnation_window, m_options.stagnation_ratio);
-    // Frequencies where a new point or moment spoiled the model (a spurious pole on the band):
-    // such a step is not taken; growth backs off to the model before it and aims elsewhere.
-    std::vector<double> blocked;
-    while (true) {
-      if (run.stopped()) {
-        return run.finish(Termination::Interrupted,
-                          "stopped by request at order " + std::to_string(c.order()) + " with " +
-                              std::to_string(points.size()) + " points; best band error " +
-                              sci(run.best_error()) + ", tolerance " + sci(ctx.tolerance));
-      }
-      if (c.passed) break;
-      if (stagnation.record(run.best_error())) {
-        return run.finish(Termination::Stagnated,
-                          "band error stagnated at " + sci(stagnation.last()) + " over the last " +
-                              std::to_string(stagnation.window()) + " additions (was " +
-                              sci(stagnation.before()) + "; order " + std::to_string(c.order()) +
-                              ", " + std::to_string(points.size()) + " points); tolerance " +
-                              sci(ctx.tolerance));
-      }
-      if (run.iterations() >= max_iterations) {
-        return run.finish(Termination::IterationLimit,
-                          "iteration budget max_iterations = " + std::to_string(max_iterations) +
-                              " used up at order " + std::to_string(c.order()) + " with " +
-                              std::to_string(points.size()) + " points; " + shortfall());
-      }
-      // Where the error is worst (the re-check's peak when it found a larger error).
-      double f = next_target(c.error, blocked);
-      if (std::isnan(f) && !blocked.empty()) {
-        return run.finish(Termination::Stagnated,
-                          "every frequency left to place a point at spoiled the model (a "
-                          "spurious pole on the band; " +
-                              std::to_string(blocked.size()) + " tried, e.g. " +
-                              hz_text(blocked.front()) + "); order " +
-                              std::to_string(c.order()) + "; " + shortfall());
-      }
-      if (!std::isfinite(f) || f <= 0.0) {
-        throw NumericalError(std::string("strategy '") + kStrategy + "': the band error " +
-                             sci(c.error.sup_relative) +
-                             " has no finite peak frequency (f_peak = " + number(f) +
-                             " Hz): cannot place a point");
-      }
-      f = std::clamp(f, band.f_min_hz, band.f_max_hz);
-      std::size_t nearest = 0;
-      double distance = std::numeric_limits<double>::infinity();
-      for (std::size_t i = 0; i < points.size(); ++i) {
-        const double d = std::abs(std::log(f / hz_of(points[i])));
-        if (d < distance) {
-          distance = d;
-          nearest = i;
-        }
-      }
-      std::vector<ExpansionPoint> next = points;
-      std::string phase, what;
-      std::map<std::string, double> extra;
-      if (distance <= separation) {
-        // The peak sits on an existing point: interpolating there again would add nothing, a
-        // higher moment improves the match around it.
-        next[nearest].moments += 1;
-        phase = "add_moment";
-        what = "a moment at " + hz_text(hz_of(next[nearest])) + " (now " +
-               std::to_string(next[nearest].moments) + ")";
-        extra["added_moment_hz"] = hz_of(next[nearest]);
-      } else {
-        if (static_cast<Index>(points.size()) >= m_options.max_points) {
-          return run.finish(Termination::MaxOrderReached,
-                            "point budget max_points = " + std::to_string(m_options.max_points) +
-                                " reached (the error peaks at " + hz_text(f) +
-                                ", away from every point; order " + std::to_string(c.order()) +
-                                "); " + shortfall());
-        }
-        next.push_back(point_at_hz(f, m_options.moments));
-        phase = "add_point";
-        what = "a point at " + hz_text(f);
-        extra["added_point_hz"] = f;
-      }
-      ReducerResult r = reduce(next);
-      const Index delivered = r.V.cols();
-      if (delivered <= previous) {
-        return run.finish(Termination::ReducerExhausted,
-                          "the reducer returned no new columns for " + what + " (order " +
-                              std::to_string(delivered) + ", was " + std::to_string(previous) +
-                              "); " + shortfall());
-      }
-      if (delivered > max_order) return over_budget(delivered, "adding " + what);
-      extra["points"] = static_cast<double>(next.size());
-      Candidate trial = run.assess(std::move(r), phase, extra);
-      if (spoiled(trial.error, c.error)) {
-        // A spurious pole on the band: keep the model before the step and aim elsewhere.
-        blocked.push_back(f);
-        continue;
-      }
-      points = std::move(next);
-      previous = delivered;
-      c = std::move(trial);
-    }
+    Growth growth(m_options, run, band, separation);
+    if (End end = growth.grow(std::move(points))) return std::move(*end);
 
     // Phase 2: drop what is not needed (order of trials and its cost: see prune_points.hpp).
     std::string prune_note;
     if (m_options.prune) {
-      prune_note = strategy_support::prune_points(run, points, c, max_iterations, reduce);
+      prune_note = strategy_support::prune_points(
+          run, growth.points(), growth.passed(), m_options.max_iterations,
+          [&](const std::vector<ExpansionPoint>& pts) {
+            return strategy_support::reduce_at(*ctx.reducer, pts);
+          });
     }
     const Candidate& best = *run.smallest_pass();
     return run.finish(Termination::Converged,

@@ -122,103 +122,39 @@ std::vector<PreparedMember> prepare_members(const RunConfig& config, Registry& r
   return out;
 }
 
-MemberRuns run_members(std::vector<PreparedMember>& members, const MemberEnvironment& env) {
-  const bool portfolio = !env.config.portfolio.empty();
-  auto elapsed = [&] {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - env.start).count();
-  };
-  MemberRuns runs;
-  Index smallest_met_order = 0;  // of the members so far; 0: none met yet
-  for (std::size_t k = 0; k < members.size(); ++k) {
-    PreparedMember& m = members[k];
+namespace {
+
+/// The attempt of a member that did not start: a stop request came before it.
+PortfolioAttempt not_run(const PortfolioMember& member, const StopPolicy& stop) {
+  PortfolioAttempt attempt;
+  attempt.reducer = member.reducer_name;
+  attempt.strategy = member.strategy_name;
+  attempt.termination = "not_run";
+  attempt.message = stop.out_of_time() ? "the time limit was used up before it started"
+                                       : "interrupted before it started";
+  return attempt;
+}
+
+/// Runs the members of one run against its environment, one at a time; remembers the smallest
+/// order that met the target, against which later members are pruned.
+class MemberRunner {
+ public:
+  explicit MemberRunner(const MemberEnvironment& env)
+      : m_env(env), m_portfolio(!env.config.portfolio.empty()) {}
+
+  /// Runs member k of `count` and appends its attempt, result and reducer totals to `runs`.
+  void run(std::size_t k, std::size_t count, PreparedMember& m, MemberRuns& runs) {
     PortfolioAttempt attempt;
     attempt.reducer = m.member.reducer_name;
     attempt.strategy = m.member.strategy_name;
-    if (k > 0 && env.stop.requested()) {
-      attempt.termination = "not_run";
-      attempt.message = env.stop.out_of_time() ? "the time limit was used up before it started"
-                                    : "interrupted before it started";
-      runs.attempts.push_back(attempt);
-      runs.results.emplace_back();
-      continue;
-    }
-    if (env.observer && portfolio) env.observer->on_member_started(k, members.size(), attempt.label());
+    if (m_env.observer && m_portfolio) m_env.observer->on_member_started(k, count, attempt.label());
     const double member_start = elapsed();
-    TimedReducer timed(*m.reducer, env.solver);
-    const Index offset = env.recorded();
+    TimedReducer timed(*m.reducer, m_env.solver);
     bool pruned = false;
-    StrategyContext ctx;
-    ctx.reducer = &timed;
-    ctx.reducer_info = m.info;
-    ctx.estimator = &env.estimator;
-    ctx.tolerance = env.config.tolerance;
-    ctx.full_rigid = &env.rigid;
-    ctx.verify_factor = env.config.verify_factor;
-    ctx.start = env.start;
-    ctx.counters = [&] { return env.solver.counters(); };
-    ctx.full_evaluations = [&] { return env.cache.size(); };
-    ctx.stop_requested = [&] { return env.stop.requested(); };
-    ctx.on_iteration = [&](const IterationRecord& rec) {
-      IterationRecord r = rec;
-      r.iteration += offset;  // one numbering over all members
-      r.diagnostics["peak_memory_mb"] = peak_memory_mb();
-      if (portfolio) {
-        r.diagnostics["portfolio_member"] = static_cast<double>(k + 1);
-        r.note = "[" + attempt.label() + "] " + r.note;
-      }
-      env.record(r);
-      const bool go_on = env.observer ? env.observer->on_iteration(r) : true;
-      // A grow_order member's order only grows: once it reaches the smallest order that met the
-      // target without meeting it, it cannot win.
-      if (portfolio && env.config.portfolio_prune && m.strategy->order_only_grows() &&
-          smallest_met_order > 0 && r.order >= smallest_met_order && !r.meets_tolerance) {
-        pruned = true;
-        return false;
-      }
-      return !any_process(env.stop.time_is_up() || !go_on);
-    };
-
-    StrategyResult result;
-    bool set_up = false;
-    try {
-      // The stop condition also reaches inside reducer calls (interrupt.hpp): a time limit or a
-      // signal ends an ARPACK run, an IRKA or ADI iteration within a fraction of a second.
-      InterruptScope interrupt([&] { return env.stop.requested(); });
-      set_up = false;
-      timed.setup(ReductionContext{&env.model, &env.solver, env.config.band});
-      set_up = true;
-      result = m.strategy->run(ctx);
-    } catch (const Interrupted& e) {
-      // Stopped inside the reducer's setup (e.g. the Gramians of balanced truncation), before
-      // any model, or inside a strategy that does not handle the stop itself (the bundled ones
-      // do, keeping their best model): the run ends as interrupted, not as failed.
-      result = StrategyResult{};
-      result.termination = Termination::Interrupted;
-      result.message = (set_up ? "stopped in strategy '" + m.member.strategy_name + "': "
-                               : std::string("stopped during the reducer's setup: ")) +
-                       e.what();
-    } catch (const std::exception& e) {
-      if (!portfolio) throw;  // a plain run reports its error as before
-      // The next member may well do the job (e.g. balanced truncation refuses an undamped
-      // model that modal reduction handles): record the failure and go on.
-      result = StrategyResult{};
-      result.termination = Termination::Failed;
-      result.message = e.what();
-      IterationRecord r;
-      r.iteration = env.recorded() + 1;
-      r.phase = "failed";
-      r.band_error = std::numeric_limits<double>::quiet_NaN();
-      r.seconds = elapsed();
-      r.step_seconds = elapsed() - member_start;
-      r.counters = env.solver.counters();
-      r.full_evaluations = env.cache.size();
-      r.note = "[" + attempt.label() + "] failed: " + e.what();
-      r.diagnostics["portfolio_member"] = static_cast<double>(k + 1);
-      env.record(r);
-      if (env.observer) env.observer->on_iteration(r);
-    }
-    if (env.stop.out_of_time() && result.termination == Termination::Interrupted) {
-      result.message = env.stop.time_limit_text() + ": " + result.message;
+    StrategyContext ctx = context(k, m, timed, attempt.label(), pruned);
+    StrategyResult result = run_strategy(k, m, timed, ctx, attempt.label(), member_start);
+    if (m_env.stop.out_of_time() && result.termination == Termination::Interrupted) {
+      result.message = m_env.stop.time_limit_text() + ": " + result.message;
     }
     attempt.termination = pruned ? std::string("pruned") : to_string(result.termination);
     attempt.message = pruned
@@ -226,7 +162,7 @@ MemberRuns run_members(std::vector<PreparedMember>& members, const MemberEnviron
                                 "stopped at order {} >= {}, the smallest order that met the target "
                                 "so far: {}",
                                 result.history.empty() ? 0 : result.history.back().order,
-                                smallest_met_order, result.message)
+                                m_smallest_met_order, result.message)
                           : result.message;
     attempt.has_model = result.best.has_value();
     attempt.order = attempt.has_model ? result.best->V.cols() : 0;
@@ -235,8 +171,8 @@ MemberRuns run_members(std::vector<PreparedMember>& members, const MemberEnviron
     attempt.seconds = elapsed() - member_start;
     attempt.reducer_seconds = timed.seconds();
     attempt.iterations = static_cast<Index>(result.history.size());
-    if (attempt.met && (smallest_met_order == 0 || attempt.order < smallest_met_order)) {
-      smallest_met_order = attempt.order;
+    if (attempt.met && (m_smallest_met_order == 0 || attempt.order < m_smallest_met_order)) {
+      m_smallest_met_order = attempt.order;
     }
     runs.reducer_seconds += timed.seconds();
     runs.reducer_calls += timed.calls();
@@ -246,6 +182,120 @@ MemberRuns run_members(std::vector<PreparedMember>& members, const MemberEnviron
     runs.results.push_back(std::move(result));
   }
 
+ private:
+  double elapsed() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - m_env.start).count();
+  }
+
+  /// The context of member k; its records are numbered over all members and labelled, and a
+  /// member that can no longer win sets `pruned` and is asked to stop.
+  StrategyContext context(std::size_t k, PreparedMember& m, TimedReducer& timed,
+                          const std::string& label, bool& pruned) {
+    const MemberEnvironment& env = m_env;
+    StrategyContext ctx;
+    ctx.reducer = &timed;
+    ctx.reducer_info = m.info;
+    ctx.estimator = &env.estimator;
+    ctx.tolerance = env.config.tolerance;
+    ctx.full_rigid = &env.rigid;
+    ctx.verify_factor = env.config.verify_factor;
+    ctx.start = env.start;
+    ctx.counters = [&env] { return env.solver.counters(); };
+    ctx.full_evaluations = [&env] { return env.cache.size(); };
+    ctx.stop_requested = [&env] { return env.stop.requested(); };
+    const Index offset = env.recorded();
+    ctx.on_iteration = [this, &env, &m, &pruned, k, label, offset](const IterationRecord& rec) {
+      IterationRecord r = rec;
+      r.iteration += offset;  // one numbering over all members
+      r.diagnostics["peak_memory_mb"] = peak_memory_mb();
+      if (m_portfolio) {
+        r.diagnostics["portfolio_member"] = static_cast<double>(k + 1);
+        r.note = "[" + label + "] " + r.note;
+      }
+      env.record(r);
+      const bool go_on = env.observer ? env.observer->on_iteration(r) : true;
+      // A grow_order member's order only grows: once it reaches the smallest order that met the
+      // target without meeting it, it cannot win.
+      if (m_portfolio && env.config.portfolio_prune && m.strategy->order_only_grows() &&
+          m_smallest_met_order > 0 && r.order >= m_smallest_met_order && !r.meets_tolerance) {
+        pruned = true;
+        return false;
+      }
+      return !any_process(env.stop.time_is_up() || !go_on);
+    };
+    return ctx;
+  }
+
+  /// Sets up the reducer and runs the strategy. A stop ends it as interrupted; in a portfolio a
+  /// failure is recorded and ends only this member (a plain run's error propagates).
+  StrategyResult run_strategy(std::size_t k, PreparedMember& m, TimedReducer& timed,
+                              StrategyContext& ctx, const std::string& label,
+                              double member_start) {
+    bool set_up = false;
+    try {
+      // The stop condition also reaches inside reducer calls (interrupt.hpp): a time limit or a
+      // signal ends an ARPACK run, an IRKA or ADI iteration within a fraction of a second.
+      InterruptScope interrupt([this] { return m_env.stop.requested(); });
+      timed.setup(ReductionContext{&m_env.model, &m_env.solver, m_env.config.band});
+      set_up = true;
+      return m.strategy->run(ctx);
+    } catch (const Interrupted& e) {
+      // Stopped inside the reducer's setup (e.g. the Gramians of balanced truncation), before
+      // any model, or inside a strategy that does not handle the stop itself (the bundled ones
+      // do, keeping their best model): the run ends as interrupted, not as failed.
+      StrategyResult result;
+      result.termination = Termination::Interrupted;
+      result.message = (set_up ? "stopped in strategy '" + m.member.strategy_name + "': "
+                               : std::string("stopped during the reducer's setup: ")) +
+                       e.what();
+      return result;
+    } catch (const std::exception& e) {
+      if (!m_portfolio) throw;  // a plain run ends with its error
+      // The next member may well do the job (e.g. balanced truncation refuses an undamped
+      // model that modal reduction handles): record the failure and go on.
+      record_failure(k, label, e.what(), member_start);
+      StrategyResult result;
+      result.termination = Termination::Failed;
+      result.message = e.what();
+      return result;
+    }
+  }
+
+  /// A history record of phase "failed" for member k, and its observer call.
+  void record_failure(std::size_t k, const std::string& label, const std::string& what,
+                      double member_start) {
+    IterationRecord r;
+    r.iteration = m_env.recorded() + 1;
+    r.phase = "failed";
+    r.band_error = std::numeric_limits<double>::quiet_NaN();
+    r.seconds = elapsed();
+    r.step_seconds = elapsed() - member_start;
+    r.counters = m_env.solver.counters();
+    r.full_evaluations = m_env.cache.size();
+    r.note = "[" + label + "] failed: " + what;
+    r.diagnostics["portfolio_member"] = static_cast<double>(k + 1);
+    m_env.record(r);
+    if (m_env.observer) m_env.observer->on_iteration(r);
+  }
+
+  const MemberEnvironment& m_env;
+  const bool m_portfolio;
+  Index m_smallest_met_order = 0;  // of the members so far; 0: none met yet
+};
+
+}  // namespace
+
+MemberRuns run_members(std::vector<PreparedMember>& members, const MemberEnvironment& env) {
+  MemberRuns runs;
+  MemberRunner runner(env);
+  for (std::size_t k = 0; k < members.size(); ++k) {
+    if (k > 0 && env.stop.requested()) {
+      runs.attempts.push_back(not_run(members[k].member, env.stop));
+      runs.results.emplace_back();
+      continue;
+    }
+    runner.run(k, members.size(), members[k], runs);
+  }
   return runs;
 }
 

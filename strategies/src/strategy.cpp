@@ -1,6 +1,7 @@
 #include "ecmor/strategies/strategy.hpp"
 
 #include "ecmor/base/error.hpp"
+#include "ecmor/strategies/config.hpp"
 #include "greedy_points.hpp"
 #include "grow_order.hpp"
 #include "minimax_points.hpp"
@@ -24,7 +25,7 @@ std::string to_string(Termination t) {
 }
 
 std::vector<std::string> strategy_names() {
-  return {"grow_order", "greedy_points", "optimize_points", "minimax_points"};
+  return {"grow_order", "greedy_points", "optimize_points", "minimax_points", "portfolio"};
 }
 
 std::vector<ParameterDoc> strategy_parameters(const std::string& name) {
@@ -32,6 +33,7 @@ std::vector<ParameterDoc> strategy_parameters(const std::string& name) {
   if (name == "greedy_points") return GreedyPointsOptions::specs().docs();
   if (name == "optimize_points") return OptimizePointsOptions::specs().docs();
   if (name == "minimax_points") return MinimaxPointsOptions::specs().docs();
+  if (name == "portfolio") return portfolio_options();
   throw ConfigError("unknown strategy '" + name + "'" + suggestion(name, strategy_names()));
 }
 
@@ -45,6 +47,11 @@ std::unique_ptr<Strategy> make_strategy(const std::string& name, const Parameter
     s = std::make_unique<OptimizePoints>(OptimizePointsOptions::from(params));
   } else if (name == "minimax_points") {
     s = std::make_unique<MinimaxPoints>(MinimaxPointsOptions::from(params));
+  } else if (name == "portfolio") {
+    // The driver runs a portfolio (portfolio.hpp); each of its members has a strategy of its own.
+    throw ConfigError(
+        "strategy 'portfolio' cannot be created as a single strategy: it runs the members of "
+        "strategy.members, each with its own strategy");
   } else {
     throw ConfigError("unknown strategy '" + name + "'" + suggestion(name, strategy_names()));
   }

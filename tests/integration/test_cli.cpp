@@ -567,6 +567,10 @@ TEST_F(Cli, PluginsListsModalWithItsLibrary) {
             fs::canonical(fs::path(ECMOR_TEST_PLUGIN_DIR)));
   // Its parameters, with defaults, as documented in the plugin's README.
   EXPECT_NE(r.out.find("static_correction"), std::string::npos) << r.out;
+  // The built-in strategies follow with their options, the portfolio's among them.
+  const std::size_t portfolio = r.out.find("strategy portfolio  (built in)");
+  ASSERT_NE(portfolio, std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("prune", portfolio), std::string::npos) << r.out;
 }
 
 // ---------------------------------------------------------------- 7.-9. real runs on lf10

@@ -13,6 +13,7 @@
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/options.hpp"
+#include "ecmor/strategies/config.hpp"
 #include "ecmor/strategies/strategy.hpp"
 #include "greedy_points.hpp"
 #include "grow_order.hpp"
@@ -138,6 +139,26 @@ TEST(OptionDocs, StrategyGuidePrintsTheSpecs) {
     EXPECT_EQ(own.size() + shared.size(), docs.size()) << name;
     expect_table(file, name, own);
   }
+  expect_table(file, "portfolio", strategy_parameters("portfolio"));
+}
+
+// The configuration's sections of plain options: their tables in the user guide, and each
+// documented key, given its documented default, is read.
+TEST(OptionDocs, UserGuidePrintsTheSectionSpecs) {
+  const std::string head =
+      "model: {dir: m}\nband: {f_min_hz: 1, f_max_hz: 10}\ntarget: {tolerance: 1.0e-3}\n"
+      "reducer: {name: modal}\noutput: {dir: o}\n";
+  for (const std::string section : {"error", "solver"}) {
+    const auto docs = section_options(section);
+    ASSERT_FALSE(docs.empty()) << section;
+    expect_table("docs/user-guide.md", section, docs);
+    for (const auto& doc : docs) {
+      EXPECT_NO_THROW(parse_run_config(
+          head + section + ":\n  " + doc.name + ": " + doc.default_value + "\n", "run.yaml"))
+          << section << "." << doc.name;
+    }
+  }
+  EXPECT_THROW(section_options("check"), std::invalid_argument);
 }
 
 TEST(OptionDocs, EveryDocumentedReducerKeyIsRead) {
@@ -151,8 +172,22 @@ TEST(OptionDocs, EveryDocumentedReducerKeyIsRead) {
 
 TEST(OptionDocs, EveryDocumentedStrategyKeyIsRead) {
   for (const auto& name : strategy_names()) {
+    if (name == "portfolio") continue;  // the configuration reads it: the next test
     expect_documented_keys_read("strategy '" + name + "'", strategy_parameters(name),
                                 [&](const ParameterMap& p) { make_strategy(name, p); });
+  }
+}
+
+TEST(OptionDocs, EveryDocumentedPortfolioKeyIsRead) {
+  const std::string head =
+      "model: {dir: m}\nband: {f_min_hz: 1, f_max_hz: 10}\ntarget: {tolerance: 1.0e-3}\n"
+      "output: {dir: o}\nstrategy:\n  name: portfolio\n";
+  const auto docs = strategy_parameters("portfolio");
+  ASSERT_FALSE(docs.empty());
+  for (const auto& doc : docs) {
+    EXPECT_NO_THROW(parse_run_config(head + "  " + doc.name + ": " + doc.default_value + "\n",
+                                     "run.yaml"))
+        << doc.name;
   }
 }
 

@@ -104,4 +104,14 @@ RunConfig load_run_config(const std::filesystem::path& path);
 /// Same from a string (for tests); `name` is used in messages.
 RunConfig parse_run_config(const std::string& yaml, const std::string& name);
 
+/// The documented options of the portfolio strategy's own keys (`prune`; `members` and
+/// `time_limit_s` are described above), from the option specs the reader uses: what
+/// `ecmor plugins` and docs/strategies.md print.
+std::vector<ParameterDoc> portfolio_options();
+
+/// The documented options of a section of plain key/value options ("error", "solver"),
+/// from the option specs the reader uses: what docs/user-guide.md prints.
+/// \throws std::invalid_argument for any other name.
+std::vector<ParameterDoc> section_options(const std::string& section);
+
 }  // namespace ecmor

@@ -75,8 +75,10 @@ class Strategy {
 };
 
 /// Creates a strategy by name ("grow_order", ...), reading its parameters.
-/// \throws ConfigError for unknown names (listing the valid ones) or invalid/unknown parameters.
+/// \throws ConfigError for unknown names (listing the valid ones) or invalid/unknown parameters,
+///         and for "portfolio", which the driver runs (portfolio.hpp) and is no single strategy.
 std::unique_ptr<Strategy> make_strategy(const std::string& name, const ParameterMap& params);
+/// The strategies a configuration can name, "portfolio" last.
 std::vector<std::string> strategy_names();
 /// The documented options of a strategy (key, type, default, meaning with unit and range), from
 /// its option specs; what `ecmor plugins` prints. \throws ConfigError for unknown names.
