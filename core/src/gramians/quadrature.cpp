@@ -135,14 +135,11 @@ MatrixQuadrature integrate_adaptive(const MatrixIntegrand& f, double a, double b
     }
     result.integral = std::move(integral);
     result.error_estimate = error;
-    const double tol =
-        std::max(options.relative_tolerance * result.integral.norm(), options.absolute_tolerance);
-    if (error <= tol) {
-      result.converged = true;
-      break;
-    }
-    if (!detail::bisect_worst(pieces, tol, options.max_evaluations - result.evaluations, evaluate))
-      break;
+    const detail::Round round = detail::adaptive_round(
+        pieces, error, result.integral.norm(), options.relative_tolerance,
+        options.absolute_tolerance, options.max_evaluations - result.evaluations, evaluate);
+    result.converged = round == detail::Round::Converged;
+    if (round != detail::Round::Refined) break;
   }
   result.intervals = static_cast<Index>(pieces.size());
   std::sort(pieces.begin(), pieces.end(),

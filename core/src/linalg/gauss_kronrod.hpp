@@ -113,4 +113,18 @@ bool bisect_worst(std::vector<P>& pieces, double tol, long long evaluations_left
   return true;
 }
 
+/// How one round of an adaptive loop ends (adaptive_round).
+enum class Round { Converged, Refined, Stopped };
+
+/// One round of an adaptive quadrature loop: Converged when `error` <= max(relative * scale,
+/// absolute); else the pieces are bisected (bisect_worst, Refined), or nothing splittable or
+/// affordable is left (Stopped).
+template <class P, class Evaluate>
+Round adaptive_round(std::vector<P>& pieces, double error, double scale, double relative,
+                     double absolute, long long evaluations_left, Evaluate&& evaluate) {
+  const double tol = std::max(relative * scale, absolute);
+  if (error <= tol) return Round::Converged;
+  return bisect_worst(pieces, tol, evaluations_left, evaluate) ? Round::Refined : Round::Stopped;
+}
+
 }  // namespace ecmor::detail

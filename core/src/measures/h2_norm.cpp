@@ -233,14 +233,11 @@ H2Result h2_error_quadrature(const Model& full, ShiftedSolver& solver, const Red
     }
     result.integral = integral;
     result.integral_error = error;
-    const double tol =
-        std::max(options.relative_tolerance * std::abs(integral), options.absolute_tolerance);
-    if (error <= tol) {
-      result.converged = true;
-      break;
-    }
-    if (!detail::bisect_worst(pieces, tol, options.max_evaluations - result.evaluations, evaluate))
-      break;
+    const detail::Round round = detail::adaptive_round(
+        pieces, error, std::abs(integral), options.relative_tolerance, options.absolute_tolerance,
+        options.max_evaluations - result.evaluations, evaluate);
+    result.converged = round == detail::Round::Converged;
+    if (round != detail::Round::Refined) break;
   }
   result.intervals = static_cast<Index>(pieces.size());
   result.value = std::sqrt(std::max(0.0, result.integral));
