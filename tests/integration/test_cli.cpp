@@ -90,13 +90,14 @@ std::size_t first_entry_line(const std::vector<std::string>& lines) {
 // D = 0.01 K + 0.1 I, B = ones (N x 1), C = ones (1 x N).
 struct SmallModel {
   std::vector<double> mass = {1.0, 1.0, 1.0};
-  Index b_rows = -1;  // -1: N
+  Index b_rows = -1;   // -1: N
+  bool free = false;  // free ends: K is singular (one rigid-body mode)
 };
 
-SparseMatrix tridiagonal(Index n) {
+SparseMatrix tridiagonal(Index n, bool free = false) {
   std::vector<Eigen::Triplet<double>> t;
   for (Index i = 0; i < n; ++i) {
-    t.emplace_back(i, i, 2.0);
+    t.emplace_back(i, i, free && (i == 0 || i + 1 == n) ? 1.0 : 2.0);
     if (i + 1 < n) {
       t.emplace_back(i, i + 1, -1.0);
       t.emplace_back(i + 1, i, -1.0);
@@ -110,7 +111,7 @@ SparseMatrix tridiagonal(Index n) {
 void write_small_model(const fs::path& dir, const SmallModel& spec = {}) {
   fs::create_directories(dir);
   const Index n = static_cast<Index>(spec.mass.size());
-  const SparseMatrix K = tridiagonal(n);
+  const SparseMatrix K = tridiagonal(n, spec.free);
   SparseMatrix M(n, n);
   SparseMatrix I(n, n);
   I.setIdentity();
@@ -545,6 +546,34 @@ TEST_F(Cli, InfoEigenfrequenciesMatchAnalyticValues) {
     const double lambda = 2.0 - 2.0 * std::cos(k * M_PI / 9.0);
     // Printed with 7 significant digits: half a unit in the last place is 5e-7 relative.
     EXPECT_NEAR(f, std::sqrt(lambda) / (2.0 * M_PI), 6e-7 * f) << line;
+  }
+}
+
+TEST_F(Cli, InfoMarksTheRigidBodyModeOfAFreeChain) {
+  // Free ends, M = I: lambda_k = 2 - 2 cos(k pi / n), k = 0..n-1; lambda_0 = 0 is the rigid-body
+  // mode (the null space of K), the others are elastic however small.
+  SmallModel spec;
+  spec.mass.assign(8, 1.0);
+  spec.free = true;
+  write_small_model(model(), spec);
+  const Result r = run({"info", model().string(), "--eigenfrequencies", "3"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("1 rigid-body mode"), std::string::npos) << r.out;
+  std::istringstream lines(r.out);
+  std::string line;
+  while (std::getline(lines, line) && line.find("eigenfrequencies") == std::string::npos) {
+  }
+  ASSERT_FALSE(lines.eof()) << r.out;
+  for (int k = 0; k < 3; ++k) {
+    ASSERT_TRUE(std::getline(lines, line)) << r.out;
+    std::istringstream words(line);
+    int index = 0;
+    double f = -1.0;
+    words >> index >> f;
+    EXPECT_EQ(index, k + 1) << line;
+    const double lambda = 2.0 - 2.0 * std::cos(k * M_PI / 8.0);
+    EXPECT_NEAR(f, std::sqrt(lambda) / (2.0 * M_PI), 6e-7 * f + 1e-12) << line;
+    EXPECT_EQ(line.find("(rigid-body mode)") != std::string::npos, k == 0) << line;
   }
 }
 
