@@ -160,9 +160,14 @@ StrategyResult StrategyRun::finish(Termination t, std::string message) {
   m_out.message = std::move(message);
   // A run that misses a tolerance below what the evaluation resolves says so: its best error sits
   // at the reference floor (the rounding of the reference model where the full model was solved).
+  // "At" means within kFloorBand of it: the floor is the largest rounding seen at up to 8 solved
+  // frequencies, while the error peaks elsewhere (at a resonance), where the rounding differs by
+  // a few times; on the clamped solid of test_free_body the best error was below 2x the floor with
+  // OpenBLAS's AVX-512 kernels and 2.3x with its Haswell kernels, same binary.
+  constexpr double kFloorBand = 10.0;
   if (!m_smallest_pass && m_most_accurate) {
     const double floor = m_most_accurate->error.reference_floor;
-    if (floor > 0.0 && std::isfinite(floor) && best_error() <= 2.0 * floor &&
+    if (floor > 0.0 && std::isfinite(floor) && best_error() <= kFloorBand * floor &&
         m_ctx.tolerance < floor) {
       m_out.message += "; the band error " + sci(best_error()) + " is at the reference floor " +
                        sci(floor) +
