@@ -123,40 +123,68 @@ struct CsvColumn {
   void (*read)(const CsvField&, HistoryCsvRow&);
 };
 
-using R = const IterationRecord&;
-using F = const CsvField&;
-using Row = HistoryCsvRow&;
+// A value as history.csv has it: booleans true/false, numbers round-tripping, text quoted.
+template <class T>
+std::string field_text(const T& x) {
+  if constexpr (std::is_same_v<T, bool>) {
+    return flag(x);
+  } else if constexpr (std::is_arithmetic_v<T>) {
+    return number(x);
+  } else {
+    return csv_text(x);
+  }
+}
+
+// A field read back by the type of the member it goes to.
+template <class T>
+void read_field(const CsvField& f, T& out) {
+  if constexpr (std::is_same_v<T, bool>) {
+    out = f.boolean();
+  } else if constexpr (std::is_integral_v<T>) {
+    out = f.integer();
+  } else if constexpr (std::is_floating_point_v<T>) {
+    out = f.number();
+  } else {
+    out = f.text();
+  }
+}
+
+// The column of record.*Field, read back into row.*Back.
+template <auto Field, auto Back>
+constexpr CsvColumn column(const char* name) {
+  return {name, [](const IterationRecord& r) { return field_text(r.*Field); },
+          [](const CsvField& f, HistoryCsvRow& row) { read_field(f, row.*Back); }};
+}
+
+// The column of record.counters.*Field, read back into row.*Back.
+template <auto Field, auto Back>
+constexpr CsvColumn counter_column(const char* name) {
+  return {name, [](const IterationRecord& r) { return field_text(r.counters.*Field); },
+          [](const CsvField& f, HistoryCsvRow& row) { read_field(f, row.*Back); }};
+}
+
+using Record = IterationRecord;
+using Row = HistoryCsvRow;
 const CsvColumn kCsvColumns[] = {
-    {"iteration", [](R r) { return number(r.iteration); },
-     [](F f, Row row) { row.iteration = f.integer(); }},
-    {"phase", [](R r) { return csv_text(r.phase); }, [](F f, Row row) { row.phase = f.text(); }},
-    {"order", [](R r) { return number(r.order); }, [](F f, Row row) { row.order = f.integer(); }},
-    {"points", [](R r) { return csv_text(format_points(r.points)); },
-     [](F f, Row row) { row.points = f.text(); }},
-    {"band_error", [](R r) { return number(r.band_error); },
-     [](F f, Row row) { row.band_error = f.number(); }},
-    {"f_peak_hz", [](R r) { return number(r.f_peak_hz); },
-     [](F f, Row row) { row.f_peak_hz = f.number(); }},
-    {"meets_tolerance", [](R r) { return flag(r.meets_tolerance); },
-     [](F f, Row row) { row.meets_tolerance = f.boolean(); }},
-    {"stable", [](R r) { return flag(r.stable); }, [](F f, Row row) { row.stable = f.boolean(); }},
-    {"seconds", [](R r) { return number(r.seconds); },
-     [](F f, Row row) { row.seconds = f.number(); }},
-    {"step_seconds", [](R r) { return number(r.step_seconds); },
-     [](F f, Row row) { row.step_seconds = f.number(); }},
-    {"factorizations", [](R r) { return number(r.counters.factorizations); },
-     [](F f, Row row) { row.factorizations = f.integer(); }},
-    {"solves", [](R r) { return number(r.counters.solves); },
-     [](F f, Row row) { row.solves = f.integer(); }},
-    {"factorization_seconds", [](R r) { return number(r.counters.factorization_seconds); },
-     [](F f, Row row) { row.factorization_seconds = f.number(); }},
-    {"solve_seconds", [](R r) { return number(r.counters.solve_seconds); },
-     [](F f, Row row) { row.solve_seconds = f.number(); }},
-    {"full_evaluations", [](R r) { return number(r.full_evaluations); },
-     [](F f, Row row) { row.full_evaluations = f.integer(); }},
-    {"sampling", [](R r) { return csv_text(r.sampling); },
-     [](F f, Row row) { row.sampling = f.text(); }},
-    {"note", [](R r) { return csv_text(r.note); }, [](F f, Row row) { row.note = f.text(); }},
+    column<&Record::iteration, &Row::iteration>("iteration"),
+    column<&Record::phase, &Row::phase>("phase"),
+    column<&Record::order, &Row::order>("order"),
+    {"points", [](const Record& r) { return csv_text(format_points(r.points)); },
+     [](const CsvField& f, Row& row) { row.points = f.text(); }},
+    column<&Record::band_error, &Row::band_error>("band_error"),
+    column<&Record::f_peak_hz, &Row::f_peak_hz>("f_peak_hz"),
+    column<&Record::meets_tolerance, &Row::meets_tolerance>("meets_tolerance"),
+    column<&Record::stable, &Row::stable>("stable"),
+    column<&Record::seconds, &Row::seconds>("seconds"),
+    column<&Record::step_seconds, &Row::step_seconds>("step_seconds"),
+    counter_column<&SolverCounters::factorizations, &Row::factorizations>("factorizations"),
+    counter_column<&SolverCounters::solves, &Row::solves>("solves"),
+    counter_column<&SolverCounters::factorization_seconds, &Row::factorization_seconds>(
+        "factorization_seconds"),
+    counter_column<&SolverCounters::solve_seconds, &Row::solve_seconds>("solve_seconds"),
+    column<&Record::full_evaluations, &Row::full_evaluations>("full_evaluations"),
+    column<&Record::sampling, &Row::sampling>("sampling"),
+    column<&Record::note, &Row::note>("note"),
 };
 
 // One line of history.csv: `field(column)` for every column, comma-separated.
