@@ -23,13 +23,6 @@
 namespace ecmor::app {
 namespace {
 
-
-class StopOnSignal final : public RunObserver {
- public:
-  bool on_iteration(const IterationRecord&) override { return !stop_signalled(); }
-  bool stop_requested() override { return stop_signalled(); }
-};
-
 struct CheckRow {
   std::string config, model, reducer;
   double tolerance = 0.0;

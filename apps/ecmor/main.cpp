@@ -2,10 +2,231 @@
 // numerics here.
 #include <CLI/CLI.hpp>
 #include <cstdlib>
+#include <functional>
 #include <iostream>
+#include <vector>
 
 #include "commands.hpp"
 #include "ecmor/version.hpp"
+
+namespace {
+
+using ecmor::app::CommonOptions;
+
+// The options of every subcommand, filled in by CLI11; only the chosen subcommand's are used.
+struct Arguments {
+  CommonOptions common;
+  std::filesystem::path config;  // reduce
+  std::filesystem::path run_dir;  // plot
+  std::string plot_format = "both";
+  ecmor::app::BenchOptions bench;
+  ecmor::app::CheckOptions check;
+  std::filesystem::path model_path;  // info
+  int eigenfrequencies = 10;
+  ecmor::app::ConformOptions conform;
+  ecmor::app::SimulateOptions simulate;
+  std::filesystem::path import_config;
+  ecmor::app::ExportBodyOptions export_body;
+};
+
+// The options of the subcommands that load plugins.
+void add_common(CLI::App* sub, CommonOptions& common) {
+  sub->add_option("--plugin", common.plugin_paths,
+                  "extra plugin library or directory (repeatable)");
+  sub->add_flag("--no-default-plugins", common.no_default_plugins,
+                "do not load plugins from $ECMOR_PLUGIN_PATH and <prefix>/lib/ecmor/plugins");
+  sub->add_flag("-q,--quiet", common.quiet, "print only the final summary line");
+}
+
+CLI::App* add_reduce(CLI::App& cli, Arguments& a) {
+  auto* reduce = cli.add_subcommand(
+      "reduce", "reduce a model as configured in a YAML file (exit 0: target met, 2: target "
+                "missed but a model was written, 1: error, 130: interrupted)");
+  reduce->add_option("config", a.config, "YAML run configuration")->required();
+  reduce->add_option("-o,--output", a.common.output_dir,
+                     "output directory (overrides output.dir)");
+  reduce->add_flag("--no-plot", a.common.no_plot,
+                   "do not render the plots (sigma, error, convergence; needs gnuplot, skipped "
+                   "with a note if it is missing)");
+  add_common(reduce, a.common);
+  return reduce;
+}
+
+CLI::App* add_plot(CLI::App& cli, Arguments& a) {
+  auto* plot = cli.add_subcommand(
+      "plot", "render sigma, error and convergence plots of a finished run (needs gnuplot)");
+  plot->add_option("run_dir", a.run_dir, "output directory of an `ecmor reduce` run")->required();
+  plot->add_option("--format", a.plot_format, "png, svg or both (default both)");
+  return plot;
+}
+
+CLI::App* add_plugins(CLI::App& cli, Arguments& a) {
+  auto* plugins = cli.add_subcommand(
+      "plugins", "list the loaded reducers and the strategies, with their parameters");
+  add_common(plugins, a.common);
+  return plugins;
+}
+
+CLI::App* add_bench(CLI::App& cli, Arguments& a) {
+  auto* bench = cli.add_subcommand(
+      "bench", "run configurations over a ladder of tolerances and tabulate order reached, "
+               "errors, times and counters (bench.csv, bench.json, bench.md)");
+  bench->add_option("configs", a.bench.configs, "YAML run configurations")->required();
+  bench->add_option("-t,--tolerances", a.bench.tolerances,
+                    "tolerance ladder, e.g. 1e-2,1e-3,1e-4 (default: each config's own)")
+      ->delimiter(',');
+  bench->add_flag("--portfolio-as-one", a.bench.portfolio_as_one,
+                  "bench a portfolio config as one run (default: each member on its own)");
+  bench->add_flag("--all-reducers", a.bench.all_reducers,
+                  "run every loaded reducer that accepts the model (default parameters, "
+                  "grow_order) instead of the config's reducer");
+  bench->add_option("-o,--output", a.bench.output_dir,
+                    "output directory (default out/bench)");
+  bench->add_option("--time-limit", a.bench.time_limit_s,
+                    "wall-clock limit of each run in seconds (a run that reaches it is "
+                    "reported as interrupted, with its best model; default: the YAML's "
+                    "strategy.time_limit_s, else none)")
+      ->check(CLI::PositiveNumber);
+  add_common(bench, a.common);
+  return bench;
+}
+
+CLI::App* add_check(CLI::App& cli, Arguments& a) {
+  auto* check = cli.add_subcommand(
+      "check", "run configurations as regression tests of their tolerance targets (and of their "
+               "optional check: budgets); pass/fail table, exit 1 on any failure");
+  check->add_option("inputs", a.check.inputs,
+                    "YAML configurations or directories of them (*.yaml, not recursive)")
+      ->required();
+  check->add_option("-o,--output", a.check.output_dir,
+                    "output directory; each config's run goes to DIR/<config name> (default "
+                    "out/check)");
+  add_common(check, a.common);
+  return check;
+}
+
+CLI::App* add_info(CLI::App& cli, Arguments& a) {
+  auto* info = cli.add_subcommand(
+      "info",
+      "describe a model (directory or .mat file): sizes, nnz, symmetry, definiteness, "
+      "lowest eigenfrequencies");
+  info->add_option("model", a.model_path,
+                   "directory with M,D,K,B,C[,Cv].mtx or E,A,B,C.mtx, or a .mat file with "
+                   "variables of those names")
+      ->required();
+  info->add_option("--eigenfrequencies", a.eigenfrequencies,
+                   "how many of the lowest eigenfrequencies to compute (0: none)")
+      ->check(CLI::Range(0, 1000));
+  add_common(info, a.common);
+  return info;
+}
+
+CLI::App* add_conform(CLI::App& cli, Arguments& a) {
+  auto* conform = cli.add_subcommand(
+      "conform", "run the reducer conformance suite on one reducer (dimensions, projection, "
+                 "full order, determinism, growth, band, points, bad input); exit 1 on a failure");
+  conform->add_option("--reducer", a.conform.reducer, "the reducer's name")->required();
+  conform->add_option("--set", a.conform.settings,
+                      "a reducer parameter key=value (repeatable), as in the YAML reducer section");
+  conform->add_option("--orders", a.conform.orders,
+                      "ascending orders of the dimension/growth checks (default 2,4,8)")
+      ->delimiter(',');
+  conform->add_option("--tolerance", a.conform.tolerance,
+                      "relative agreement of transfer functions (default 1e-8)")
+      ->check(CLI::PositiveNumber);
+  conform->add_option(
+      "--model", a.conform.model_dir,
+      "run on this model (directory or .mat file) instead of the built-in models (needs "
+      "--band)");
+  conform->add_option("--band", a.conform.band_hz, "F_MIN,F_MAX in Hz for --model")
+      ->delimiter(',');
+  conform->add_flag("--with-builtin", a.conform.with_builtin,
+                    "with --model: run the built-in models too");
+  conform->add_option("--json", a.conform.json, "also write the report to this JSON file");
+  add_common(conform, a.common);
+  return conform;
+}
+
+CLI::App* add_simulate(CLI::App& cli, Arguments& a) {
+  auto* simulate = cli.add_subcommand(
+      "simulate", "simulate the full and the reduced model of a reduce run (RUN_DIR) for a step, "
+                  "impulse or chirp input; writes time_response.csv and time_error.json (output "
+                  "error y - yr, L2 and max norms)");
+  simulate->add_option("run_dir", a.simulate.run_dir, "output directory of `ecmor reduce`")
+      ->required();
+  simulate->add_option("--input", a.simulate.input, "step | impulse | chirp (default step)");
+  simulate->add_option("--input-index", a.simulate.input_index,
+                       "0-based input (column of B) driven; default -1: all inputs at once");
+  simulate->add_option("--amplitude", a.simulate.amplitude, "input amplitude (default 1)");
+  simulate->add_option("--t-end", a.simulate.t_end,
+                       "end time [s] (default: 5 time constants of the slowest decaying term of "
+                       "the reduced model's response that matters, at most 5 periods of the "
+                       "band's f_min; a chirp, or a response that does not settle: 5 periods of "
+                       "f_min, or of the chirp's lowest frequency if lower)");
+  simulate->add_option("--steps", a.simulate.steps,
+                       "time steps (default: 20 per period of the fastest term that matters, at "
+                       "most the band's f_max, or of the chirp's highest frequency if higher; at "
+                       "least 200, at most 200000)");
+  simulate->add_option("--time-axis", a.simulate.time_axis,
+                       "auto | linear | log: time axis of the plot (auto: log when the dynamics "
+                       "span more than three decades)");
+  simulate->add_option("--scheme", a.simulate.scheme,
+                       "newmark (average acceleration; trapezoidal rule for descriptor models; "
+                       "default) | generalized-alpha");
+  simulate->add_option("--rho-inf", a.simulate.rho_inf,
+                       "generalized-alpha spectral radius at infinity in [0, 1] (default 1)");
+  simulate->add_option("--chirp-hz", a.simulate.chirp_hz,
+                       "chirp start and end frequency F0,F1 in Hz, linear sweep (default: the "
+                       "band's f_min,f_max)")
+      ->delimiter(',');
+  // No plugins are involved: only --quiet of the common options applies.
+  simulate->add_flag("-q,--quiet", a.common.quiet, "print only the output-error line");
+  simulate->add_flag("--no-plot", a.common.no_plot,
+                     "do not render time_response.png/.svg (needs gnuplot)");
+  return simulate;
+}
+
+// `import calculix`: the nested subcommand is the one that runs.
+CLI::App* add_import(CLI::App& cli, Arguments& a) {
+  auto* import_cmd = cli.add_subcommand(
+      "import", "build a model directory (M, D, K, B, C .mtx, nodes.csv, dofs.csv) from another "
+                "program's model");
+  import_cmd->require_subcommand(1);
+  auto* import_ccx = import_cmd->add_subcommand(
+      "calculix", "from a CalculiX input deck: runs ccx for K and M, B and C on node sets, "
+                  "Rayleigh D (docs/import-calculix.md)");
+  import_ccx->add_option("config", a.import_config, "YAML import configuration")->required();
+  import_ccx->add_option("-o,--output", a.common.output_dir,
+                         "model directory to write (overrides output.dir)");
+  import_ccx->add_flag("-q,--quiet", a.common.quiet, "print only the summary line");
+  return import_ccx;
+}
+
+// export-body (docs/multibody.md)
+CLI::App* add_export_body(CLI::App& cli, Arguments& a) {
+  auto* export_body = cli.add_subcommand(
+      "export-body", "write the reduced elastic body of a reduce run (RUN_DIR) for multibody "
+                     "tools: mass invariants as a SID file and JSON (needs nodes.csv, dofs.csv)");
+  export_body->add_option("run_dir", a.export_body.run_dir, "output directory of `ecmor reduce`")
+      ->required();
+  export_body->add_option("-o,--output", a.export_body.output,
+                          "SID file (default RUN_DIR/body.SID_FEM; the JSON goes next to it)");
+  export_body->add_option("--mass-model", a.export_body.mass_model_dir,
+                          "model directory of the same mesh without boundary conditions: the "
+                          "mass of constrained DOFs for m, c, J");
+  export_body->add_flag("--all-nodes", a.export_body.all_nodes,
+                        "write every node to the frame (default: nodes of the inputs/outputs)");
+  export_body->add_flag("-q,--quiet", a.common.quiet, "print only the summary line");
+  return export_body;
+}
+
+// A subcommand and what it runs.
+struct Command {
+  CLI::App* sub;
+  std::function<int()> run;
+};
+
+}  // namespace
 
 int main(int argc, char** argv) {
   // Idle OpenMP threads sleep instead of spinning: between the parallel band-response batches the
@@ -18,188 +239,28 @@ int main(int argc, char** argv) {
   cli.require_subcommand(1);
   cli.set_version_flag("--version", std::string("ecmor ") + ECMOR_VERSION_STRING);
 
-  ecmor::app::CommonOptions common;
-  auto add_common = [&](CLI::App* sub) {
-    sub->add_option("--plugin", common.plugin_paths,
-                    "extra plugin library or directory (repeatable)");
-    sub->add_flag("--no-default-plugins", common.no_default_plugins,
-                  "do not load plugins from $ECMOR_PLUGIN_PATH and <prefix>/lib/ecmor/plugins");
-    sub->add_flag("-q,--quiet", common.quiet, "print only the final summary line");
+  namespace app = ecmor::app;
+  Arguments a;
+  // In the order of `ecmor --help`.
+  const std::vector<Command> commands = {
+      {add_reduce(cli, a), [&a] { return app::reduce(a.config, a.common); }},
+      {add_plot(cli, a), [&a] { return app::plot(a.run_dir, a.plot_format); }},
+      {add_plugins(cli, a), [&a] { return app::plugins(a.common); }},
+      {add_bench(cli, a), [&a] { return app::bench(a.bench, a.common); }},
+      {add_check(cli, a), [&a] { return app::check(a.check, a.common); }},
+      {add_info(cli, a), [&a] { return app::info(a.model_path, a.eigenfrequencies, a.common); }},
+      {add_conform(cli, a), [&a] { return app::conform(a.conform, a.common); }},
+      {add_simulate(cli, a), [&a] { return app::simulate(a.simulate, a.common); }},
+      {add_import(cli, a), [&a] { return app::import_calculix(a.import_config, a.common); }},
+      {add_export_body(cli, a), [&a] { return app::export_body(a.export_body, a.common); }},
   };
-
-  std::filesystem::path config;
-  auto* reduce = cli.add_subcommand(
-      "reduce", "reduce a model as configured in a YAML file (exit 0: target met, 2: target "
-                "missed but a model was written, 1: error, 130: interrupted)");
-  reduce->add_option("config", config, "YAML run configuration")->required();
-  reduce->add_option("-o,--output", common.output_dir, "output directory (overrides output.dir)");
-  reduce->add_flag("--no-plot", common.no_plot,
-                   "do not render the plots (sigma, error, convergence; needs gnuplot, skipped "
-                   "with a note if it is missing)");
-  add_common(reduce);
-
-  std::filesystem::path run_dir;
-  std::string plot_format = "both";
-  auto* plot = cli.add_subcommand(
-      "plot", "render sigma, error and convergence plots of a finished run (needs gnuplot)");
-  plot->add_option("run_dir", run_dir, "output directory of an `ecmor reduce` run")->required();
-  plot->add_option("--format", plot_format, "png, svg or both (default both)");
-
-  auto* plugins = cli.add_subcommand("plugins", "list the loaded reducers and the strategies, with their parameters");
-  add_common(plugins);
-
-  ecmor::app::BenchOptions bench_options;
-  auto* bench = cli.add_subcommand(
-      "bench", "run configurations over a ladder of tolerances and tabulate order reached, "
-               "errors, times and counters (bench.csv, bench.json, bench.md)");
-  bench->add_option("configs", bench_options.configs, "YAML run configurations")->required();
-  bench->add_option("-t,--tolerances", bench_options.tolerances,
-                    "tolerance ladder, e.g. 1e-2,1e-3,1e-4 (default: each config's own)")
-      ->delimiter(',');
-  bench->add_flag("--portfolio-as-one", bench_options.portfolio_as_one,
-                  "bench a portfolio config as one run (default: each member on its own)");
-  bench->add_flag("--all-reducers", bench_options.all_reducers,
-                  "run every loaded reducer that accepts the model (default parameters, "
-                  "grow_order) instead of the config's reducer");
-  bench->add_option("-o,--output", bench_options.output_dir,
-                    "output directory (default out/bench)");
-  bench->add_option("--time-limit", bench_options.time_limit_s,
-                    "wall-clock limit of each run in seconds (a run that reaches it is "
-                    "reported as interrupted, with its best model; default: the YAML's "
-                    "strategy.time_limit_s, else none)")
-      ->check(CLI::PositiveNumber);
-  add_common(bench);
-
-  ecmor::app::CheckOptions check_options;
-  auto* check = cli.add_subcommand(
-      "check", "run configurations as regression tests of their tolerance targets (and of their "
-               "optional check: budgets); pass/fail table, exit 1 on any failure");
-  check->add_option("inputs", check_options.inputs,
-                    "YAML configurations or directories of them (*.yaml, not recursive)")
-      ->required();
-  check->add_option("-o,--output", check_options.output_dir,
-                    "output directory; each config's run goes to DIR/<config name> (default "
-                    "out/check)");
-  add_common(check);
-
-  std::filesystem::path model_path;
-  int eigenfrequencies = 10;
-  auto* info = cli.add_subcommand(
-      "info",
-      "describe a model (directory or .mat file): sizes, nnz, symmetry, definiteness, "
-      "lowest eigenfrequencies");
-  info->add_option("model", model_path,
-                   "directory with M,D,K,B,C[,Cv].mtx or E,A,B,C.mtx, or a .mat file with "
-                   "variables of those names")
-      ->required();
-  info->add_option("--eigenfrequencies", eigenfrequencies,
-                   "how many of the lowest eigenfrequencies to compute (0: none)")
-      ->check(CLI::Range(0, 1000));
-  add_common(info);
-
-  ecmor::app::ConformOptions conform_options;
-  auto* conform = cli.add_subcommand(
-      "conform", "run the reducer conformance suite on one reducer (dimensions, projection, "
-                 "full order, determinism, growth, band, points, bad input); exit 1 on a failure");
-  conform->add_option("--reducer", conform_options.reducer, "the reducer's name")->required();
-  conform->add_option("--set", conform_options.settings,
-                      "a reducer parameter key=value (repeatable), as in the YAML reducer section");
-  conform->add_option("--orders", conform_options.orders,
-                      "ascending orders of the dimension/growth checks (default 2,4,8)")
-      ->delimiter(',');
-  conform->add_option("--tolerance", conform_options.tolerance,
-                      "relative agreement of transfer functions (default 1e-8)")
-      ->check(CLI::PositiveNumber);
-  conform->add_option(
-      "--model", conform_options.model_dir,
-      "run on this model (directory or .mat file) instead of the built-in models (needs "
-      "--band)");
-  conform->add_option("--band", conform_options.band_hz, "F_MIN,F_MAX in Hz for --model")
-      ->delimiter(',');
-  conform->add_flag("--with-builtin", conform_options.with_builtin,
-                    "with --model: run the built-in models too");
-  conform->add_option("--json", conform_options.json, "also write the report to this JSON file");
-  add_common(conform);
-
-  ecmor::app::SimulateOptions sim;
-  auto* simulate = cli.add_subcommand(
-      "simulate", "simulate the full and the reduced model of a reduce run (RUN_DIR) for a step, "
-                  "impulse or chirp input; writes time_response.csv and time_error.json (output "
-                  "error y - yr, L2 and max norms)");
-  simulate->add_option("run_dir", sim.run_dir, "output directory of `ecmor reduce`")->required();
-  simulate->add_option("--input", sim.input, "step | impulse | chirp (default step)");
-  simulate->add_option("--input-index", sim.input_index,
-                       "0-based input (column of B) driven; default -1: all inputs at once");
-  simulate->add_option("--amplitude", sim.amplitude, "input amplitude (default 1)");
-  simulate->add_option("--t-end", sim.t_end,
-                       "end time [s] (default: 5 time constants of the slowest decaying term of "
-                       "the reduced model's response that matters, at most 5 periods of the "
-                       "band's f_min; a chirp, or a response that does not settle: 5 periods of "
-                       "f_min, or of the chirp's lowest frequency if lower)");
-  simulate->add_option("--steps", sim.steps,
-                       "time steps (default: 20 per period of the fastest term that matters, at "
-                       "most the band's f_max, or of the chirp's highest frequency if higher; at "
-                       "least 200, at most 200000)");
-  simulate->add_option("--time-axis", sim.time_axis,
-                       "auto | linear | log: time axis of the plot (auto: log when the dynamics "
-                       "span more than three decades)");
-  simulate->add_option("--scheme", sim.scheme,
-                       "newmark (average acceleration; trapezoidal rule for descriptor models; "
-                       "default) | generalized-alpha");
-  simulate->add_option("--rho-inf", sim.rho_inf,
-                       "generalized-alpha spectral radius at infinity in [0, 1] (default 1)");
-  simulate->add_option("--chirp-hz", sim.chirp_hz,
-                       "chirp start and end frequency F0,F1 in Hz, linear sweep (default: the "
-                       "band's f_min,f_max)")
-      ->delimiter(',');
-  // No plugins are involved: only --quiet of the common options applies.
-  simulate->add_flag("-q,--quiet", common.quiet, "print only the output-error line");
-  simulate->add_flag("--no-plot", common.no_plot,
-                     "do not render time_response.png/.svg (needs gnuplot)");
-
-  std::filesystem::path import_config;
-  auto* import_cmd = cli.add_subcommand(
-      "import", "build a model directory (M, D, K, B, C .mtx, nodes.csv, dofs.csv) from another "
-                "program's model");
-  import_cmd->require_subcommand(1);
-  auto* import_ccx = import_cmd->add_subcommand(
-      "calculix", "from a CalculiX input deck: runs ccx for K and M, B and C on node sets, "
-                  "Rayleigh D (docs/import-calculix.md)");
-  import_ccx->add_option("config", import_config, "YAML import configuration")->required();
-  import_ccx->add_option("-o,--output", common.output_dir,
-                         "model directory to write (overrides output.dir)");
-  import_ccx->add_flag("-q,--quiet", common.quiet, "print only the summary line");
-
-  // export-body (docs/multibody.md)
-  ecmor::app::ExportBodyOptions body_options;
-  auto* export_body = cli.add_subcommand(
-      "export-body", "write the reduced elastic body of a reduce run (RUN_DIR) for multibody "
-                     "tools: mass invariants as a SID file and JSON (needs nodes.csv, dofs.csv)");
-  export_body->add_option("run_dir", body_options.run_dir, "output directory of `ecmor reduce`")
-      ->required();
-  export_body->add_option("-o,--output", body_options.output,
-                          "SID file (default RUN_DIR/body.SID_FEM; the JSON goes next to it)");
-  export_body->add_option("--mass-model", body_options.mass_model_dir,
-                          "model directory of the same mesh without boundary conditions: the "
-                          "mass of constrained DOFs for m, c, J");
-  export_body->add_flag("--all-nodes", body_options.all_nodes,
-                        "write every node to the frame (default: nodes of the inputs/outputs)");
-  export_body->add_flag("-q,--quiet", common.quiet, "print only the summary line");
-
   try {
     cli.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return cli.exit(e) == 0 ? 0 : 1;
   }
-  if (*reduce) return ecmor::app::reduce(config, common);
-  if (*bench) return ecmor::app::bench(bench_options, common);
-  if (*check) return ecmor::app::check(check_options, common);
-  if (*plot) return ecmor::app::plot(run_dir, plot_format);
-  if (*plugins) return ecmor::app::plugins(common);
-  if (*info) return ecmor::app::info(model_path, eigenfrequencies, common);
-  if (*simulate) return ecmor::app::simulate(sim, common);
-  if (*conform) return ecmor::app::conform(conform_options, common);
-  if (*import_ccx) return ecmor::app::import_calculix(import_config, common);
-  if (*export_body) return ecmor::app::export_body(body_options, common);
+  for (const Command& c : commands) {
+    if (*c.sub) return c.run();
+  }
   return 1;
 }

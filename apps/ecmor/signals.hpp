@@ -6,6 +6,8 @@
 /// (exit 130), for a run that sits inside a step it cannot leave early (one sparse factorisation of
 /// a large model can take minutes); the history on disk then holds the iterations completed so far.
 
+#include "ecmor/strategies/driver.hpp"
+
 namespace ecmor::app {
 
 /// Installs the handlers (idempotent).
@@ -13,5 +15,12 @@ void install_stop_signals();
 
 /// True once a stop signal has arrived.
 bool stop_signalled();
+
+/// Observes a run only to stop it once a stop signal has arrived; prints nothing.
+class StopOnSignal final : public RunObserver {
+ public:
+  bool on_iteration(const IterationRecord&) override { return !stop_signalled(); }
+  bool stop_requested() override { return stop_signalled(); }
+};
 
 }  // namespace ecmor::app

@@ -5,8 +5,11 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <type_traits>
 #include <nlohmann/json.hpp>
@@ -48,8 +51,13 @@ void replace_file(const std::filesystem::path& path, const std::string& contents
   }
 }
 
-// Shortest text that reads back to the same double ("0.001", "1e-13", "inf", "nan").
-std::string number(double x) { return fmt::format("{}", x); }
+// Shortest text that reads back to the same number ("0.001", "1e-13", "inf", "nan", "42").
+template <class T>
+std::string number(T x) {
+  return fmt::format("{}", x);
+}
+
+std::string flag(bool b) { return b ? "true" : "false"; }
 
 // RFC 4180: text fields in double quotes, inner quotes doubled; then commas and newlines inside
 // notes and point lists cannot break the columns.
@@ -60,6 +68,211 @@ std::string csv_text(const std::string& s) {
     out += c;
   }
   return out + "\"";
+}
+
+// One field of history.csv being read back, with what an error message needs to name it.
+class CsvField {
+ public:
+  CsvField(const std::string& text, const std::filesystem::path& path, std::size_t line,
+           const char* column)
+      : m_text(text), m_path(path), m_line(line), m_column(column) {}
+
+  const std::string& text() const { return m_text; }
+
+  Index integer() const {
+    char* end = nullptr;
+    errno = 0;
+    const long long x = std::strtoll(m_text.c_str(), &end, 10);
+    require(*end == '\0' && errno != ERANGE, "an integer");
+    return static_cast<Index>(x);
+  }
+
+  // strtod reads "inf" and "nan" as the writer writes them. Its ERANGE is not checked: it also
+  // flags subnormal numbers, which the writer writes and which read back exactly.
+  double number() const {
+    char* end = nullptr;
+    const double x = std::strtod(m_text.c_str(), &end);
+    require(*end == '\0', "a number");
+    return x;
+  }
+
+  bool boolean() const {
+    require(m_text == "true" || m_text == "false", "true or false");
+    return m_text == "true";
+  }
+
+ private:
+  // `what` names the rule the field breaks unless it is non-empty and `ok`.
+  void require(bool ok, const char* what) const {
+    if (ok && !m_text.empty()) return;
+    throw InputError(fmt::format("{}:{}: {} = '{}': must be {}", m_path.string(), m_line,
+                                 m_column, m_text, what));
+  }
+
+  const std::string& m_text;
+  const std::filesystem::path& m_path;
+  std::size_t m_line;
+  const char* m_column;
+};
+
+// history.csv's columns in file order: the name, the field as written, and where it is read back
+// to. The writer's header and the columns the reader requires both come from this one list.
+struct CsvColumn {
+  const char* name;
+  std::string (*write)(const IterationRecord&);
+  void (*read)(const CsvField&, HistoryCsvRow&);
+};
+
+// A value as history.csv has it: booleans true/false, numbers round-tripping, text quoted.
+template <class T>
+std::string field_text(const T& x) {
+  if constexpr (std::is_same_v<T, bool>) {
+    return flag(x);
+  } else if constexpr (std::is_arithmetic_v<T>) {
+    return number(x);
+  } else {
+    return csv_text(x);
+  }
+}
+
+// A field read back by the type of the member it goes to.
+template <class T>
+void read_field(const CsvField& f, T& out) {
+  if constexpr (std::is_same_v<T, bool>) {
+    out = f.boolean();
+  } else if constexpr (std::is_integral_v<T>) {
+    out = f.integer();
+  } else if constexpr (std::is_floating_point_v<T>) {
+    out = f.number();
+  } else {
+    out = f.text();
+  }
+}
+
+// The column of record.*Field, read back into row.*Back.
+template <auto Field, auto Back>
+constexpr CsvColumn column(const char* name) {
+  return {name, [](const IterationRecord& r) { return field_text(r.*Field); },
+          [](const CsvField& f, HistoryCsvRow& row) { read_field(f, row.*Back); }};
+}
+
+// The column of record.counters.*Field, read back into row.*Back.
+template <auto Field, auto Back>
+constexpr CsvColumn counter_column(const char* name) {
+  return {name, [](const IterationRecord& r) { return field_text(r.counters.*Field); },
+          [](const CsvField& f, HistoryCsvRow& row) { read_field(f, row.*Back); }};
+}
+
+using Record = IterationRecord;
+using Row = HistoryCsvRow;
+const CsvColumn kCsvColumns[] = {
+    column<&Record::iteration, &Row::iteration>("iteration"),
+    column<&Record::phase, &Row::phase>("phase"),
+    column<&Record::order, &Row::order>("order"),
+    {"points", [](const Record& r) { return csv_text(format_points(r.points)); },
+     [](const CsvField& f, Row& row) { row.points = f.text(); }},
+    column<&Record::band_error, &Row::band_error>("band_error"),
+    column<&Record::f_peak_hz, &Row::f_peak_hz>("f_peak_hz"),
+    column<&Record::meets_tolerance, &Row::meets_tolerance>("meets_tolerance"),
+    column<&Record::stable, &Row::stable>("stable"),
+    column<&Record::seconds, &Row::seconds>("seconds"),
+    column<&Record::step_seconds, &Row::step_seconds>("step_seconds"),
+    counter_column<&SolverCounters::factorizations, &Row::factorizations>("factorizations"),
+    counter_column<&SolverCounters::solves, &Row::solves>("solves"),
+    counter_column<&SolverCounters::factorization_seconds, &Row::factorization_seconds>(
+        "factorization_seconds"),
+    counter_column<&SolverCounters::solve_seconds, &Row::solve_seconds>("solve_seconds"),
+    column<&Record::full_evaluations, &Row::full_evaluations>("full_evaluations"),
+    column<&Record::sampling, &Row::sampling>("sampling"),
+    column<&Record::note, &Row::note>("note"),
+};
+
+// One line of history.csv: `field(column)` for every column, comma-separated.
+template <class Field>
+std::string csv_line(Field&& field) {
+  std::string out;
+  for (const CsvColumn& c : kCsvColumns) {
+    if (&c != kCsvColumns) out += ',';
+    out += field(c);
+  }
+  return out + '\n';
+}
+
+std::string csv_header() {
+  return csv_line([](const CsvColumn& c) { return c.name; });
+}
+
+std::string csv_row(const IterationRecord& r) {
+  return csv_line([&r](const CsvColumn& c) { return c.write(r); });
+}
+
+// A record of a CSV file: its fields and the line it starts on.
+struct CsvRecord {
+  std::size_t line = 1;
+  std::vector<std::string> fields{std::string()};
+};
+
+// Splits CSV text into records (RFC 4180; a quoted field may span lines). Blank lines are no
+// records; a carriage return outside quotes is dropped (CRLF files).
+std::vector<CsvRecord> split_records(const std::string& text, const std::filesystem::path& path) {
+  std::vector<CsvRecord> records;
+  CsvRecord record;
+  bool quoted = false, blank = true;
+  std::size_t line = 1;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\n') ++line;
+    if (quoted) {
+      if (c != '"') {
+        record.fields.back() += c;
+      } else if (i + 1 < text.size() && text[i + 1] == '"') {
+        record.fields.back() += c;  // "" inside quotes is one quote
+        ++i;
+      } else {
+        quoted = false;
+      }
+    } else if (c == '\n') {
+      if (!blank) records.push_back(std::move(record));
+      record = CsvRecord{line};
+      blank = true;
+    } else if (c != '\r') {
+      blank = false;
+      if (c == '"') quoted = true;
+      else if (c == ',') record.fields.emplace_back();
+      else record.fields.back() += c;
+    }
+  }
+  if (quoted) {
+    throw InputError(fmt::format("{}:{}: a quoted field is not closed before the end of the file",
+                                 path.string(), record.line));
+  }
+  if (!blank) records.push_back(std::move(record));
+  return records;
+}
+
+std::string read_text(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(fmt::format("{}: cannot be opened for reading", path.string()));
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Where each of kCsvColumns is in the file's header.
+std::vector<std::size_t> column_positions(const CsvRecord& header,
+                                          const std::filesystem::path& path) {
+  std::vector<std::size_t> at;
+  for (const CsvColumn& c : kCsvColumns) {
+    const auto it = std::find(header.fields.begin(), header.fields.end(), c.name);
+    if (it == header.fields.end()) {
+      const std::string names = csv_header();
+      throw InputError(fmt::format("{}:{}: no column '{}': a history.csv header names {}",
+                                   path.string(), header.line, c.name,
+                                   names.substr(0, names.size() - 1)));
+    }
+    at.push_back(static_cast<std::size_t>(it - header.fields.begin()));
+  }
+  return at;
 }
 
 // JSON has no inf/NaN; null would lose which one it was (an infinite error means the reduced
@@ -119,23 +332,39 @@ HistoryWriter::HistoryWriter(std::filesystem::path dir) : m_dir(std::move(dir)) 
 void HistoryWriter::append(const IterationRecord& record) {
   m_records.push_back(record);
 
-  std::string csv =
-      "iteration,phase,order,points,band_error,f_peak_hz,meets_tolerance,stable,seconds,"
-      "step_seconds,factorizations,solves,factorization_seconds,solve_seconds,full_evaluations,"
-      "sampling,note\n";
+  std::string csv = csv_header();
   std::string jsonl;
   for (const IterationRecord& r : m_records) {
-    csv += fmt::format(
-        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", r.iteration, csv_text(r.phase),
-        r.order, csv_text(format_points(r.points)), number(r.band_error), number(r.f_peak_hz),
-        r.meets_tolerance ? "true" : "false", r.stable ? "true" : "false", number(r.seconds),
-        number(r.step_seconds), r.counters.factorizations, r.counters.solves,
-        number(r.counters.factorization_seconds), number(r.counters.solve_seconds),
-        r.full_evaluations, csv_text(r.sampling), csv_text(r.note));
+    csv += csv_row(r);
     jsonl += to_json(r).dump() + "\n";
   }
   replace_file(m_dir / "history.csv", csv);
   replace_file(m_dir / "history.jsonl", jsonl);
+}
+
+std::vector<HistoryCsvRow> read_history_csv(const std::filesystem::path& path) {
+  const std::vector<CsvRecord> records = split_records(read_text(path), path);
+  if (records.empty()) {
+    throw InputError(fmt::format("{}: empty file: a history.csv starts with its header line",
+                                 path.string()));
+  }
+  const CsvRecord& header = records.front();
+  const std::vector<std::size_t> at = column_positions(header, path);
+  std::vector<HistoryCsvRow> rows;
+  for (std::size_t k = 1; k < records.size(); ++k) {
+    const CsvRecord& r = records[k];
+    if (r.fields.size() != header.fields.size()) {
+      throw InputError(fmt::format("{}:{}: {} fields: must be {}, one per header column",
+                                   path.string(), r.line, r.fields.size(), header.fields.size()));
+    }
+    HistoryCsvRow row;
+    for (std::size_t c = 0; c < at.size(); ++c) {
+      const CsvColumn& column = kCsvColumns[c];
+      column.read(CsvField(r.fields[at[c]], path, r.line, column.name), row);
+    }
+    rows.push_back(std::move(row));
+  }
+  return rows;
 }
 
 std::string format_points(const std::vector<ExpansionPoint>& points) {

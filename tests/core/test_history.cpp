@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -268,4 +269,119 @@ TEST_F(History, UnusableDirectoryIsAnIoErrorNamingIt) {
   } catch (const IoError& e) {
     EXPECT_NE(std::string(e.what()).find((file / "sub").string()), std::string::npos) << e.what();
   }
+}
+
+// What HistoryWriter writes, read_history_csv reads back: every field the CSV carries, doubles
+// bit for bit, text with commas, quotes and newlines intact.
+TEST_F(History, CsvRoundTripsThroughTheReader) {
+  HistoryWriter writer(m_dir);
+  std::vector<IterationRecord> written;
+  for (Index i = 1; i <= 3; ++i) written.push_back(sample_record(i));
+  written[1].note = "line one\nline two, \"quoted\"";
+  written[2].band_error = std::numeric_limits<double>::infinity();
+  written[2].f_peak_hz = std::numeric_limits<double>::quiet_NaN();
+  written[2].points.clear();
+  for (const IterationRecord& r : written) writer.append(r);
+
+  const std::vector<HistoryCsvRow> rows = read_history_csv(m_dir / "history.csv");
+  ASSERT_EQ(rows.size(), written.size());
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    const IterationRecord& e = written[k];
+    const HistoryCsvRow& r = rows[k];
+    EXPECT_EQ(r.iteration, e.iteration);
+    EXPECT_EQ(r.phase, e.phase);
+    EXPECT_EQ(r.order, e.order);
+    EXPECT_EQ(r.points, format_points(e.points));
+    if (std::isnan(e.band_error)) {
+      EXPECT_TRUE(std::isnan(r.band_error));
+    } else {
+      EXPECT_EQ(r.band_error, e.band_error);
+    }
+    if (std::isnan(e.f_peak_hz)) {
+      EXPECT_TRUE(std::isnan(r.f_peak_hz));
+    } else {
+      EXPECT_EQ(r.f_peak_hz, e.f_peak_hz);
+    }
+    EXPECT_EQ(r.meets_tolerance, e.meets_tolerance);
+    EXPECT_EQ(r.stable, e.stable);
+    EXPECT_EQ(r.seconds, e.seconds);
+    EXPECT_EQ(r.step_seconds, e.step_seconds);
+    EXPECT_EQ(r.factorizations, e.counters.factorizations);
+    EXPECT_EQ(r.solves, e.counters.solves);
+    EXPECT_EQ(r.factorization_seconds, e.counters.factorization_seconds);
+    EXPECT_EQ(r.solve_seconds, e.counters.solve_seconds);
+    EXPECT_EQ(r.full_evaluations, e.full_evaluations);
+    EXPECT_EQ(r.sampling, e.sampling);
+    EXPECT_EQ(r.note, e.note);
+  }
+  EXPECT_EQ(rows[2].points, "-");
+  EXPECT_TRUE(std::isinf(rows[2].band_error));
+}
+
+namespace {
+
+// The InputError of reading `text` as history.csv; empty when it reads.
+std::string read_error(const fs::path& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+  try {
+    read_history_csv(path);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return {};
+}
+
+// The text of a history.csv of one record, as HistoryWriter writes it into `dir`.
+std::string one_record_csv(const fs::path& dir) {
+  HistoryWriter writer(dir);
+  writer.append(sample_record(1));
+  return read(dir / "history.csv");
+}
+
+std::string replaced(std::string text, const std::string& from, const std::string& to) {
+  const std::size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  return at == std::string::npos ? text : text.replace(at, from.size(), to);
+}
+
+}  // namespace
+
+TEST_F(History, ReaderNamesFileLineAndRule) {
+  const std::string good = one_record_csv(m_dir);
+  const fs::path bad = m_dir / "bad.csv";
+  const std::string file = bad.string();
+  EXPECT_NE(read_error(bad, replaced(good, "band_error,", "error,")).find(
+                file + ":1: no column 'band_error': a history.csv header names iteration,phase,"),
+            std::string::npos)
+      << read_error(bad, replaced(good, "band_error,", "error,"));
+  // The record starts on line 2; its note is quoted, so the field count is the header's.
+  EXPECT_EQ(read_error(bad, replaced(good, "\n1,", "\n1,2,")),
+            file + ":2: 18 fields: must be 17, one per header column");
+  EXPECT_EQ(read_error(bad, replaced(good, ",false,false,", ",yes,false,")),
+            file + ":2: meets_tolerance = 'yes': must be true or false");
+  EXPECT_EQ(read_error(bad, replaced(good, "\n1,", "\none,")),
+            file + ":2: iteration = 'one': must be an integer");
+  EXPECT_EQ(read_error(bad, replaced(good, ",0.123456789012345,", ",12Hz,")),
+            file + ":2: f_peak_hz = '12Hz': must be a number");
+  EXPECT_EQ(read_error(bad, good + "2,\"grow"),
+            file + ":3: a quoted field is not closed before the end of the file");
+  EXPECT_EQ(read_error(bad, ""), file + ": empty file: a history.csv starts with its header line");
+  EXPECT_EQ(read_error(m_dir / "missing" / "history.csv", ""),
+            (m_dir / "missing" / "history.csv").string() + ": cannot be opened for reading");
+}
+
+TEST_F(History, ReaderCountsLinesInsideQuotedFieldsAndSkipsBlankLines) {
+  HistoryWriter writer(m_dir);
+  IterationRecord r = sample_record(1);
+  r.note = "one\ntwo\nthree";
+  writer.append(r);
+  writer.append(sample_record(2));
+  const std::string text = read(m_dir / "history.csv") + "\r\n\n";
+  // Record 2 starts on line 5: header, then record 1 over three lines.
+  const fs::path bad = m_dir / "bad.csv";
+  EXPECT_EQ(read_error(bad, replaced(text, "\n2,", "\n2x,")),
+            bad.string() + ":5: iteration = '2x': must be an integer");
+  EXPECT_EQ(read_error(bad, text), "");
+  EXPECT_EQ(read_history_csv(bad).size(), 2u);
+  EXPECT_EQ(read_history_csv(bad)[0].note, "one\ntwo\nthree");
 }

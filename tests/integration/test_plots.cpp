@@ -326,6 +326,21 @@ TEST_F(Plots, PlotWithoutSummaryFailsNamingTheFile) {
   EXPECT_NE(r.err.find((partial / "band_error.csv").string()), std::string::npos) << r.err;
 }
 
+TEST_F(Plots, HistoryWithoutAColumnFailsNamingFileLineAndRule) {
+  const fs::path run = copy_of_run("bad history");
+  std::string history = read_text(run / "history.csv");
+  const std::size_t at = history.find(",meets_tolerance,");
+  ASSERT_NE(at, std::string::npos) << history;
+  history.replace(at, 17, ",met,");
+  write_text(run / "history.csv", history);
+  const Result r = run_ecmor(m_dir, {"plot", run.string()});
+  EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+  EXPECT_NE(r.err.find((run / "history.csv").string() +
+                       ":1: no column 'meets_tolerance': a history.csv header names iteration,"),
+            std::string::npos)
+      << r.err;
+}
+
 TEST_F(Plots, FormatSvgWritesNoPng) {
   REQUIRE_GNUPLOT();
   const fs::path dir = copy_of_run("svg only");

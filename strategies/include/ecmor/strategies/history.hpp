@@ -46,6 +46,38 @@ class HistoryWriter {
   std::vector<IterationRecord> m_records;
 };
 
+/// One row of history.csv as read back: the fields the CSV carries. It holds part of an
+/// IterationRecord (the points as format_points() text, two of the solver counters, no
+/// diagnostics); history.jsonl has every field.
+struct HistoryCsvRow {
+  Index iteration = 0;
+  std::string phase;
+  Index order = 0;
+  std::string points;  ///< format_points() of the record's points
+  double band_error = 0.0;
+  double f_peak_hz = 0.0;
+  bool meets_tolerance = false;
+  bool stable = true;
+  double seconds = 0.0;
+  double step_seconds = 0.0;
+  Index factorizations = 0;  ///< cumulative, as counters.factorizations
+  Index solves = 0;          ///< cumulative, as counters.solves
+  double factorization_seconds = 0.0;
+  double solve_seconds = 0.0;
+  Index full_evaluations = 0;
+  std::string sampling;
+  std::string note;
+};
+
+/// Reads a history.csv as HistoryWriter writes it: RFC 4180 (quoted fields may hold commas,
+/// newlines and doubled quotes), columns found by their header names (others are ignored), blank
+/// lines skipped. Numbers read back exactly, including "inf" and "nan".
+/// \throws InputError naming the file, the line and the rule broken: the file cannot be read or
+///         is empty; the header lacks a column the writer writes; a row has another number of
+///         fields than the header; a field is not an integer, a number, or true/false as its
+///         column requires; a quoted field is not closed.
+std::vector<HistoryCsvRow> read_history_csv(const std::filesystem::path& path);
+
 /// Calls f(name, value) for every solver counter, in a fixed order: the one list of counter
 /// names used by history.jsonl and summary.json. Values are Index (counts) or double (seconds).
 template <class F>
