@@ -47,6 +47,7 @@ if [ "$profile" = all ]; then
     libbenchmark-dev
     libspdlog-dev
     clang-14 libclang-rt-14-dev libomp-14-dev   # scripts/fuzz.sh, scripts/sanitize.sh: libFuzzer, the sanitizers, OpenMP
+    clang-format-14                             # scripts/format.sh, the test format_check
     libpetsc-complex-dev openmpi-bin   # the PETSc backend (complex scalars, MUMPS) over MPI
     libslepc-complex-dev               # its distributed eigensolver (modal reducer)
   )
