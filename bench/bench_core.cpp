@@ -35,11 +35,11 @@
 #include <vector>
 
 #include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
-#include "ecmor/model/matrix_market.hpp"
-#include "ecmor/response/reduced_response.hpp"
-#include "ecmor/plugin/registry.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/model/matrix_market.hpp"
+#include "ecmor/plugin/registry.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/response/reduced_response.hpp"
 #include "triple_chain.hpp"
 
 #ifndef ECMOR_BENCH_PLUGIN_DIR
@@ -170,8 +170,8 @@ std::vector<double> band_frequencies_hz(Index count) {
 /// that test_matrix_market once asserted as wall time).
 void bench_matrix_market(const ecmor::Model& model, Index N, Reporter& out) {
   const auto& K = std::get<ecmor::SecondOrderModel>(model).K;
-  const std::filesystem::path path = std::filesystem::temp_directory_path() /
-                                     fmt::format("ecmor_bench_core_K_{}.mtx", ::getpid());
+  const std::filesystem::path path =
+      std::filesystem::temp_directory_path() / fmt::format("ecmor_bench_core_K_{}.mtx", ::getpid());
   ecmor::write_matrix_market(path, K, "bench_core: K of the triple chain");
   const double mb = static_cast<double>(std::filesystem::file_size(path)) / 1e6;
   Stopwatch watch;
@@ -179,8 +179,8 @@ void bench_matrix_market(const ecmor::Model& model, Index N, Reporter& out) {
   const double seconds = watch.wall();
   std::filesystem::remove(path);
   if (read.nonZeros() != K.nonZeros())
-    throw ecmor::NumericalError(fmt::format("bench: read {} nonzeros of K, wrote {}",
-                                            read.nonZeros(), K.nonZeros()));
+    throw ecmor::NumericalError(
+        fmt::format("bench: read {} nonzeros of K, wrote {}", read.nonZeros(), K.nonZeros()));
   out.add({.n = N,
            .stage = "read Matrix Market",
            .detail = fmt::format("K: {:.1f} MB, nnz {}", mb, K.nonZeros()),
@@ -434,12 +434,12 @@ void bench_krylov(const ecmor::Model& model, Index N, const Options& opt, Report
     const double cpu = watch.cpu();
     const ecmor::SolverCounters sc = solver->counters();
     out.add({.n = N,
-             .stage = fmt::format("krylov r={} ({} pts x {} mom)", result.V.cols(), c.points,
-                                  c.moments),
-             .detail = fmt::format("fact+solve {:.0f}%, {}",
-                                   100.0 * (sc.factorization_seconds + sc.solve_seconds) /
-                                       std::max(cpu, wall),
-                                   diagnostics(result)),
+             .stage =
+                 fmt::format("krylov r={} ({} pts x {} mom)", result.V.cols(), c.points, c.moments),
+             .detail = fmt::format(
+                 "fact+solve {:.0f}%, {}",
+                 100.0 * (sc.factorization_seconds + sc.solve_seconds) / std::max(cpu, wall),
+                 diagnostics(result)),
              .seconds = wall,
              .cpu_seconds = cpu,
              .factorizations = sc.factorizations,
@@ -482,10 +482,12 @@ ecmor::ReducedSecondOrderModel random_reduced_model(Index n, Index m, Index p, u
 void bench_reduced_response(Reporter& out) {
   for (Index n : {20, 80, 164}) {
     for (Index io : {1, 3}) {
-      const ecmor::ReducedModel model = random_reduced_model(n, io, io, 7u + static_cast<unsigned>(n));
+      const ecmor::ReducedModel model =
+          random_reduced_model(n, io, io, 7u + static_cast<unsigned>(n));
       // Frequencies across the poles (omega 1 .. 100 rad/s), as an assessment grid is.
       const Index count = std::max<Index>(1000, 5000000 / (n * n));
-      const std::vector<double> f_hz = ecmor::log_grid(0.5 / ecmor::kTwoPi, 200.0 / ecmor::kTwoPi, count);
+      const std::vector<double> f_hz =
+          ecmor::log_grid(0.5 / ecmor::kTwoPi, 200.0 / ecmor::kTwoPi, count);
       Stopwatch watch;
       const ecmor::ReducedResponse response(model);
       const double setup = watch.wall();

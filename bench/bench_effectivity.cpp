@@ -34,12 +34,12 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/strategies/config.hpp"
-#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/model/projection.hpp"
 #include "ecmor/plugin/registry.hpp"
-#include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/strategies/config.hpp"
 #include "effectivity.hpp"
 #include "lattice.hpp"
 #include "solid.hpp"

@@ -24,9 +24,9 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/response/frequency_response.hpp"
-#include "ecmor/model/model_io.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/response/frequency_response.hpp"
 
 namespace {
 

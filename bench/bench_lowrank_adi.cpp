@@ -12,8 +12,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <exception>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -33,24 +33,26 @@ void run_band(const std::string& name, const ecmor::Model& model, const ecmor::B
   const LowRankBandGramians g = lowrank_band_gramians(view, band, options);
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const auto& q = g.integrals.quadrature;
-  fmt::print("{:<24} band {:g}..{:g} Hz: quadrature {} nodes over {} ({} intervals, error "
-             "estimate {:.1e} rel, {}), {:.3f} s\n",
-             name, band.f_min_hz, band.f_max_hz, q.evaluations, g.integrals.variable, q.intervals,
-             q.error_estimate / q.integral.norm(), q.converged ? "converged" : "NOT converged",
-             g.quadrature_seconds);
-  fmt::print("{:<24} {:<15} {:>5} {:>6} {:>6} {:>9} {:>9} {:>5} {:>9} {:>6} {:>8} {:>8} "
-             "{:>8} {:>8}\n",
-             "model", "gramian", "iter", "rank", "Lcols", "residual", "res(ZZ')", "conv",
-             "neg.eig", "fact", "solves", "fact[s]", "solve[s]", "total[s]");
+  fmt::print(
+      "{:<24} band {:g}..{:g} Hz: quadrature {} nodes over {} ({} intervals, error "
+      "estimate {:.1e} rel, {}), {:.3f} s\n",
+      name, band.f_min_hz, band.f_max_hz, q.evaluations, g.integrals.variable, q.intervals,
+      q.error_estimate / q.integral.norm(), q.converged ? "converged" : "NOT converged",
+      g.quadrature_seconds);
+  fmt::print(
+      "{:<24} {:<15} {:>5} {:>6} {:>6} {:>9} {:>9} {:>5} {:>9} {:>6} {:>8} {:>8} "
+      "{:>8} {:>8}\n",
+      "model", "gramian", "iter", "rank", "Lcols", "residual", "res(ZZ')", "conv", "neg.eig",
+      "fact", "solves", "fact[s]", "solve[s]", "total[s]");
   for (const AdiLdlResult* r : {&g.controllability, &g.observability}) {
     const double res_z = lowrank_residual(view, r->Z, r->side, r->G, r->S);
-    fmt::print("{:<24} {:<15} {:>5} {:>6} {:>6} {:>9.2e} {:>9.2e} {:>5} {:>9.1e} {:>6} {:>8} "
-               "{:>8.3f} {:>8.3f} {:>8.3f}\n",
-               name, to_string(r->side), r->iterations, r->Z.cols(), r->L.cols(), r->residual,
-               res_z, r->converged ? "yes" : "no", r->most_negative_eigenvalue,
-               r->factorizations, r->solves,
-               r->counters.factorization_seconds + r->counters.analysis_seconds,
-               r->counters.solve_seconds, r->seconds);
+    fmt::print(
+        "{:<24} {:<15} {:>5} {:>6} {:>6} {:>9.2e} {:>9.2e} {:>5} {:>9.1e} {:>6} {:>8} "
+        "{:>8.3f} {:>8.3f} {:>8.3f}\n",
+        name, to_string(r->side), r->iterations, r->Z.cols(), r->L.cols(), r->residual, res_z,
+        r->converged ? "yes" : "no", r->most_negative_eigenvalue, r->factorizations, r->solves,
+        r->counters.factorization_seconds + r->counters.analysis_seconds, r->counters.solve_seconds,
+        r->seconds);
   }
   // The shifts approximate the spectrum: their range says where the band lies relative to the
   // poles (in Hz, |p| / 2 pi).
@@ -84,8 +86,7 @@ int main(int argc, char** argv) {
     else if (arg == "--band" && i + 2 < argc) {
       band = Band{std::stod(argv[i + 1]), std::stod(argv[i + 2])};
       i += 2;
-    }
-    else
+    } else
       names.push_back(arg);
   }
   if (names.empty()) names = {"triplechain_mess_n1501", "rail_5177", "rail_20209"};
@@ -109,7 +110,8 @@ int main(int argc, char** argv) {
   for (const std::string& name : names) {
     try {
       const Model model = load_model("../shared/models/" + name);
-      for (AdiShiftStrategy strategy : {AdiShiftStrategy::Projection, AdiShiftStrategy::Heuristic}) {
+      for (AdiShiftStrategy strategy :
+           {AdiShiftStrategy::Projection, AdiShiftStrategy::Heuristic}) {
         // A fresh solver per strategy: no factorisation or analysis carried over.
         auto solver = make_shifted_solver(model);
         FirstOrderView view(model, *solver);
@@ -124,12 +126,13 @@ int main(int argc, char** argv) {
         for (GramianSide side : {GramianSide::Controllability, GramianSide::Observability}) {
           const AdiResult r = adi.solve(side);
           both += r.seconds;
-          fmt::print("{:<24} {:<10} {:<15} {:>5} {:>6} {:>6} {:>9.2e} {:>5} {:>6} {:>8} {:>8.3f} "
-                     "{:>8.3f} {:>8.3f}\n",
-                     name, to_string(strategy), to_string(side), r.iterations, r.Z.cols(),
-                     r.uncompressed_rank, r.residual, r.converged ? "yes" : "no", r.factorizations,
-                     r.solves, r.counters.factorization_seconds + r.counters.analysis_seconds,
-                     r.counters.solve_seconds, r.seconds);
+          fmt::print(
+              "{:<24} {:<10} {:<15} {:>5} {:>6} {:>6} {:>9.2e} {:>5} {:>6} {:>8} {:>8.3f} "
+              "{:>8.3f} {:>8.3f}\n",
+              name, to_string(strategy), to_string(side), r.iterations, r.Z.cols(),
+              r.uncompressed_rank, r.residual, r.converged ? "yes" : "no", r.factorizations,
+              r.solves, r.counters.factorization_seconds + r.counters.analysis_seconds,
+              r.counters.solve_seconds, r.seconds);
         }
         const double wall =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

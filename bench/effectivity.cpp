@@ -8,9 +8,9 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/model/matrix_market.hpp"
 #include "ecmor/model/model_io.hpp"
+#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/strategies/driver.hpp"
 
 namespace ecmor::bench {

@@ -23,11 +23,11 @@
 #include <string>
 #include <vector>
 
+#include "ecmor/linalg/shifted_solver.hpp"
 #include "ecmor/measures/band_error.hpp"
-#include "ecmor/strategies/config.hpp"
 #include "ecmor/model/model.hpp"
 #include "ecmor/plugin/registry.hpp"
-#include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/strategies/config.hpp"
 
 namespace ecmor::bench {
 

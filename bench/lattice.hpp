@@ -15,8 +15,8 @@
 /// the free-free chain Laplacian of NY (NZ) nodes, 4 sin^2(j pi / (2 NY)), and lx those of the NX
 /// chain grounded at its first node. The lowest is about 100 pi / (2 NX + 1) rad/s.
 
-#include "ecmor/model/model.hpp"
 #include "ecmor/base/types.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor::bench {
 

@@ -44,9 +44,9 @@
 /// corners used). The default 4 inputs excite the axial, both bending and the torsion modes; the
 /// default 6 outputs observe them. Cv is empty.
 
+#include "ecmor/base/types.hpp"
 #include "ecmor/body/fe_geometry.hpp"
 #include "ecmor/model/model.hpp"
-#include "ecmor/base/types.hpp"
 
 namespace ecmor::bench {
 

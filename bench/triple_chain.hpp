@@ -19,8 +19,8 @@
 /// chain 3: that is the (asymmetric-looking) convention of M-M.E.S.S., verified entry by entry
 /// against the shared models triplechain_{cmess_n301, saak09_n451, mess_n1501}.
 
-#include "ecmor/model/model.hpp"
 #include "ecmor/base/types.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor::bench {
 

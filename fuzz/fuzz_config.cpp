@@ -8,6 +8,8 @@
 //  * an accepted configuration breaks a documented range (band, tolerance, counts, threads).
 // Accepted configurations then have every reducer/strategy parameter read with every accessor,
 // as plugins do, and check_unused() run.
+#include <yaml-cpp/yaml.h>
+
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -15,11 +17,9 @@
 #include <exception>
 #include <string>
 
-#include <yaml-cpp/yaml.h>
-
-#include "ecmor/strategies/config.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/parameters.hpp"
+#include "ecmor/strategies/config.hpp"
 
 using namespace ecmor;
 
@@ -111,8 +111,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const std::string msg = e.what();
     if (msg.rfind(kName, 0) != 0) contract("message does not start with the file name: " + msg);
   } catch (const std::exception& e) {
-    contract(std::string("parse_run_config threw something else than a ConfigError: ") +
-             e.what());
+    contract(std::string("parse_run_config threw something else than a ConfigError: ") + e.what());
   } catch (...) {
     contract("parse_run_config threw a non-std exception");
   }

@@ -97,8 +97,7 @@ void round_trip_sparse(const SparseMatrix& A, const std::string& comment) {
 void round_trip_dense(const Matrix& A, const std::string& comment) {
   write_matrix_market(g_dense_copy, A, comment);
   const Matrix B = read_matrix_market_dense(g_dense_copy);
-  if (B.rows() != A.rows() || B.cols() != A.cols())
-    contract("dense round trip changed the shape");
+  if (B.rows() != A.rows() || B.cols() != A.cols()) contract("dense round trip changed the shape");
   for (Index j = 0; j < A.cols(); ++j)
     for (Index i = 0; i < A.rows(); ++i)
       if (!same_bits(A(i, j), B(i, j))) contract("dense round trip is not bitwise");
@@ -109,8 +108,8 @@ void round_trip_dense(const Matrix& A, const std::string& comment) {
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
   // tmpfs when there is one: the writer fsyncs, which costs nothing there.
   std::error_code ec;
-  const fs::path base = fs::is_directory("/dev/shm", ec) ? fs::path("/dev/shm")
-                                                          : fs::temp_directory_path();
+  const fs::path base =
+      fs::is_directory("/dev/shm", ec) ? fs::path("/dev/shm") : fs::temp_directory_path();
   // Directories of earlier runs that ended in a crash (no atexit then) are removed, once their
   // process is gone.
   const std::string prefix = "ecmor_fuzz_mm_";
@@ -168,8 +167,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   if (sparse_error) {
     // The dense reader adds a size rule only; otherwise it fails where the sparse one does.
-    if (!dense_error) contract("the dense reader accepted what the sparse reader refused: " +
-                               *sparse_error);
+    if (!dense_error)
+      contract("the dense reader accepted what the sparse reader refused: " + *sparse_error);
     if (*dense_error != *sparse_error && dense_error->find("too large") == std::string::npos)
       contract("sparse and dense readers disagree: '" + *sparse_error + "' vs '" + *dense_error +
                "'");
@@ -179,7 +178,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (sparse.rows() != header.rows || sparse.cols() != header.cols)
     contract("the sparse matrix's shape differs from the header's");
   for (Index k = 0; k < sparse.nonZeros(); ++k)
-    if (!std::isfinite(sparse.valuePtr()[k])) contract("the sparse matrix holds a non-finite value");
+    if (!std::isfinite(sparse.valuePtr()[k]))
+      contract("the sparse matrix holds a non-finite value");
   if (dense_error) {
     if (dense_error->find("too large") == std::string::npos)
       contract("the dense reader refused what the sparse reader accepted: " + *dense_error);

@@ -226,8 +226,7 @@ std::string BenchCharts::csv() const {
     csv += fmt::format("{},{},{},{},{},{},{:g},{},{},{:.6e},{:.4f},{:.4f},{}\n", i + 1,
                        m_series_of[i], csv_field(m_labels[i]), csv_field(r.model),
                        csv_field(r.reducer), csv_field(r.strategy), r.tolerance, m_status[i],
-                       r.order, r.verified_error, r.seconds, r.reducer_seconds,
-                       m_front[i] ? 1 : 0);
+                       r.order, r.verified_error, r.seconds, r.reducer_seconds, m_front[i] ? 1 : 0);
   }
   return csv;
 }
@@ -273,8 +272,8 @@ std::string BenchCharts::panel_plot(const std::string& model, const std::string&
   for (std::size_t k = 0; k < m_series.size(); ++k) {
     bool drawable = false;
     for (std::size_t i = 0; i < m_rows.size(); ++i) {
-      drawable = drawable || (m_series_of[i] == k + 1 && m_rows[i].model == model &&
-                              m_status[i] != "failed");
+      drawable = drawable ||
+                 (m_series_of[i] == k + 1 && m_rows[i].model == model && m_status[i] != "failed");
     }
     if (!drawable) continue;
     parts.push_back(fmt::format(
@@ -295,8 +294,7 @@ std::string BenchCharts::panel_plot(const std::string& model, const std::string&
         mine, x));
   }
   for (double t : m_tolerances)
-    parts.push_back(
-        fmt::format("{} with lines dt 2 lw 1 lc rgb '#555555' notitle", gp_number(t)));
+    parts.push_back(fmt::format("{} with lines dt 2 lw 1 lc rgb '#555555' notitle", gp_number(t)));
   return failed_labels(model, failed_x) +
          fmt::format("set title {} noenhanced\n", gnuplot_string(model)) + plot_of(parts);
 }
@@ -308,16 +306,18 @@ std::string BenchCharts::key_panel(bool with_front) const {
     parts.push_back(fmt::format("NaN with linespoints lw 1.5 {} ps 1.2 title {}",
                                 series_style(k + 1), gnuplot_string(m_series[k])));
   if (with_front && m_on_front > 0)
-    parts.push_back("NaN with points pt 6 ps 2.5 lw 2 lc rgb '#000000' title 'Pareto front "
-                    "(time, error; per model)'");
+    parts.push_back(
+        "NaN with points pt 6 ps 2.5 lw 2 lc rgb '#000000' title 'Pareto front "
+        "(time, error; per model)'");
   if (m_missed > 0)
-    parts.push_back("NaN with points pt 3 ps 1.8 lw 1.5 lc rgb '#ff7f0e' title 'target "
-                    "missed (model kept)'");
+    parts.push_back(
+        "NaN with points pt 3 ps 1.8 lw 1.5 lc rgb '#ff7f0e' title 'target "
+        "missed (model kept)'");
   if (m_failed > 0)
-    parts.push_back(fmt::format(
-        "NaN with points pt 2 ps 2 lc rgb '#d62728' title {}",
-        gnuplot_string(fmt::format("FAILED ({} run{}): crosses at the top, no error", m_failed,
-                                   m_failed == 1 ? "" : "s"))));
+    parts.push_back(
+        fmt::format("NaN with points pt 2 ps 2 lc rgb '#d62728' title {}",
+                    gnuplot_string(fmt::format("FAILED ({} run{}): crosses at the top, no error",
+                                               m_failed, m_failed == 1 ? "" : "s"))));
   parts.push_back("NaN with lines dt 2 lw 1 lc rgb '#555555' title 'tolerance ladder'");
   return "unset label\nunset title\nunset border\nunset tics\nunset xlabel\nunset ylabel\n"
          "unset grid\nset key center center horizontal maxrows 3 noenhanced\nset xrange [0:1]\n"
@@ -380,11 +380,12 @@ std::vector<PlotScript> BenchCharts::scripts() const {
        width, height});
   scripts.push_back(
       {"bench_order_error",
-       chart("ecmor bench: reduced order vs achieved band error, one panel per model",
-             fmt::format("unset logscale x\nset format x '%g'\nset xrange [0:{}]\n"
-                         "set xlabel 'reduced order'\n",
-                         std::max<Index>(1, m_max_order + m_max_order / 10 + 1)),
-             "$9", [this](std::size_t i) { return static_cast<double>(m_rows[i].order); }, false),
+       chart(
+           "ecmor bench: reduced order vs achieved band error, one panel per model",
+           fmt::format("unset logscale x\nset format x '%g'\nset xrange [0:{}]\n"
+                       "set xlabel 'reduced order'\n",
+                       std::max<Index>(1, m_max_order + m_max_order / 10 + 1)),
+           "$9", [this](std::size_t i) { return static_cast<double>(m_rows[i].order); }, false),
        width, height});
   return scripts;
 }

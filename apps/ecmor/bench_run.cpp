@@ -94,8 +94,7 @@ void record_summary(const RunSummary& s, BenchRow& row) {
   row.seconds = s.seconds;
   row.reducer_seconds = s.reducer_seconds;
   row.full_response_seconds = s.full_response_seconds;
-  const double sparse =
-      s.reducer_counters.factorization_seconds + s.reducer_counters.solve_seconds;
+  const double sparse = s.reducer_counters.factorization_seconds + s.reducer_counters.solve_seconds;
   row.reducer_sparse_share = s.reducer_seconds > 0.0 ? sparse / s.reducer_seconds : 0.0;
   row.sparse_seconds = s.counters.factorization_seconds + s.counters.solve_seconds;
   row.factorizations = s.counters.factorizations;
@@ -119,8 +118,8 @@ BenchRow run_one(const RunConfig& config, BenchRow row, const CommonOptions& com
     StopOnSignal observer;  // quiet during the run: one progress line when it ends
     record_summary(run_reduction(config, registry, &observer), row);
     fmt::print("{} order {} error {:.2e}, {:.2f} s (reducer {:.3f} s), {:.1f} s elapsed\n",
-               row.met ? "met," : row.termination + ",", row.order, row.verified_error,
-               row.seconds, row.reducer_seconds, elapsed());
+               row.met ? "met," : row.termination + ",", row.order, row.verified_error, row.seconds,
+               row.reducer_seconds, elapsed());
   } catch (const std::exception& e) {
     row.termination = "error";
     row.message = e.what();

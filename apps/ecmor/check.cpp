@@ -14,9 +14,9 @@
 
 #include "commands.hpp"
 #include "ecmor/base/atomic_file.hpp"
-#include "ecmor/strategies/config.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/plugin/registry.hpp"
+#include "ecmor/strategies/config.hpp"
 #include "ecmor/strategies/driver.hpp"
 #include "signals.hpp"
 

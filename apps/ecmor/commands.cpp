@@ -2,6 +2,7 @@
 
 #include <fmt/core.h>
 #include <fmt/format.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -10,28 +11,22 @@
 #include <iostream>
 
 #include "ecmor/base/atomic_file.hpp"
-#include "ecmor/strategies/config.hpp"
-#include "ecmor/linalg/eigensolver.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/model/model_io.hpp"
+#include "ecmor/linalg/eigensolver.hpp"
 #include "ecmor/linalg/parallel.hpp"
-#include "ecmor/plugin/registry.hpp"
 #include "ecmor/linalg/rigid_body.hpp"
 #include "ecmor/linalg/spectrum_slicer.hpp"
 #include "ecmor/model/model.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/plugin/registry.hpp"
+#include "ecmor/strategies/config.hpp"
 #include "ecmor/strategies/driver.hpp"
 #include "ecmor/strategies/strategy.hpp"
-#include "signals.hpp"
 #include "plot.hpp"
-
-#include <unistd.h>
-
-#include <cstdio>
+#include "signals.hpp"
 
 namespace ecmor::app {
 namespace {
-
-
 
 // Prints the convergence table while the run goes on.
 class TablePrinter final : public RunObserver {
@@ -153,8 +148,8 @@ int guarded(const std::function<int()>& body) {
   // solve: it is reported with the rank, and the whole job is ended.
   auto fail = [](const char* kind, const char* what) {
     if (process_count() > 1) {
-      fmt::print(stderr, "ecmor: {} on rank {} of {}: {}\n", kind, process_rank(),
-                 process_count(), what);
+      fmt::print(stderr, "ecmor: {} on rank {} of {}: {}\n", kind, process_rank(), process_count(),
+                 what);
       std::fflush(stderr);
       abort_all_processes(1);
     }
@@ -199,7 +194,8 @@ int reduce(const std::filesystem::path& config_path, const CommonOptions& common
   const int rank = process_rank(), ranks = process_count();
   return guarded([&] {
     RunConfig config = load_run_config(config_path);
-    if (!common.output_dir.empty()) config.output_dir = std::filesystem::absolute(common.output_dir);
+    if (!common.output_dir.empty())
+      config.output_dir = std::filesystem::absolute(common.output_dir);
     if (ranks > 1 && config.solver.backend != "petsc") {
       // The embedded backend works in one process: rank 0 does the run, the others leave.
       if (rank != 0) return 0;
@@ -279,8 +275,9 @@ namespace {
 void print_undamped_eigenfrequencies(const Model& model, const SecondOrderModel& so,
                                      ShiftedSolver& solver, Index nev) {
   if (relative_asymmetry(so.K) > 1e-12 || relative_asymmetry(so.M) > 1e-12) {
-    fmt::print("eigenfrequencies not computed: K and M must be symmetric for the undamped "
-               "eigenproblem\n");
+    fmt::print(
+        "eigenfrequencies not computed: K and M must be symmetric for the undamped "
+        "eigenproblem\n");
     return;
   }
   const RigidBodyModes rigid = rigid_body_modes(model, solver);
@@ -315,8 +312,7 @@ int info(const std::filesystem::path& model_path, int eigenfrequencies, const Co
                "definiteness");
     for (const auto& m : s.matrices) {
       fmt::print("  {:<4} {:>12} {:>12}  {:>12.2e}  {}\n", m.name,
-                 fmt::format("{}x{}", m.rows, m.cols), m.nnz, m.relative_asymmetry,
-                 m.definiteness);
+                 fmt::format("{}x{}", m.rows, m.cols), m.nnz, m.relative_asymmetry, m.definiteness);
     }
     if (const auto* ds = std::get_if<DescriptorModel>(&model)) {
       // Worth knowing before choosing a reducer: such a model can be reduced with its structure
@@ -325,11 +321,12 @@ int info(const std::filesystem::path& model_path, int eigenfrequencies, const Co
         const bool symmetric = relative_asymmetry(so->M) <= 1e-10 &&
                                relative_asymmetry(so->D) <= 1e-10 &&
                                relative_asymmetry(so->K) <= 1e-10;
-        fmt::print("  second-order structure: x = [q; q'], M q'' + D q' + K q = B u with n = {}; "
-                   "M, D, K {}\n",
-                   so->size(),
-                   symmetric ? "symmetric (krylov reduces it as second order: structure: auto)"
-                             : "not all symmetric (krylov keeps the first-order path)");
+        fmt::print(
+            "  second-order structure: x = [q; q'], M q'' + D q' + K q = B u with n = {}; "
+            "M, D, K {}\n",
+            so->size(),
+            symmetric ? "symmetric (krylov reduces it as second order: structure: auto)"
+                      : "not all symmetric (krylov keeps the first-order path)");
       }
     }
     if (eigenfrequencies <= 0) return 0;

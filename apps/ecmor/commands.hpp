@@ -76,8 +76,8 @@ struct SimulateOptions {
   std::string input = "step";  ///< step | impulse | chirp
   long input_index = -1;       ///< 0-based column of B; -1: all inputs at once
   double amplitude = 1.0;
-  double t_end = 0.0;  ///< 0: from the reduced model's poles (suggest_time_span)
-  long steps = 0;      ///< 0: 20 per period of the fastest relevant dynamics (capped)
+  double t_end = 0.0;              ///< 0: from the reduced model's poles (suggest_time_span)
+  long steps = 0;                  ///< 0: 20 per period of the fastest relevant dynamics (capped)
   std::string time_axis = "auto";  ///< auto | linear | log (auto: log over > 3 decades)
   std::string scheme = "newmark";  ///< newmark | generalized-alpha
   double rho_inf = 1.0;

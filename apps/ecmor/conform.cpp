@@ -1,5 +1,6 @@
-// `ecmor conform`: the reducer conformance suite (ecmor/plugin/conformance.hpp) from the command line, so
-// that a plugin built out of tree can be tested with nothing but the installed ecmor and CTest.
+// `ecmor conform`: the reducer conformance suite (ecmor/plugin/conformance.hpp) from the command
+// line, so that a plugin built out of tree can be tested with nothing but the installed ecmor and
+// CTest.
 #include <fmt/core.h>
 #include <fmt/format.h>
 
@@ -11,9 +12,9 @@
 
 #include "commands.hpp"
 #include "ecmor/base/atomic_file.hpp"
-#include "ecmor/plugin/conformance.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/model/model_io.hpp"
+#include "ecmor/plugin/conformance.hpp"
 #include "ecmor/plugin/registry.hpp"
 
 namespace ecmor::app {

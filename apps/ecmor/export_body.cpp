@@ -12,9 +12,9 @@
 #include "commands.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/body/flexible_body.hpp"
+#include "ecmor/linalg/rigid_body.hpp"
 #include "ecmor/model/matrix_market.hpp"
 #include "ecmor/model/model_io.hpp"
-#include "ecmor/linalg/rigid_body.hpp"
 
 namespace ecmor::app {
 namespace {
@@ -157,9 +157,10 @@ int export_body(const ExportBodyOptions& o, const CommonOptions& common) {
     // A free-floating body: the frame carries the rigid-body motion, the coordinates the rest.
     const RigidBodyModes rigid = rigid_body_modes(Model(model));
     if (!rigid.decided || rigid.indefinite)
-      throw InputError(fmt::format("{}: no rigid-body analysis of K ({}): a multibody body needs a "
-                                   "symmetric positive semidefinite K and a positive definite M",
-                                   model_dir.string(), rigid.method));
+      throw InputError(
+          fmt::format("{}: no rigid-body analysis of K ({}): a multibody body needs a "
+                      "symmetric positive semidefinite K and a positive definite M",
+                      model_dir.string(), rigid.method));
     const ElasticBases elastic = elastic_bases(body, rigid.count);
     const Index run_order = body.V.cols();
     body.V = elastic.V;

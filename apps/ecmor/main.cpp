@@ -16,7 +16,7 @@ using ecmor::app::CommonOptions;
 // The options of every subcommand, filled in by CLI11; only the chosen subcommand's are used.
 struct Arguments {
   CommonOptions common;
-  std::filesystem::path config;  // reduce
+  std::filesystem::path config;   // reduce
   std::filesystem::path run_dir;  // plot
   std::string plot_format = "both";
   ecmor::app::BenchOptions bench;
@@ -40,11 +40,11 @@ void add_common(CLI::App* sub, CommonOptions& common) {
 
 CLI::App* add_reduce(CLI::App& cli, Arguments& a) {
   auto* reduce = cli.add_subcommand(
-      "reduce", "reduce a model as configured in a YAML file (exit 0: target met, 2: target "
-                "missed but a model was written, 1: error, 130: interrupted)");
+      "reduce",
+      "reduce a model as configured in a YAML file (exit 0: target met, 2: target "
+      "missed but a model was written, 1: error, 130: interrupted)");
   reduce->add_option("config", a.config, "YAML run configuration")->required();
-  reduce->add_option("-o,--output", a.common.output_dir,
-                     "output directory (overrides output.dir)");
+  reduce->add_option("-o,--output", a.common.output_dir, "output directory (overrides output.dir)");
   reduce->add_flag("--no-plot", a.common.no_plot,
                    "do not render the plots (sigma, error, convergence; needs gnuplot, skipped "
                    "with a note if it is missing)");
@@ -69,23 +69,25 @@ CLI::App* add_plugins(CLI::App& cli, Arguments& a) {
 
 CLI::App* add_bench(CLI::App& cli, Arguments& a) {
   auto* bench = cli.add_subcommand(
-      "bench", "run configurations over a ladder of tolerances and tabulate order reached, "
-               "errors, times and counters (bench.csv, bench.json, bench.md)");
+      "bench",
+      "run configurations over a ladder of tolerances and tabulate order reached, "
+      "errors, times and counters (bench.csv, bench.json, bench.md)");
   bench->add_option("configs", a.bench.configs, "YAML run configurations")->required();
-  bench->add_option("-t,--tolerances", a.bench.tolerances,
-                    "tolerance ladder, e.g. 1e-2,1e-3,1e-4 (default: each config's own)")
+  bench
+      ->add_option("-t,--tolerances", a.bench.tolerances,
+                   "tolerance ladder, e.g. 1e-2,1e-3,1e-4 (default: each config's own)")
       ->delimiter(',');
   bench->add_flag("--portfolio-as-one", a.bench.portfolio_as_one,
                   "bench a portfolio config as one run (default: each member on its own)");
   bench->add_flag("--all-reducers", a.bench.all_reducers,
                   "run every loaded reducer that accepts the model (default parameters, "
                   "grow_order) instead of the config's reducer");
-  bench->add_option("-o,--output", a.bench.output_dir,
-                    "output directory (default out/bench)");
-  bench->add_option("--time-limit", a.bench.time_limit_s,
-                    "wall-clock limit of each run in seconds (a run that reaches it is "
-                    "reported as interrupted, with its best model; default: the YAML's "
-                    "strategy.time_limit_s, else none)")
+  bench->add_option("-o,--output", a.bench.output_dir, "output directory (default out/bench)");
+  bench
+      ->add_option("--time-limit", a.bench.time_limit_s,
+                   "wall-clock limit of each run in seconds (a run that reaches it is "
+                   "reported as interrupted, with its best model; default: the YAML's "
+                   "strategy.time_limit_s, else none)")
       ->check(CLI::PositiveNumber);
   add_common(bench, a.common);
   return bench;
@@ -93,10 +95,12 @@ CLI::App* add_bench(CLI::App& cli, Arguments& a) {
 
 CLI::App* add_check(CLI::App& cli, Arguments& a) {
   auto* check = cli.add_subcommand(
-      "check", "run configurations as regression tests of their tolerance targets (and of their "
-               "optional check: budgets); pass/fail table, exit 1 on any failure");
-  check->add_option("inputs", a.check.inputs,
-                    "YAML configurations or directories of them (*.yaml, not recursive)")
+      "check",
+      "run configurations as regression tests of their tolerance targets (and of their "
+      "optional check: budgets); pass/fail table, exit 1 on any failure");
+  check
+      ->add_option("inputs", a.check.inputs,
+                   "YAML configurations or directories of them (*.yaml, not recursive)")
       ->required();
   check->add_option("-o,--output", a.check.output_dir,
                     "output directory; each config's run goes to DIR/<config name> (default "
@@ -123,23 +127,25 @@ CLI::App* add_info(CLI::App& cli, Arguments& a) {
 
 CLI::App* add_conform(CLI::App& cli, Arguments& a) {
   auto* conform = cli.add_subcommand(
-      "conform", "run the reducer conformance suite on one reducer (dimensions, projection, "
-                 "full order, determinism, growth, band, points, bad input); exit 1 on a failure");
+      "conform",
+      "run the reducer conformance suite on one reducer (dimensions, projection, "
+      "full order, determinism, growth, band, points, bad input); exit 1 on a failure");
   conform->add_option("--reducer", a.conform.reducer, "the reducer's name")->required();
   conform->add_option("--set", a.conform.settings,
                       "a reducer parameter key=value (repeatable), as in the YAML reducer section");
-  conform->add_option("--orders", a.conform.orders,
-                      "ascending orders of the dimension/growth checks (default 2,4,8)")
+  conform
+      ->add_option("--orders", a.conform.orders,
+                   "ascending orders of the dimension/growth checks (default 2,4,8)")
       ->delimiter(',');
-  conform->add_option("--tolerance", a.conform.tolerance,
-                      "relative agreement of transfer functions (default 1e-8)")
+  conform
+      ->add_option("--tolerance", a.conform.tolerance,
+                   "relative agreement of transfer functions (default 1e-8)")
       ->check(CLI::PositiveNumber);
   conform->add_option(
       "--model", a.conform.model_dir,
       "run on this model (directory or .mat file) instead of the built-in models (needs "
       "--band)");
-  conform->add_option("--band", a.conform.band_hz, "F_MIN,F_MAX in Hz for --model")
-      ->delimiter(',');
+  conform->add_option("--band", a.conform.band_hz, "F_MIN,F_MAX in Hz for --model")->delimiter(',');
   conform->add_flag("--with-builtin", a.conform.with_builtin,
                     "with --model: run the built-in models too");
   conform->add_option("--json", a.conform.json, "also write the report to this JSON file");
@@ -149,9 +155,10 @@ CLI::App* add_conform(CLI::App& cli, Arguments& a) {
 
 CLI::App* add_simulate(CLI::App& cli, Arguments& a) {
   auto* simulate = cli.add_subcommand(
-      "simulate", "simulate the full and the reduced model of a reduce run (RUN_DIR) for a step, "
-                  "impulse or chirp input; writes time_response.csv and time_error.json (output "
-                  "error y - yr, L2 and max norms)");
+      "simulate",
+      "simulate the full and the reduced model of a reduce run (RUN_DIR) for a step, "
+      "impulse or chirp input; writes time_response.csv and time_error.json (output "
+      "error y - yr, L2 and max norms)");
   simulate->add_option("run_dir", a.simulate.run_dir, "output directory of `ecmor reduce`")
       ->required();
   simulate->add_option("--input", a.simulate.input, "step | impulse | chirp (default step)");
@@ -175,9 +182,10 @@ CLI::App* add_simulate(CLI::App& cli, Arguments& a) {
                        "default) | generalized-alpha");
   simulate->add_option("--rho-inf", a.simulate.rho_inf,
                        "generalized-alpha spectral radius at infinity in [0, 1] (default 1)");
-  simulate->add_option("--chirp-hz", a.simulate.chirp_hz,
-                       "chirp start and end frequency F0,F1 in Hz, linear sweep (default: the "
-                       "band's f_min,f_max)")
+  simulate
+      ->add_option("--chirp-hz", a.simulate.chirp_hz,
+                   "chirp start and end frequency F0,F1 in Hz, linear sweep (default: the "
+                   "band's f_min,f_max)")
       ->delimiter(',');
   // No plugins are involved: only --quiet of the common options applies.
   simulate->add_flag("-q,--quiet", a.common.quiet, "print only the output-error line");
@@ -189,12 +197,14 @@ CLI::App* add_simulate(CLI::App& cli, Arguments& a) {
 // `import calculix`: the nested subcommand is the one that runs.
 CLI::App* add_import(CLI::App& cli, Arguments& a) {
   auto* import_cmd = cli.add_subcommand(
-      "import", "build a model directory (M, D, K, B, C .mtx, nodes.csv, dofs.csv) from another "
-                "program's model");
+      "import",
+      "build a model directory (M, D, K, B, C .mtx, nodes.csv, dofs.csv) from another "
+      "program's model");
   import_cmd->require_subcommand(1);
   auto* import_ccx = import_cmd->add_subcommand(
-      "calculix", "from a CalculiX input deck: runs ccx for K and M, B and C on node sets, "
-                  "Rayleigh D (docs/import-calculix.md)");
+      "calculix",
+      "from a CalculiX input deck: runs ccx for K and M, B and C on node sets, "
+      "Rayleigh D (docs/import-calculix.md)");
   import_ccx->add_option("config", a.import_config, "YAML import configuration")->required();
   import_ccx->add_option("-o,--output", a.common.output_dir,
                          "model directory to write (overrides output.dir)");
@@ -205,8 +215,9 @@ CLI::App* add_import(CLI::App& cli, Arguments& a) {
 // export-body (docs/multibody.md)
 CLI::App* add_export_body(CLI::App& cli, Arguments& a) {
   auto* export_body = cli.add_subcommand(
-      "export-body", "write the reduced elastic body of a reduce run (RUN_DIR) for multibody "
-                     "tools: mass invariants as a SID file and JSON (needs nodes.csv, dofs.csv)");
+      "export-body",
+      "write the reduced elastic body of a reduce run (RUN_DIR) for multibody "
+      "tools: mass invariants as a SID file and JSON (needs nodes.csv, dofs.csv)");
   export_body->add_option("run_dir", a.export_body.run_dir, "output directory of `ecmor reduce`")
       ->required();
   export_body->add_option("-o,--output", a.export_body.output,
@@ -231,7 +242,8 @@ struct Command {
 int main(int argc, char** argv) {
   // Idle OpenMP threads sleep instead of spinning: between the parallel band-response batches the
   // driver does serial work, and spinning workers would steal its core (measured: 2 threads were
-  // 2.4x slower than 1 on iss_so). Must be set before the OpenMP runtime starts; a user's setting wins.
+  // 2.4x slower than 1 on iss_so). Must be set before the OpenMP runtime starts; a user's setting
+  // wins.
   setenv("OMP_WAIT_POLICY", "PASSIVE", /*overwrite=*/0);
   CLI::App cli{"ecmor " ECMOR_VERSION_STRING
                ": error-controlled model order reduction of large sparse second-order and "

@@ -21,25 +21,25 @@ std::string who(const RunFacts& run) {
 }
 
 PlotScript sigma_script(const RunFacts& run) {
-  return {"sigma",
-          fmt::format("set logscale xy\n"
-                      "set grid\n"
-                      "set key bottom left\n"
-                      "set format x '%g'\n"
-                      "set xrange [{}:{}]\n"
-                      "set xlabel 'f [Hz]'\n"
-                      "set ylabel 'sigma_max(H(i 2 pi f))'\n"
-                      "set title {}\n"
-                      "plot 'sigma.csv' skip 1 using 1:2 with lines lw 3 lc rgb '#1f77b4' title "
-                      "'full model', \\\n"
-                      "     '' skip 1 using 1:3 with lines lw 1.5 dt 2 lc rgb '#d62728' title {}, "
-                      "\\\n"
-                      "     '' skip 1 using 1:4 with lines lw 1 lc rgb '#7f7f7f' title "
-                      "'error sigma_max(H - Hr)'\n",
-                      run.f_min_hz, run.f_max_hz,
-                      gnuplot_string(fmt::format("{}: largest singular value over the band",
-                                                 who(run))),
-                      gnuplot_string(fmt::format("reduced model (order {})", run.order)))};
+  return {
+      "sigma",
+      fmt::format("set logscale xy\n"
+                  "set grid\n"
+                  "set key bottom left\n"
+                  "set format x '%g'\n"
+                  "set xrange [{}:{}]\n"
+                  "set xlabel 'f [Hz]'\n"
+                  "set ylabel 'sigma_max(H(i 2 pi f))'\n"
+                  "set title {}\n"
+                  "plot 'sigma.csv' skip 1 using 1:2 with lines lw 3 lc rgb '#1f77b4' title "
+                  "'full model', \\\n"
+                  "     '' skip 1 using 1:3 with lines lw 1.5 dt 2 lc rgb '#d62728' title {}, "
+                  "\\\n"
+                  "     '' skip 1 using 1:4 with lines lw 1 lc rgb '#7f7f7f' title "
+                  "'error sigma_max(H - Hr)'\n",
+                  run.f_min_hz, run.f_max_hz,
+                  gnuplot_string(fmt::format("{}: largest singular value over the band", who(run))),
+                  gnuplot_string(fmt::format("reduced model (order {})", run.order)))};
 }
 
 PlotScript error_script(const RunFacts& run) {
@@ -50,51 +50,51 @@ PlotScript error_script(const RunFacts& run) {
       ".\"\\n\"." +
       gnuplot_string(fmt::format("{} norm, tolerance {:g} ({}), band [{:g}, {:g}] Hz", run.norm,
                                  run.tolerance, run.termination, run.f_min_hz, run.f_max_hz));
-  return {"error",
-          fmt::format(
-              "set logscale xy\n"
-              "set grid\n"
-              "set key bottom right\n"
-              "set format x '%g'\n"
-              "set format y '%g'\n"
-              "set xrange [{}:{}]\n"
-              "set xlabel 'f [Hz]'\n"
-              "set ylabel 'relative error'\n"
-              "set title {}\n"
-              "plot 'band_error.csv' skip 1 using 1:2 with lines lw 2 lc rgb '#1f77b4' title "
-              "'eps_2(f)', \\\n"
-              "     '' skip 1 using 1:3 with lines dt 2 lc rgb '#2ca02c' title 'eps_F(f)', \\\n"
-              "     {} with lines lw 1.5 lc rgb '#d62728' title {}\n",
-              run.f_min_hz, run.f_max_hz, title, run.tolerance,
-              gnuplot_string(fmt::format("tolerance {:g}", run.tolerance)))};
+  return {
+      "error",
+      fmt::format("set logscale xy\n"
+                  "set grid\n"
+                  "set key bottom right\n"
+                  "set format x '%g'\n"
+                  "set format y '%g'\n"
+                  "set xrange [{}:{}]\n"
+                  "set xlabel 'f [Hz]'\n"
+                  "set ylabel 'relative error'\n"
+                  "set title {}\n"
+                  "plot 'band_error.csv' skip 1 using 1:2 with lines lw 2 lc rgb '#1f77b4' title "
+                  "'eps_2(f)', \\\n"
+                  "     '' skip 1 using 1:3 with lines dt 2 lc rgb '#2ca02c' title 'eps_F(f)', \\\n"
+                  "     {} with lines lw 1.5 lc rgb '#d62728' title {}\n",
+                  run.f_min_hz, run.f_max_hz, title, run.tolerance,
+                  gnuplot_string(fmt::format("tolerance {:g}", run.tolerance)))};
 }
 
 PlotScript convergence_script(const RunFacts& run) {
   const double verified = run.verified_band_error;
-  return {"convergence",
-          fmt::format("set multiplot layout 1,2 title {0}\n"
-                      "set logscale y\n"
-                      "set grid\n"
-                      "set key top right\n"
-                      "set format y '%g'\n"
-                      "set offsets 0.5, 0.5, 0, 0\n"
-                      "set ylabel 'band error (sup over the sampled band)'\n"
-                      "set xlabel 'iteration'\n"
-                      "plot 'convergence.csv' skip 1 using 1:3 with linespoints pt 7 lc rgb "
-                      "'#1f77b4' title 'band error', \\\n"
-                      "     {1} with lines lc rgb '#d62728' title {2}\n"
-                      "set xlabel 'reduced order'\n"
-                      "plot 'convergence.csv' skip 1 using 2:3 with points pt 7 lc rgb '#1f77b4' "
-                      "title 'band error', \\\n"
-                      "     {1} with lines lc rgb '#d62728' title {2}, \\\n"
-                      "     '+' using ({3}):({4}) every ::0::0 with points pt 6 ps 2.5 lw 2 lc "
-                      "rgb '#000000' title 'reported model (verified)'\n"
-                      "unset multiplot\n",
-                      gnuplot_string(
-                          fmt::format("{}: convergence ({})", who(run), run.termination)),
-                      run.tolerance, gnuplot_string(fmt::format("tolerance {:g}", run.tolerance)),
-                      run.order, std::isfinite(verified) ? fmt::format("{}", verified) : "NaN"),
-          1200, 550};
+  return {
+      "convergence",
+      fmt::format("set multiplot layout 1,2 title {0}\n"
+                  "set logscale y\n"
+                  "set grid\n"
+                  "set key top right\n"
+                  "set format y '%g'\n"
+                  "set offsets 0.5, 0.5, 0, 0\n"
+                  "set ylabel 'band error (sup over the sampled band)'\n"
+                  "set xlabel 'iteration'\n"
+                  "plot 'convergence.csv' skip 1 using 1:3 with linespoints pt 7 lc rgb "
+                  "'#1f77b4' title 'band error', \\\n"
+                  "     {1} with lines lc rgb '#d62728' title {2}\n"
+                  "set xlabel 'reduced order'\n"
+                  "plot 'convergence.csv' skip 1 using 2:3 with points pt 7 lc rgb '#1f77b4' "
+                  "title 'band error', \\\n"
+                  "     {1} with lines lc rgb '#d62728' title {2}, \\\n"
+                  "     '+' using ({3}):({4}) every ::0::0 with points pt 6 ps 2.5 lw 2 lc "
+                  "rgb '#000000' title 'reported model (verified)'\n"
+                  "unset multiplot\n",
+                  gnuplot_string(fmt::format("{}: convergence ({})", who(run), run.termination)),
+                  run.tolerance, gnuplot_string(fmt::format("tolerance {:g}", run.tolerance)),
+                  run.order, std::isfinite(verified) ? fmt::format("{}", verified) : "NaN"),
+      1200, 550};
 }
 
 }  // namespace

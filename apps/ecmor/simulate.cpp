@@ -14,8 +14,8 @@
 #include "commands.hpp"
 #include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/model/model_io.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/model/model_io.hpp"
 #include "ecmor/response/time_domain.hpp"
 #include "plot.hpp"
 
@@ -125,9 +125,8 @@ struct TimeGrid {
 // term that matters. A chirp, or a model whose response does not settle, keeps the band's: 5
 // periods of its lowest frequency (or the chirp's, if lower), 20 steps per period of its highest
 // (or the chirp's, if higher).
-TimeGrid choose_time_grid(const SimulateOptions& o, const RunInfo& run,
-                          const ReducedModel& reduced, const InputSignal& input,
-                          TimeIntegrationOptions& ti) {
+TimeGrid choose_time_grid(const SimulateOptions& o, const RunInfo& run, const ReducedModel& reduced,
+                          const InputSignal& input, TimeIntegrationOptions& ti) {
   TimeGrid grid;
   grid.span = suggest_time_span(reduced, input.kind, run.f_min_hz, run.f_max_hz);
   TimeSpan& span = grid.span;
@@ -147,8 +146,8 @@ TimeGrid choose_time_grid(const SimulateOptions& o, const RunInfo& run,
                                  : std::max<Index>(200, static_cast<Index>(wanted));
   }
   // A log-time axis where the dynamics span more than three decades: 1 / (2 pi f_fast) to t_end.
-  grid.log_time = o.time_axis == "log" ||
-                  (o.time_axis == "auto" && ti.t_end * kTwoPi * span.f_fast_hz > 1e3);
+  grid.log_time =
+      o.time_axis == "log" || (o.time_axis == "auto" && ti.t_end * kTwoPi * span.f_fast_hz > 1e3);
   ti.validate();
   return grid;
 }
@@ -192,8 +191,7 @@ nlohmann::json time_error_json(const Simulation& s, const SimulateOptions& o) {
                 {"input_index", s.input.input},
                 {"amplitude", s.input.amplitude}};
   if (s.input.kind == InputSignal::Kind::Chirp) {
-    j["input"]["chirp"] = {
-        {"f0_hz", s.input.f0_hz}, {"f1_hz", s.input.f1_hz}, {"sweep", "linear"}};
+    j["input"]["chirp"] = {{"f0_hz", s.input.f0_hz}, {"f1_hz", s.input.f1_hz}, {"sweep", "linear"}};
   }
   j["scheme"] = to_string(s.ti.scheme);
   j["scheme_description"] = s.y.scheme;
@@ -202,12 +200,10 @@ nlohmann::json time_error_json(const Simulation& s, const SimulateOptions& o) {
   j["steps"] = s.ti.steps;
   j["dt"] = s.y.dt;
   j["steps_capped"] = s.grid.steps_capped;
-  j["span"] = {{"t_end_default", o.t_end == 0.0},
-               {"from_poles", span.from_poles},
-               {"tau_slow", span.tau_slow},
-               {"f_fast_hz", span.f_fast_hz},
-               {"reason", span.reason},
-               {"time_axis", s.grid.log_time ? "log" : "linear"}};
+  j["span"] = {
+      {"t_end_default", o.t_end == 0.0}, {"from_poles", span.from_poles},
+      {"tau_slow", span.tau_slow},       {"f_fast_hz", span.f_fast_hz},
+      {"reason", span.reason},           {"time_axis", s.grid.log_time ? "log" : "linear"}};
   j["error"] = {{"l2", e.l2},
                 {"max", e.max},
                 {"t_at_max", e.t_max},
@@ -236,8 +232,7 @@ void print_report(const Simulation& s, const SimulateOptions& o, bool quiet) {
         SimulateOptions::kMaxDefaultSteps, s.grid.span.f_fast_hz);
   }
   if (!quiet) {
-    fmt::print("{} input{}, t in [0, {:g}] s, {} steps of {:.3e} s, {}\n",
-               to_string(s.input.kind),
+    fmt::print("{} input{}, t in [0, {:g}] s, {} steps of {:.3e} s, {}\n", to_string(s.input.kind),
                s.input.input < 0 ? std::string(" (all inputs)") : fmt::format(" {}", s.input.input),
                s.ti.t_end, s.ti.steps, s.y.dt, s.y.scheme);
     if (o.t_end == 0.0) fmt::print("span: {}\n", s.grid.span.reason);

@@ -15,13 +15,13 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/linalg/dense_kernels.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/linalg/first_order_view.hpp"
-#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/base/options.hpp"
-#include "ecmor/plugin/plugin.hpp"
+#include "ecmor/linalg/dense_kernels.hpp"
+#include "ecmor/linalg/first_order_view.hpp"
 #include "ecmor/model/projection.hpp"
+#include "ecmor/plugin/plugin.hpp"
+#include "ecmor/response/frequency_response.hpp"
 #include "gramian_factors.hpp"
 #include "lowrank_factors.hpp"
 
@@ -100,7 +100,10 @@ const OptionSpecs<Options>& option_specs() {
              "order r; second_order: returns Mr, Dr, Kr, Br, Cr of size r (second-order models "
              "only)"),
       choice("variant", &Options::variant,
-             {{"p", Variant::P}, {"v", Variant::V}, {"pv", Variant::PV}, {"vp", Variant::VP},
+             {{"p", Variant::P},
+              {"v", Variant::V},
+              {"pv", Variant::PV},
+              {"vp", Variant::VP},
               {"fv", Variant::FV}},
              "which Gramian blocks are balanced (README): p (Pp, Qp), v (Pv, Qv), pv (Pp, Qv), "
              "vp (Pv, Qp), fv (free velocity: Pp, one-sided W = V)")
@@ -333,12 +336,12 @@ class BalancedReducer final : public Reducer {
     if (at_rank) result.note += "; " + limit_text(r);
     if (unstable > 0) result.note += fmt::format("; {} reduced poles with Re >= 0", unstable);
     if (m_adi) {
-      result.note += fmt::format("; low-rank ADI Gramians (ranks {} / {}, {} / {} iterations, "
-                                 "residuals {:.2e} / {:.2e})",
-                                 m_factors->Zc.cols(), m_factors->Zq.cols(),
-                                 m_adi->controllability.iterations,
-                                 m_adi->observability.iterations, m_adi->controllability.residual,
-                                 m_adi->observability.residual);
+      result.note += fmt::format(
+          "; low-rank ADI Gramians (ranks {} / {}, {} / {} iterations, "
+          "residuals {:.2e} / {:.2e})",
+          m_factors->Zc.cols(), m_factors->Zq.cols(), m_adi->controllability.iterations,
+          m_adi->observability.iterations, m_adi->controllability.residual,
+          m_adi->observability.residual);
       const bool adi_ok = m_adi->controllability.converged && m_adi->observability.converged;
       if (!adi_ok) {
         result.note += fmt::format(
@@ -373,9 +376,8 @@ class BalancedReducer final : public Reducer {
       text += fmt::format(
           "; cause: low-rank ADI did not converge (residuals {:.2e} / {:.2e} > adi_tolerance "
           "{:.1e} after {} / {} iterations{}), so the Gramians are approximate",
-          m_adi->controllability.residual, m_adi->observability.residual,
-          m_options.adi.tolerance, m_adi->controllability.iterations,
-          m_adi->observability.iterations, route_text());
+          m_adi->controllability.residual, m_adi->observability.residual, m_options.adi.tolerance,
+          m_adi->controllability.iterations, m_adi->observability.iterations, route_text());
       text += m_view->second_order() && m_options.structure == Structure::FirstOrder
                   ? "; try a larger adi_max_iterations with structure: second_order"
                   : "; try a larger adi_max_iterations";

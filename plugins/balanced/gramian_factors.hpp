@@ -56,12 +56,12 @@
 #include <unsupported/Eigen/MatrixFunctions>
 #include <variant>
 
-#include "ecmor/measures/band_error.hpp"
-#include "ecmor/linalg/dense_kernels.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/gramians/lyapunov.hpp"
-#include "ecmor/model/dense_model.hpp"
 #include "ecmor/gramians/lyapunov_factor.hpp"
+#include "ecmor/linalg/dense_kernels.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/model/dense_model.hpp"
 #include "ecmor/model/model.hpp"
 
 namespace ecmor::balanced {
@@ -325,8 +325,8 @@ inline GramianFactors dense_gramian_factors(const Model& model,
     out.Zo = fo.E.transpose() * out.Zq;
   }
   out.residual_c = factored_lyapunov_residual(fo.A, fo.E, out.Zc, Rc);
-  out.residual_o = factored_lyapunov_residual(Matrix(fo.A.transpose()), Matrix(fo.E.transpose()),
-                                              out.Zq, Ro);
+  out.residual_o =
+      factored_lyapunov_residual(Matrix(fo.A.transpose()), Matrix(fo.E.transpose()), out.Zq, Ro);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return out;
 }

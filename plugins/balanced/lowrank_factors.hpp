@@ -1,8 +1,8 @@
 #pragma once
 /// \file lowrank_factors.hpp
 /// The low-rank route to the Gramian factors of the balanced reducer (balanced.cpp): both factors
-/// by ecmor's low-rank ADI (ecmor/gramians/lowrank_adi.hpp) through the model's FirstOrderView, so a
-/// second-order model is solved with P(s) = s^2 M + s D + K of size N and no 2N matrix is formed.
+/// by ecmor's low-rank ADI (ecmor/gramians/lowrank_adi.hpp) through the model's FirstOrderView, so
+/// a second-order model is solved with P(s) = s^2 M + s D + K of size N and no 2N matrix is formed.
 /// The result fills the same GramianFactors as the dense route (gramian_factors.hpp), so the
 /// truncation code does not know which route ran:
 ///     P ~ Zc Zc',   Q ~ Zq Zq' (ADI's observability factor),   E'QE ~ Zo Zo' with Zo = E' Zq.
@@ -13,9 +13,9 @@
 #include <string>
 
 #include "ecmor/base/error.hpp"
-#include "ecmor/linalg/first_order_view.hpp"
 #include "ecmor/gramians/lowrank_adi.hpp"
 #include "ecmor/gramians/quadrature.hpp"
+#include "ecmor/linalg/first_order_view.hpp"
 #include "ecmor/linalg/rigid_body.hpp"
 #include "gramian_factors.hpp"
 
@@ -37,8 +37,8 @@ struct AdiSummary {
   }
   /// "controllability: converged: residual ...; observability: not converged: ..."
   std::string text() const {
-    return "controllability: " + controllability.message + "; observability: " +
-           observability.message;
+    return "controllability: " + controllability.message +
+           "; observability: " + observability.message;
   }
 };
 
@@ -113,7 +113,8 @@ inline GramianFactors lowrank_gramian_factors(FirstOrderView& view, const AdiOpt
   summary.observability.Z.resize(0, 0);
   g.Zo = view.apply_e_transposed(g.Zq);
   // The ADI residuals are 2-norm ratios ||R||_2 / ||B B'||_2 of the uncompressed factors; the
-  // compression changes the Gramian by at most compression_tolerance^2 relatively (lowrank_adi.hpp).
+  // compression changes the Gramian by at most compression_tolerance^2 relatively
+  // (lowrank_adi.hpp).
   g.residual_c = summary.controllability.residual;
   g.residual_o = summary.observability.residual;
   g.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
@@ -121,10 +122,10 @@ inline GramianFactors lowrank_gramian_factors(FirstOrderView& view, const AdiOpt
 }
 
 /// The frequency-limited Gramian factors on `band` by low-rank ADI with the band's indefinite
-/// right-hand sides (lowrank_band_gramians, ecmor/gramians/lowrank_adi.hpp): L_B and L_C by adaptive
-/// quadrature (one factorisation of P(i w) per node), then both ADI runs. A quadrature or ADI run
-/// that misses its tolerance is reported in `summary`, as for the plain Gramians.
-/// \throws as lowrank_gramian_factors, plus NumericalError for a pole on the imaginary axis in the
+/// right-hand sides (lowrank_band_gramians, ecmor/gramians/lowrank_adi.hpp): L_B and L_C by
+/// adaptive quadrature (one factorisation of P(i w) per node), then both ADI runs. A quadrature or
+/// ADI run that misses its tolerance is reported in `summary`, as for the plain Gramians. \throws
+/// as lowrank_gramian_factors, plus NumericalError for a pole on the imaginary axis in the
 ///         band (a quadrature node's factorisation fails).
 inline GramianFactors lowrank_band_gramian_factors(FirstOrderView& view, const Band& band,
                                                    const AdiOptions& options,

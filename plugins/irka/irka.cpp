@@ -19,18 +19,18 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/linalg/eigensolver.hpp"
-#include "ecmor/linalg/first_order_view.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/base/interrupt.hpp"
+#include "ecmor/base/options.hpp"
 #include "ecmor/gramians/balancing.hpp"
 #include "ecmor/gramians/lyapunov.hpp"
-#include "ecmor/model/dense_model.hpp"
-#include "ecmor/base/options.hpp"
-#include "ecmor/plugin/plugin.hpp"
-#include "ecmor/model/projection.hpp"
 #include "ecmor/gramians/quadrature.hpp"
+#include "ecmor/linalg/eigensolver.hpp"
+#include "ecmor/linalg/first_order_view.hpp"
+#include "ecmor/model/dense_model.hpp"
+#include "ecmor/model/projection.hpp"
+#include "ecmor/plugin/plugin.hpp"
+#include "ecmor/response/frequency_response.hpp"
 #include "interpolation.hpp"
 #include "next_shifts.hpp"
 #include "start_shifts.hpp"
@@ -56,7 +56,7 @@ struct Options {
   double relaxation = 1.0;  // fraction of the step towards the mirrored poles (1: plain IRKA)
   Index max_iterations = 50;
   double tolerance = 1e-6;
-  double model_tolerance = 0.0;  // on the relative H2 change of the reduced model; 0: off
+  double model_tolerance = 0.0;        // on the relative H2 change of the reduced model; 0: off
   bool model_tolerance_given = false;  // false: symmetric_defaults() may change it
   Index stagnation_window = 10;
   Index restarts = 2;
@@ -856,11 +856,6 @@ class IrkaReducer final : public Reducer {
     }
   }
 
-
-
-
-
-
   /// The settings the starting data read (start_shifts.hpp).
   StartSetting start_setting() {
     StartSetting s;
@@ -957,8 +952,6 @@ class IrkaReducer final : public Reducer {
     if (m_options.start == Options::Start::Balanced) return balanced_shifts(r);
     return band_shifts(r, 0);
   }
-
-
 
   /// Warm start for order r: the final data of order r if it ran before; for a symmetric definite
   /// model the mirror images of the r dominant poles of the smallest larger order run before;
@@ -1066,8 +1059,8 @@ class IrkaReducer final : public Reducer {
     // the orders run before make it a close model of G, so the first build lands near the
     // fixed point of order r instead of iterating there one factorisation per shift per step.
     if (surrogate_active() && (m_surrogate.U.cols() > 0 || m_surrogate.pending.cols() > 0)) {
-      a.data = surrogate_fixed_point(std::move(a.data), r, a.alpha, a.predicted,
-                                     a.surrogate_converged);
+      a.data =
+          surrogate_fixed_point(std::move(a.data), r, a.alpha, a.predicted, a.surrogate_converged);
     }
     return a;
   }
@@ -1135,8 +1128,8 @@ class IrkaReducer final : public Reducer {
     // interpolates G (Hermite) at the shifts just built, so its IRKA map there is the true one;
     // the true build at the proposed data still decides convergence, as without it.
     if (surrogate_active()) {
-      a.data = surrogate_fixed_point(std::move(a.data), r, a.alpha, a.predicted,
-                                     a.surrogate_converged);
+      a.data =
+          surrogate_fixed_point(std::move(a.data), r, a.alpha, a.predicted, a.surrogate_converged);
     }
     return Step::Continue;
   }
@@ -1177,7 +1170,7 @@ class IrkaReducer final : public Reducer {
   Step settle(Built&& built, const Interpolation& data, const Measures& m, RunState& state) {
     if (const Index unstable = unstable_count(built.poles.poles); unstable > 0) {
       state.reason = fmt::format("settled at iteration {} on a model with {} poles of Re >= 0",
-                               state.iterations, unstable);
+                                 state.iterations, unstable);
       return Step::Restart;
     }
     Outcome& best = state.best;
@@ -1220,7 +1213,7 @@ class IrkaReducer final : public Reducer {
     for (std::size_t j = 2; j <= depth && !restart; ++j) {
       if (data_change(a.trail[a.trail.size() + 1 - j], next) <= 0.1 * change) {
         state.reason = fmt::format("cycling with period {} at iteration {} (change {:.2e})", j,
-                                 state.iterations, change);
+                                   state.iterations, change);
         restart = true;
       }
     }
@@ -1228,9 +1221,9 @@ class IrkaReducer final : public Reducer {
       a.best_change = change;
       a.best_at = state.iterations;
     } else if (state.iterations - a.best_at >= m_options.stagnation_window) {
-      state.reason =
-          fmt::format("stagnation: no 10% smaller change in {} iterations (best {:.2e}, now {:.2e})",
-                      m_options.stagnation_window, a.best_change, change);
+      state.reason = fmt::format(
+          "stagnation: no 10% smaller change in {} iterations (best {:.2e}, now {:.2e})",
+          m_options.stagnation_window, a.best_change, change);
       restart = true;
     }
     if (!restart) return Step::Continue;
@@ -1255,7 +1248,7 @@ class IrkaReducer final : public Reducer {
   const Model* m_model = nullptr;
   Band m_band;
   std::string m_stability;
-  bool m_real_poles = false;  // certified real poles (E SPD, A symmetric): real starting shifts
+  bool m_real_poles = false;    // certified real poles (E SPD, A symmetric): real starting shifts
   bool m_symmetric = false;     // descriptor model with E SPD, A symmetric negative definite
   bool m_one_sided = false;     // first order, W = V (symmetric model; choose_projection())
   bool m_one_sided_so = false;  // second-order variant, W = V

@@ -19,8 +19,8 @@ namespace {
 
 /// Second order: mirror images of the pole pairs of the floor(r/2) undamped modes nearest wc
 /// (modal damping), completed by band shifts when too few modes are usable.
-Interpolation modal_shifts_second_order(const StartSetting& s, const SecondOrderModel* so,
-                                        Index r, double wc) {
+Interpolation modal_shifts_second_order(const StartSetting& s, const SecondOrderModel* so, Index r,
+                                        double wc) {
   FirstOrderView& view = *s.view;
   std::vector<Complex> shifts;
   const Index pairs = r / 2;
@@ -143,8 +143,8 @@ Interpolation band_shifts(const StartSetting& s, Index r, Index attempt) {
     }
     return with_uniform_directions(s, real);
   }
-  const double zeta = attempt == 0 ? s.damping
-                                   : std::max(s.damping, 1e-2 * std::pow(10.0, attempt - 1));
+  const double zeta =
+      attempt == 0 ? s.damping : std::max(s.damping, 1e-2 * std::pow(10.0, attempt - 1));
   std::vector<Complex> shifts;
   for (Index k = 0; k < pairs; ++k) {
     const double t = (static_cast<double>(k) + offset) / static_cast<double>(pairs);
@@ -177,8 +177,9 @@ Interpolation balanced_shifts(const StartSetting& s, std::optional<DenseBalancin
   if (!balancing) balancing.emplace(densify(*s.model));
   const Index k = std::min<Index>(r, balancing->positive_count());
   if (k < 1)
-    throw NumericalError("reducer 'irka': initial_shifts = balanced: every Hankel singular value "
-                         "of the model is zero");
+    throw NumericalError(
+        "reducer 'irka': initial_shifts = balanced: every Hankel singular value "
+        "of the model is zero");
   const ReducedDescriptorModel bt = balancing->truncate(k);
   const PoleResidues pr = pole_residues(bt.E, bt.A, bt.B, bt.C);
   Index reflected = 0;

@@ -14,10 +14,10 @@
 #include <vector>
 
 #include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/base/options.hpp"
-#include "ecmor/plugin/plugin.hpp"
 #include "ecmor/model/projection.hpp"
+#include "ecmor/plugin/plugin.hpp"
+#include "ecmor/response/frequency_response.hpp"
 #include "incremental_projection.hpp"
 #include "second_order_view.hpp"
 #include "toar.hpp"
@@ -31,9 +31,9 @@ constexpr const char* kName = "krylov";
 /// and documentation.
 struct Options {
   bool two_sided = false;
-  std::vector<double> points_hz;             // configured points s0 = i 2 pi f
-  std::vector<double> real_points;           // configured real shifts s0 >= 0 (rad/s)
-  std::vector<double> point_moments{1.0};    // blocks per round for each configured point
+  std::vector<double> points_hz;           // configured points s0 = i 2 pi f
+  std::vector<double> real_points;         // configured real shifts s0 >= 0 (rad/s)
+  std::vector<double> point_moments{1.0};  // blocks per round for each configured point
   Index point_count = 1;
   bool linear_spacing = false;  // point_count points equally spaced in f instead of log f
   Index tangential_directions = 0;

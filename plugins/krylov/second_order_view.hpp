@@ -24,8 +24,8 @@
 #include <vector>
 
 #include "ecmor/base/error.hpp"
-#include "ecmor/model/model.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor::krylov {
 

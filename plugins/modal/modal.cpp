@@ -13,14 +13,14 @@
 #include <tuple>
 #include <vector>
 
-#include "ecmor/measures/band_error.hpp"
-#include "ecmor/linalg/eigensolver.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/options.hpp"
-#include "ecmor/plugin/plugin.hpp"
-#include "ecmor/model/projection.hpp"
+#include "ecmor/linalg/eigensolver.hpp"
 #include "ecmor/linalg/rigid_body.hpp"
 #include "ecmor/linalg/spectrum_slicer.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/model/projection.hpp"
+#include "ecmor/plugin/plugin.hpp"
 
 namespace ecmor::modal {
 namespace {
@@ -52,32 +52,34 @@ struct Options {
 
 const OptionSpecs<Options>& option_specs() {
   static const OptionSpecs<Options> specs({
-    option("static_correction", &Options::static_correction,
-           "append the M-orthogonalised static response K^-1 B (shifted for singular K); counted "
-           "in the order (second-order and symmetric descriptor models)"),
-    choice("mode_ranking", &Options::mode_ranking,
-           {{"band", ModeRanking::Band}, {"dominance", ModeRanking::Dominance}},
-           "order of the modes within the band margin: band (log distance to the band, then "
-           "ascending f) or dominance (relative dominance ||c_j b_j'|| / |lambda_j - w^2 + i w d_j| "
-           "/ ||H(i w)|| at w = clamp(omega_j, band), largest first; computes every mode within "
-           "the margin first; symmetric eigenproblems only)"),
-    option("batch_size", &Options::batch_size, "eigenpairs per ARPACK run (one slice)")
-        .range(Range::closed(1, 100000)),
-    option("tolerance", &Options::tolerance,
-           "ARPACK's relative accuracy of the Ritz values; 0 = machine precision")
-        .range(Range::closed(0, 1e-2)),
-    option("band_margin", &Options::band_margin,
-           "factor on f: modes within [f_min / margin, f_max * margin] rank by log distance to the "
-           "band, beyond by ascending frequency")
-        .range(Range::at_least(1)),
-    option("max_iterations", &Options::max_iterations, "ARPACK implicit restarts per run")
-        .range(Range::at_least(1)),
-    option("symmetry_tolerance", &Options::symmetry_tolerance,
-           "relative asymmetry of K up to which its symmetric part is used; above, the general "
-           "eigensolver")
-        .range(Range::closed(0, 1)),
-    option("seed", &Options::seed, "seed of ARPACK's start vectors (reproducible runs)")
-        .range(Range::at_least(1)),
+      option("static_correction", &Options::static_correction,
+             "append the M-orthogonalised static response K^-1 B (shifted for singular K); counted "
+             "in the order (second-order and symmetric descriptor models)"),
+      choice(
+          "mode_ranking", &Options::mode_ranking,
+          {{"band", ModeRanking::Band}, {"dominance", ModeRanking::Dominance}},
+          "order of the modes within the band margin: band (log distance to the band, then "
+          "ascending f) or dominance (relative dominance ||c_j b_j'|| / |lambda_j - w^2 + i w d_j| "
+          "/ ||H(i w)|| at w = clamp(omega_j, band), largest first; computes every mode within "
+          "the margin first; symmetric eigenproblems only)"),
+      option("batch_size", &Options::batch_size, "eigenpairs per ARPACK run (one slice)")
+          .range(Range::closed(1, 100000)),
+      option("tolerance", &Options::tolerance,
+             "ARPACK's relative accuracy of the Ritz values; 0 = machine precision")
+          .range(Range::closed(0, 1e-2)),
+      option(
+          "band_margin", &Options::band_margin,
+          "factor on f: modes within [f_min / margin, f_max * margin] rank by log distance to the "
+          "band, beyond by ascending frequency")
+          .range(Range::at_least(1)),
+      option("max_iterations", &Options::max_iterations, "ARPACK implicit restarts per run")
+          .range(Range::at_least(1)),
+      option("symmetry_tolerance", &Options::symmetry_tolerance,
+             "relative asymmetry of K up to which its symmetric part is used; above, the general "
+             "eigensolver")
+          .range(Range::closed(0, 1)),
+      option("seed", &Options::seed, "seed of ARPACK's start vectors (reproducible runs)")
+          .range(Range::at_least(1)),
   });
   return specs;
 }
@@ -154,16 +156,21 @@ struct GeneralMode {
   bool pair = false;
 };
 
-/// General pencil A x = lambda E x, all eigenvalues in the disc |lambda - sigma| <= r around one real
-/// shift. Growing recomputes ARPACK with a doubled nev on the same factorisation: eigenvalues in
-/// the complex plane cannot be sliced with real shifts, and the disc keeps the covered frequencies
-/// contiguous (f <= f_front).
+/// General pencil A x = lambda E x, all eigenvalues in the disc |lambda - sigma| <= r around one
+/// real shift. Growing recomputes ARPACK with a doubled nev on the same factorisation: eigenvalues
+/// in the complex plane cannot be sliced with real shifts, and the disc keeps the covered
+/// frequencies contiguous (f <= f_front).
 class GeneralModes {
  public:
   GeneralModes(const SparseMatrix& E, std::shared_ptr<const Factorization> F, double sigma,
                bool second_order, bool need_left, const Options& options)
-      : m_E(E), m_F(std::move(F)), m_sigma(sigma), m_second_order(second_order),
-        m_need_left(need_left), m_options(options), m_n(E.rows()) {}
+      : m_E(E),
+        m_F(std::move(F)),
+        m_sigma(sigma),
+        m_second_order(second_order),
+        m_need_left(need_left),
+        m_options(options),
+        m_n(E.rows()) {}
 
   double frequency(Complex lambda) const {
     return (m_second_order ? std::sqrt(std::abs(lambda)) : std::abs(lambda)) / kTwoPi;
@@ -415,7 +422,8 @@ class ModalReducer final : public Reducer {
   }
 
   /// Relative dominance of every computed mode within the band margin (0 for the others):
-  ///   ||(c_j + i w cv_j) b_j'|| / |lambda_j - w^2 + i w d_j| / ||H(i w)||,  w = clamp(omega_j, band)
+  ///   ||(c_j + i w cv_j) b_j'|| / |lambda_j - w^2 + i w d_j| / ||H(i w)||,  w = clamp(omega_j,
+  ///   band)
   /// with c_j = C phi_j, cv_j = Cv phi_j, b_j = phi_j' B, d_j = phi_j' D phi_j (descriptor:
   /// denominator lambda_j + i w, no Cv). ||H(i w)|| (largest singular value) is estimated without
   /// full solves: the same modal sum over all computed modes (diagonal modal damping) plus the
@@ -540,7 +548,8 @@ class ModalReducer final : public Reducer {
       }
       modes = std::min<Index>(modes_wanted, static_cast<Index>(ranked.size()));
       V.resize(m_n, modes);
-      for (Index k = 0; k < modes; ++k) V.col(k) = s.vectors().col(ranked[static_cast<std::size_t>(k)]);
+      for (Index k = 0; k < modes; ++k)
+        V.col(k) = s.vectors().col(ranked[static_cast<std::size_t>(k)]);
       appended = static_cols > 0 ? orthonormalize_append(V, *m_static, InnerProduct{&M}) : 0;
       if (V.cols() >= wanted || modes < modes_wanted) break;
       modes_wanted += wanted - V.cols();
@@ -580,19 +589,20 @@ class ModalReducer final : public Reducer {
       note += fmt::format(" + {} static correction{}", appended, appended > 1 ? "s" : "");
       if (m_static_shift != 0.0) note += fmt::format(" (shifted, sigma = {:g})", m_static_shift);
     }
-    if (modes > 0 && f_hi > 0.0) note += fmt::format("; elastic modes {:.4g} .. {:.4g} Hz", f_lo, f_hi);
+    if (modes > 0 && f_hi > 0.0)
+      note += fmt::format("; elastic modes {:.4g} .. {:.4g} Hz", f_lo, f_hi);
     if (m_path != "symmetric") note += "; " + m_path + " eigenproblem";
     if (s.eigensolver() == "slepc") note += "; eigenpairs by SLEPc Krylov-Schur";
     if (V.cols() < order) {
       note += fmt::format("; order {} requested, {} available", order, V.cols());
       if (s.exhausted()) {
-        note += fmt::format(" (spectrum slicing found {} of {} eigenpairs and then nothing new in "
-                            "3 slices: ARPACK misses copies of an eigenvalue of high multiplicity"
-                            "{})",
-                            s.known(), m_n,
-                            s.spurious() > 0
-                                ? fmt::format("; {} spurious Ritz pairs dropped", s.spurious())
-                                : std::string());
+        note += fmt::format(
+            " (spectrum slicing found {} of {} eigenpairs and then nothing new in "
+            "3 slices: ARPACK misses copies of an eigenvalue of high multiplicity"
+            "{})",
+            s.known(), m_n,
+            s.spurious() > 0 ? fmt::format("; {} spurious Ritz pairs dropped", s.spurious())
+                             : std::string());
       }
     } else if (m_options.static_correction && static_cols == 0 && m_static_rank > 0) {
       note += fmt::format("; static correction omitted (needs order > {})", m_static_rank);
@@ -642,7 +652,8 @@ class ModalReducer final : public Reducer {
     };
     auto columns_final = [&](const std::vector<std::pair<Key, Index>>& keyed) {
       Index cols = 0;
-      for (const auto& k : keyed) cols += g.modes()[static_cast<std::size_t>(k.second)].pair ? 2 : 1;
+      for (const auto& k : keyed)
+        cols += g.modes()[static_cast<std::size_t>(k.second)].pair ? 2 : 1;
       return cols;
     };
     if (g.runs() == 0) g.grow();
@@ -687,8 +698,8 @@ class ModalReducer final : public Reducer {
       orthonormalize_append(V, Vraw);
       orthonormalize_append(W, Wraw);
       if (V.cols() != W.cols()) {
-        throw NumericalError(fmt::format("modal: right ({}) and left ({}) eigenbases differ in rank",
-                                         V.cols(), W.cols()));
+        throw NumericalError(fmt::format(
+            "modal: right ({}) and left ({}) eigenbases differ in rank", V.cols(), W.cols()));
       }
       const Matrix G = W.transpose() * (ds.E * V);
       const Eigen::JacobiSVD<Matrix> svd(G);

@@ -7,11 +7,11 @@
 
 #include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/measures/hinf_norm.hpp"
 #include "ecmor/gramians/lyapunov.hpp"
+#include "ecmor/linalg/parallel.hpp"
+#include "ecmor/measures/hinf_norm.hpp"
 #include "ecmor/model/dense_model.hpp"
 #include "ecmor/model/model_io.hpp"
-#include "ecmor/linalg/parallel.hpp"
 #include "ecmor/version.hpp"
 
 namespace ecmor::driver {
@@ -50,11 +50,12 @@ struct HinfReport {
 HinfReport hinf_of_error(const Model& full, const ReducedModel& reduced, const BandError& verified,
                          Index dense_states) {
   HinfReport r;
-  const Index states = std::holds_alternative<SecondOrderModel>(full) ? 2 * size_of(full)
-                                                                        : size_of(full);
-  std::string why_sampled = fmt::format("the full model has {} first-order states (dense "
-                                        "level-set method up to error.hinf_dense_states = {})",
-                                        states, dense_states);
+  const Index states =
+      std::holds_alternative<SecondOrderModel>(full) ? 2 * size_of(full) : size_of(full);
+  std::string why_sampled = fmt::format(
+      "the full model has {} first-order states (dense "
+      "level-set method up to error.hinf_dense_states = {})",
+      states, dense_states);
   if (states <= dense_states) {
     try {
       const HinfResult h = hinf_error_norm(densify(full), reduced);
@@ -70,9 +71,10 @@ HinfReport hinf_of_error(const Model& full, const ReducedModel& reduced, const B
   }
   r.value = verified.hinf_absolute;
   r.scope = "band";
-  r.method = "sup of sigma_max(H - Hr) on the independent re-check grid (sampled: a lower bound "
-             "of the band H-infinity norm); " +
-             why_sampled;
+  r.method =
+      "sup of sigma_max(H - Hr) on the independent re-check grid (sampled: a lower bound "
+      "of the band H-infinity norm); " +
+      why_sampled;
   return r;
 }
 
@@ -142,7 +144,8 @@ nlohmann::json accept_model(const StrategyResult& result, const RunConfig& confi
                                                  : nlohmann::json(estimator.switch_note())},
       {"reference_order", estimator.reference_order()},
       {"checked_frequencies", verified.checked_samples},
-      {"checked_f_hz", estimate_mode ? nlohmann::json(cache.frequencies()) : nlohmann::json(nullptr)},
+      {"checked_f_hz",
+       estimate_mode ? nlohmann::json(cache.frequencies()) : nlohmann::json(nullptr)},
       {"estimate_sup_unchecked", number_or_null(verified.estimate_sup)},
       {"reference_floor", verified.reference_floor},
       {"effectivity",
@@ -236,8 +239,8 @@ nlohmann::json summary_json(const RunSummary& summary, const RunConfig& config, 
                      {"N", size_of(model)},
                      {"inputs", inputs_of(model)},
                      {"outputs", outputs_of(model)}});
-  j["backend"] = {{"name", config.solver.backend}, {"solver", solver_backend},
-                  {"ranks", process_count()}};
+  j["backend"] = {
+      {"name", config.solver.backend}, {"solver", solver_backend}, {"ranks", process_count()}};
   j["reducer"] = config.reducer_name;
   j["strategy"] = config.strategy_name;
   if (portfolio) {

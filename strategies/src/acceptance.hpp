@@ -6,9 +6,9 @@
 #include <chrono>
 #include <nlohmann/json.hpp>
 
+#include "ecmor/linalg/rigid_body.hpp"
 #include "ecmor/measures/band_error.hpp"
 #include "ecmor/response/frequency_response.hpp"
-#include "ecmor/linalg/rigid_body.hpp"
 #include "ecmor/strategies/driver.hpp"
 
 namespace ecmor::driver {

@@ -55,8 +55,7 @@ const OptionSpecs<RunConfig>& error_specs() {
         option("max_pole_samples", &E::max_pole_samples,
                "at most this many pole samples, least damped first")
             .range(Range::at_least(0)),
-        option("refine_peaks", &E::refine_peaks,
-               "local maxima of the error refined per evaluation")
+        option("refine_peaks", &E::refine_peaks, "local maxima of the error refined per evaluation")
             .range(Range::at_least(0)),
         option("refine_evaluations", &E::refine_evaluations,
                "golden-section steps per refined peak at most; a peak stops earlier when its "
@@ -150,8 +149,7 @@ const OptionSpecs<RunConfig>& solver_specs() {
                "a factorisation whose reciprocal condition estimate is below this is reported "
                "singular")
             .range(Range::closed_open(0, 1)),
-        choice("ordering", &S::ordering,
-               {{"auto", "auto"}, {"amd", "amd"}, {"metis", "metis"}},
+        choice("ordering", &S::ordering, {{"auto", "auto"}, {"amd", "amd"}, {"metis", "metis"}},
                "fill-reducing ordering: `auto` takes AMD, or METIS nested dissection where AMD's "
                "predicted fill is large (3-D solids); the choice is made once per model from the "
                "symbolic analyses"),
@@ -472,8 +470,8 @@ ParameterValue Parser::parameter(const YAML::Node& key, const YAML::Node& value,
   return out;
 }
 
-void Parser::collect_parameters(const YAML::Node& map, const std::string& sec,
-                                ParameterMap& params, const std::vector<std::string>& skip) {
+void Parser::collect_parameters(const YAML::Node& map, const std::string& sec, ParameterMap& params,
+                                const std::vector<std::string>& skip) {
   for (auto it = map.begin(); it != map.end(); ++it) {
     const std::string& key = it->first.Scalar();
     if (std::find(skip.begin(), skip.end(), key) != skip.end()) continue;

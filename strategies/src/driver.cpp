@@ -12,9 +12,9 @@
 #include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/interrupt.hpp"
-#include "ecmor/model/model_io.hpp"
 #include "ecmor/linalg/parallel.hpp"
 #include "ecmor/linalg/recent_factorizations.hpp"
+#include "ecmor/model/model_io.hpp"
 #include "portfolio.hpp"
 #include "stop_policy.hpp"
 
@@ -139,10 +139,10 @@ RunSummary run_reduction(const RunConfig& given, Registry& registry, RunObserver
   summary.iterations = recorded;
   summary.attempts = runs.attempts;
   const bool won = winner >= 0;
-  summary.reducer = won ? runs.attempts[static_cast<std::size_t>(winner)].reducer
-                        : config.reducer_name;
-  summary.strategy = won ? runs.attempts[static_cast<std::size_t>(winner)].strategy
-                         : config.strategy_name;
+  summary.reducer =
+      won ? runs.attempts[static_cast<std::size_t>(winner)].reducer : config.reducer_name;
+  summary.strategy =
+      won ? runs.attempts[static_cast<std::size_t>(winner)].strategy : config.strategy_name;
   summary.load_seconds = load_seconds;
   summary.full_order = size_of(model);
 

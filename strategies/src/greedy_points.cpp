@@ -81,12 +81,11 @@ std::vector<ExpansionPoint> start_points(const GreedyPointsOptions& o, const Ban
     }
     for (std::size_t j = 0; j < i; ++j) {
       if (std::abs(std::log(f / start[j])) <= separation) {
-        throw ConfigError(
-            std::string("strategy '") + kStrategy + "': initial_points[" + std::to_string(i) +
-            "] = " + number(f) + " Hz and initial_points[" + std::to_string(j) +
-            "] = " + number(start[j]) +
-            " Hz are closer than min_separation = " + number(o.min_separation) +
-            " of the band in log f: give one point with more moments instead");
+        throw ConfigError(std::string("strategy '") + kStrategy + "': initial_points[" +
+                          std::to_string(i) + "] = " + number(f) + " Hz and initial_points[" +
+                          std::to_string(j) + "] = " + number(start[j]) +
+                          " Hz are closer than min_separation = " + number(o.min_separation) +
+                          " of the band in log f: give one point with more moments instead");
       }
     }
     points.push_back(point_at_hz(f, o.moments));
@@ -199,16 +198,15 @@ class Growth {
                           "band error stagnated at " + sci(m_stagnation.last()) +
                               " over the last " + std::to_string(m_stagnation.window()) +
                               " additions (was " + sci(m_stagnation.before()) + "; order " +
-                              std::to_string(m_c.order()) + ", " +
-                              std::to_string(m_points.size()) + " points); tolerance " +
-                              sci(tolerance()));
+                              std::to_string(m_c.order()) + ", " + std::to_string(m_points.size()) +
+                              " points); tolerance " + sci(tolerance()));
     }
     if (m_run.iterations() >= m_o.max_iterations) {
-      return m_run.finish(Termination::IterationLimit,
-                          "iteration budget max_iterations = " +
-                              std::to_string(m_o.max_iterations) + " used up at order " +
-                              std::to_string(m_c.order()) + " with " +
-                              std::to_string(m_points.size()) + " points; " + m_run.shortfall());
+      return m_run.finish(
+          Termination::IterationLimit,
+          "iteration budget max_iterations = " + std::to_string(m_o.max_iterations) +
+              " used up at order " + std::to_string(m_c.order()) + " with " +
+              std::to_string(m_points.size()) + " points; " + m_run.shortfall());
     }
     return std::nullopt;
   }

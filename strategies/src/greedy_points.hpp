@@ -17,10 +17,10 @@
 ///    with `moments` moments is added (phase "add_point"). A model passes when it meets the
 ///    tolerance on the estimator's sampling, on the independent denser re-check, and is stable.
 ///  * Back-off: a step that spoils the model (band error inf, or above both 1 and ten times the
-///    error of the model before it: a spurious pole on the band) is recorded but not taken. Growth goes on
-///    from the model before it, aiming at the largest finite error more than 5 % in f away from
-///    every frequency that gave such a step. When no frequency is left, the run ends Stagnated and
-///    says so.
+///    error of the model before it: a spurious pole on the band) is recorded but not taken. Growth
+///    goes on from the model before it, aiming at the largest finite error more than 5 % in f away
+///    from every frequency that gave such a step. When no frequency is left, the run ends Stagnated
+///    and says so.
 ///  * Pruning (phase "prune", `prune: true`), from the first passing point set: points, then
 ///    moments, that the tolerance does not need are dropped, each trial screened on cached
 ///    frequencies before it is assessed (strategy_support::prune_points, prune_points.hpp). The

@@ -1,13 +1,12 @@
 #include "grow_order.hpp"
 
-#include "support.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 
 #include "ecmor/base/error.hpp"
 #include "ecmor/response/frequency_response.hpp"
+#include "support.hpp"
 
 namespace ecmor {
 
@@ -15,8 +14,7 @@ const OptionSpecs<GrowOrderOptions>& GrowOrderOptions::specs() {
   using O = GrowOrderOptions;
   static const OptionSpecs<O> specs(
       {
-          option("initial_order", &O::initial_order, "first order tried")
-              .range(Range::at_least(1)),
+          option("initial_order", &O::initial_order, "first order tried").range(Range::at_least(1)),
           option("growth_factor", &O::growth_factor,
                  "next order = max(n + order_step, ceil(growth_factor * n))")
               .range(Range::closed(1, 100)),
@@ -43,8 +41,8 @@ const OptionSpecs<GrowOrderOptions>& GrowOrderOptions::specs() {
       },
       {[](const O& o, const OptionCheck<O>& c) {
         if (o.max_order < o.initial_order) {
-          c.fail(o.max_order, "must be >= " + c.key(o.initial_order) + " = " +
-                                  std::to_string(o.initial_order));
+          c.fail(o.max_order,
+                 "must be >= " + c.key(o.initial_order) + " = " + std::to_string(o.initial_order));
         }
       }});
   return specs;
@@ -69,18 +67,19 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
   return strategy_support::guarded(run, [&]() -> StrategyResult {
     // Phase 1: grow until a verified pass.
     Index order = std::min(m_options.initial_order, max_order);
-    Index last_fail = 0;          // largest order known to fail
+    Index last_fail = 0;  // largest order known to fail
     Index previous_delivered = -1;
     Stagnation stagnation(m_options.stagnation_window, m_options.stagnation_ratio);
     while (true) {
       if (run.iterations() >= m_options.max_iterations) {
-        return finish(Termination::IterationLimit,
-                      "iteration budget " + std::to_string(m_options.max_iterations) +
-                          " used up before the tolerance was met");
+        return finish(Termination::IterationLimit, "iteration budget " +
+                                                       std::to_string(m_options.max_iterations) +
+                                                       " used up before the tolerance was met");
       }
       auto next_order = [&](Index n) {
         Index next = std::max<Index>(
-            n + step, static_cast<Index>(std::ceil(m_options.growth_factor * static_cast<double>(n))));
+            n + step,
+            static_cast<Index>(std::ceil(m_options.growth_factor * static_cast<double>(n))));
         next = ((next + step - 1) / step) * step;
         return std::min(next, max_order);
       };
@@ -104,8 +103,9 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
         continue;
       }
       const Candidate c = run.assess(std::move(reduced), "grow");
-      if (run.stopped()) return finish(Termination::Interrupted, "stopped by request at order " +
-                                                            std::to_string(c.result.V.cols()));
+      if (run.stopped())
+        return finish(Termination::Interrupted,
+                      "stopped by request at order " + std::to_string(c.result.V.cols()));
       if (c.passed) break;
       last_fail = std::max(last_fail, delivered);
       previous_delivered = delivered;
@@ -117,13 +117,12 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
       }
       if (delivered >= max_order) {
         if (reducer.max_order() <= m_options.max_order) {
-          return finish(Termination::ReducerExhausted,
-                        "the reducer delivers at most order " + std::to_string(delivered) +
-                            "; " + run.shortfall());
+          return finish(Termination::ReducerExhausted, "the reducer delivers at most order " +
+                                                           std::to_string(delivered) + "; " +
+                                                           run.shortfall());
         }
         return finish(Termination::MaxOrderReached,
-                      "order budget " + std::to_string(max_order) + " reached: " +
-                          run.shortfall());
+                      "order budget " + std::to_string(max_order) + " reached: " + run.shortfall());
       }
       order = next_order(order);
     }
@@ -133,7 +132,7 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
     // of nested bases is not guaranteed monotone in the order, so this finds the smallest passing
     // order under the assumption that it is monotone between the two (documented).
     if (m_options.shrink) {
-      Index lo = last_fail;                       // fails (or 0)
+      Index lo = last_fail;                     // fails (or 0)
       Index hi = run.smallest_pass()->order();  // passes
       // Bisection on requested orders: a failing request raises lo to the request even when the
       // reducer delivered less (pairs, deflation), a passing one lowers hi to what was delivered;
@@ -153,10 +152,11 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
       }
       if (run.stopped() || hi - lo > step) shrink_note = " (search for a smaller order cut short)";
     }
-    return finish(Termination::Converged,
-                  "band error " + sci(run.smallest_pass()->error.sup_relative) + " <= tolerance " +
-                      sci(ctx.tolerance) + " at order " +
-                      std::to_string(run.smallest_pass()->order()) + run.verified_phrase() + shrink_note);
+    return finish(Termination::Converged, "band error " +
+                                              sci(run.smallest_pass()->error.sup_relative) +
+                                              " <= tolerance " + sci(ctx.tolerance) + " at order " +
+                                              std::to_string(run.smallest_pass()->order()) +
+                                              run.verified_phrase() + shrink_note);
   });
 }
 

@@ -11,12 +11,12 @@ namespace ecmor {
 /// Settings of grow_order; the initialisers are the defaults, specs() the keys, ranges and
 /// documentation.
 struct GrowOrderOptions {
-  Index initial_order = 2;      ///< first order tried
-  double growth_factor = 1.5;   ///< next order = max(n + order_step, ceil(growth_factor * n))
-  Index order_step = 1;         ///< minimal increment (rounded up to the reducer's order_step)
-  Index max_order = 200;        ///< order budget, >= initial_order
-  Index max_iterations = 200;   ///< iteration budget (grow + shrink + verify)
-  bool shrink = true;           ///< bisect to the smallest passing order after the first pass
+  Index initial_order = 2;     ///< first order tried
+  double growth_factor = 1.5;  ///< next order = max(n + order_step, ceil(growth_factor * n))
+  Index order_step = 1;        ///< minimal increment (rounded up to the reducer's order_step)
+  Index max_order = 200;       ///< order budget, >= initial_order
+  Index max_iterations = 200;  ///< iteration budget (grow + shrink + verify)
+  bool shrink = true;          ///< bisect to the smallest passing order after the first pass
   /// Stagnated when the best error has not improved by stagnation_ratio over this many growth
   /// steps (0: never). The ratio compares the new best with the best `window` steps earlier.
   Index stagnation_window = 0;

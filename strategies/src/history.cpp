@@ -11,9 +11,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
-#include <type_traits>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <type_traits>
 
 #include "ecmor/base/error.hpp"
 
@@ -105,8 +105,8 @@ class CsvField {
   // `what` names the rule the field breaks unless it is non-empty and `ok`.
   void require(bool ok, const char* what) const {
     if (ok && !m_text.empty()) return;
-    throw InputError(fmt::format("{}:{}: {} = '{}': must be {}", m_path.string(), m_line,
-                                 m_column, m_text, what));
+    throw InputError(fmt::format("{}:{}: {} = '{}': must be {}", m_path.string(), m_line, m_column,
+                                 m_text, what));
   }
 
   const std::string& m_text;
@@ -237,9 +237,12 @@ std::vector<CsvRecord> split_records(const std::string& text, const std::filesys
       blank = true;
     } else if (c != '\r') {
       blank = false;
-      if (c == '"') quoted = true;
-      else if (c == ',') record.fields.emplace_back();
-      else record.fields.back() += c;
+      if (c == '"')
+        quoted = true;
+      else if (c == ',')
+        record.fields.emplace_back();
+      else
+        record.fields.back() += c;
     }
   }
   if (quoted) {
@@ -345,8 +348,8 @@ void HistoryWriter::append(const IterationRecord& record) {
 std::vector<HistoryCsvRow> read_history_csv(const std::filesystem::path& path) {
   const std::vector<CsvRecord> records = split_records(read_text(path), path);
   if (records.empty()) {
-    throw InputError(fmt::format("{}: empty file: a history.csv starts with its header line",
-                                 path.string()));
+    throw InputError(
+        fmt::format("{}: empty file: a history.csv starts with its header line", path.string()));
   }
   const CsvRecord& header = records.front();
   const std::vector<std::size_t> at = column_positions(header, path);

@@ -2,7 +2,6 @@
 
 #include <IpIpoptApplication.hpp>
 #include <IpTNLP.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <optional>
@@ -22,25 +21,44 @@ using Number = Ipopt::Number;
 
 std::string status_name(Ipopt::ApplicationReturnStatus s) {
   switch (s) {
-    case Ipopt::Solve_Succeeded: return "solve succeeded";
-    case Ipopt::Solved_To_Acceptable_Level: return "solved to acceptable level";
-    case Ipopt::Infeasible_Problem_Detected: return "infeasible problem detected";
-    case Ipopt::Search_Direction_Becomes_Too_Small: return "search direction too small";
-    case Ipopt::Diverging_Iterates: return "diverging iterates";
-    case Ipopt::User_Requested_Stop: return "stopped (evaluation budget or request)";
-    case Ipopt::Feasible_Point_Found: return "feasible point found";
-    case Ipopt::Maximum_Iterations_Exceeded: return "max_iter reached";
-    case Ipopt::Restoration_Failed: return "restoration failed";
-    case Ipopt::Error_In_Step_Computation: return "error in step computation";
-    case Ipopt::Maximum_CpuTime_Exceeded: return "cpu time exceeded";
-    case Ipopt::Not_Enough_Degrees_Of_Freedom: return "not enough degrees of freedom";
-    case Ipopt::Invalid_Problem_Definition: return "invalid problem definition";
-    case Ipopt::Invalid_Option: return "invalid option";
-    case Ipopt::Invalid_Number_Detected: return "invalid number detected";
-    case Ipopt::Unrecoverable_Exception: return "unrecoverable exception";
-    case Ipopt::NonIpopt_Exception_Thrown: return "non-Ipopt exception";
-    case Ipopt::Insufficient_Memory: return "insufficient memory";
-    case Ipopt::Internal_Error: return "internal error";
+    case Ipopt::Solve_Succeeded:
+      return "solve succeeded";
+    case Ipopt::Solved_To_Acceptable_Level:
+      return "solved to acceptable level";
+    case Ipopt::Infeasible_Problem_Detected:
+      return "infeasible problem detected";
+    case Ipopt::Search_Direction_Becomes_Too_Small:
+      return "search direction too small";
+    case Ipopt::Diverging_Iterates:
+      return "diverging iterates";
+    case Ipopt::User_Requested_Stop:
+      return "stopped (evaluation budget or request)";
+    case Ipopt::Feasible_Point_Found:
+      return "feasible point found";
+    case Ipopt::Maximum_Iterations_Exceeded:
+      return "max_iter reached";
+    case Ipopt::Restoration_Failed:
+      return "restoration failed";
+    case Ipopt::Error_In_Step_Computation:
+      return "error in step computation";
+    case Ipopt::Maximum_CpuTime_Exceeded:
+      return "cpu time exceeded";
+    case Ipopt::Not_Enough_Degrees_Of_Freedom:
+      return "not enough degrees of freedom";
+    case Ipopt::Invalid_Problem_Definition:
+      return "invalid problem definition";
+    case Ipopt::Invalid_Option:
+      return "invalid option";
+    case Ipopt::Invalid_Number_Detected:
+      return "invalid number detected";
+    case Ipopt::Unrecoverable_Exception:
+      return "unrecoverable exception";
+    case Ipopt::NonIpopt_Exception_Thrown:
+      return "non-Ipopt exception";
+    case Ipopt::Insufficient_Memory:
+      return "insufficient memory";
+    case Ipopt::Internal_Error:
+      return "internal error";
   }
   return "status " + std::to_string(static_cast<int>(s));
 }
@@ -50,7 +68,9 @@ class EpigraphProgram final : public Ipopt::TNLP {
  public:
   EpigraphProgram(const MinimaxPointsOptions& options, point_search::PointObjective& objective,
                   std::vector<double> x0)
-      : m_options(options), m_objective(objective), m_x0(std::move(x0)),
+      : m_options(options),
+        m_objective(objective),
+        m_x0(std::move(x0)),
         m_p(static_cast<IpIndex>(m_x0.size())),
         m_s(static_cast<IpIndex>(objective.samples().size())) {}
 
@@ -152,9 +172,9 @@ class EpigraphProgram final : public Ipopt::TNLP {
   }
 
   bool intermediate_callback(Ipopt::AlgorithmMode /*mode*/, IpIndex iter, Number /*obj_value*/,
-                             Number /*inf_pr*/, Number /*inf_du*/, Number /*mu*/,
-                             Number /*d_norm*/, Number /*regularization_size*/,
-                             Number /*alpha_du*/, Number /*alpha_pr*/, IpIndex /*ls_trials*/,
+                             Number /*inf_pr*/, Number /*inf_du*/, Number /*mu*/, Number /*d_norm*/,
+                             Number /*regularization_size*/, Number /*alpha_du*/,
+                             Number /*alpha_pr*/, IpIndex /*ls_trials*/,
                              const Ipopt::IpoptData* /*ip_data*/,
                              Ipopt::IpoptCalculatedQuantities* /*ip_cq*/) override {
     m_iterations = iter;
@@ -205,8 +225,7 @@ const OptionSpecs<MinimaxPointsOptions>& MinimaxPointsOptions::specs() {
                    "Ipopt's (scaled) convergence tolerance; t is in decades of the error, so 1e-4 "
                    "resolves the error to 0.02 %")
                 .range(Range::above(0).finite()),
-            option("acceptable_tol", &O::acceptable_tol,
-                   "Ipopt's \"acceptable\" tolerance, >= tol")
+            option("acceptable_tol", &O::acceptable_tol, "Ipopt's \"acceptable\" tolerance, >= tol")
                 .range(Range::at_least(0).finite()),
             option("max_evaluations", &O::max_evaluations,
                    "objective evaluations per optimisation, presearch included, checked after "
@@ -250,9 +269,8 @@ point_search::Optimisation minimax_optimise(const MinimaxPointsOptions& o,
   if (o.presearch) {
     OptimizePointsOptions pre;
     pre.algorithm = *o.presearch;
-    pre.max_evaluations = o.presearch_evaluations > 0
-                              ? o.presearch_evaluations
-                              : 20 * static_cast<Index>(x0.size());
+    pre.max_evaluations =
+        o.presearch_evaluations > 0 ? o.presearch_evaluations : 20 * static_cast<Index>(x0.size());
     // Only the basin matters here; Ipopt resolves the optimum.
     pre.xtol_rel = 1e-3;
     const point_search::Optimisation r = nlopt_optimise(pre, objective, x0);
@@ -280,7 +298,7 @@ point_search::Optimisation minimax_optimise(const MinimaxPointsOptions& o,
   }
   const Ipopt::ApplicationReturnStatus status = app->OptimizeTNLP(program);
   out.status += "ipopt: " + status_name(status) + " after " +
-               std::to_string(program->iterations()) + " iterations";
+                std::to_string(program->iterations()) + " iterations";
   out.diagnostics["ipopt_status"] = static_cast<double>(status);
   out.diagnostics["ipopt_iterations"] = static_cast<double>(program->iterations());
   return out;

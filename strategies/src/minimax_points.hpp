@@ -58,12 +58,12 @@ namespace ecmor {
 
 struct MinimaxPointsOptions {
   point_search::PointSearchOptions search;
-  Index max_iter = 40;          ///< Ipopt iterations per optimisation
-  double tol = 1e-4;            ///< Ipopt tol
-  double acceptable_tol = 1e-2; ///< Ipopt acceptable_tol
-  Index max_evaluations = 0;    ///< evaluations per optimisation, 0: unlimited
-  double fd_step = 1e-5;        ///< finite-difference step in decades
-  bool central = true;          ///< fd_scheme: central (true) or forward
+  Index max_iter = 40;           ///< Ipopt iterations per optimisation
+  double tol = 1e-4;             ///< Ipopt tol
+  double acceptable_tol = 1e-2;  ///< Ipopt acceptable_tol
+  Index max_evaluations = 0;     ///< evaluations per optimisation, 0: unlimited
+  double fd_step = 1e-5;         ///< finite-difference step in decades
+  bool central = true;           ///< fd_scheme: central (true) or forward
   /// NLopt algorithm of the derivative-free presearch before Ipopt; none: no presearch.
   std::optional<PointAlgorithm> presearch = PointAlgorithm::Bobyqa;
   Index presearch_evaluations = 0;  ///< its evaluations; 0: 20 p

@@ -1,10 +1,9 @@
 #include "optimize_points.hpp"
 
-#include <nlopt.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <nlopt.hpp>
 #include <stdexcept>
 #include <string>
 
@@ -21,9 +20,12 @@ const char* kName = "optimize_points";
 
 std::string algorithm_name(PointAlgorithm a) {
   switch (a) {
-    case PointAlgorithm::Bobyqa: return "bobyqa";
-    case PointAlgorithm::DirectL: return "direct_l";
-    case PointAlgorithm::DirectLThenBobyqa: return "direct_l_then_bobyqa";
+    case PointAlgorithm::Bobyqa:
+      return "bobyqa";
+    case PointAlgorithm::DirectL:
+      return "direct_l";
+    case PointAlgorithm::DirectLThenBobyqa:
+      return "direct_l_then_bobyqa";
   }
   return "unknown";
 }
@@ -147,9 +149,9 @@ point_search::Optimisation nlopt_optimise(const OptimizePointsOptions& o,
   const Index before = objective.round_evaluations();
   objective.value(x);
   auto used = [&] { return objective.round_evaluations() - before; };
-  const bool local_only = o.algorithm == PointAlgorithm::Bobyqa ||
-                          (o.algorithm == PointAlgorithm::DirectLThenBobyqa &&
-                           p > o.global_max_points);
+  const bool local_only =
+      o.algorithm == PointAlgorithm::Bobyqa ||
+      (o.algorithm == PointAlgorithm::DirectLThenBobyqa && p > o.global_max_points);
   if (local_only) {
     out.status = "bobyqa: " + run_nlopt(nlopt::LN_BOBYQA, objective, x, budget - 1, xtol_abs, step);
   } else if (o.algorithm == PointAlgorithm::DirectL) {

@@ -48,13 +48,13 @@ enum class PointAlgorithm { Bobyqa, DirectL, DirectLThenBobyqa };
 struct OptimizePointsOptions {
   point_search::PointSearchOptions search;
   PointAlgorithm algorithm = PointAlgorithm::DirectLThenBobyqa;  ///< see the file comment
-  Index max_evaluations = 0;    ///< per optimisation; 0: 60 p
-  double global_fraction = 0.4; ///< DIRECT-L's share in direct_l_then_bobyqa
+  Index max_evaluations = 0;                                     ///< per optimisation; 0: 60 p
+  double global_fraction = 0.4;  ///< DIRECT-L's share in direct_l_then_bobyqa
   /// direct_l_then_bobyqa runs its global phase only up to this many points; beyond, BOBYQA
   /// alone from the warm start (why: the comment at its spec).
   Index global_max_points = 3;
-  double xtol_rel = 1e-4;       ///< step tolerance relative to the band width in decades
-  double initial_step = 0.0;    ///< BOBYQA's initial radius in decades; 0: width / (4 p)
+  double xtol_rel = 1e-4;     ///< step tolerance relative to the band width in decades
+  double initial_step = 0.0;  ///< BOBYQA's initial radius in decades; 0: width / (4 p)
 
   /// Evaluations for p points.
   Index evaluations_for(Index p) const { return max_evaluations > 0 ? max_evaluations : 60 * p; }

@@ -43,22 +43,23 @@ namespace ecmor::point_search {
 /// Options common to both point-optimising strategies; the initialisers are the defaults, specs()
 /// the keys, ranges and documentation.
 struct PointSearchOptions {
-  Index initial_points = 2;      ///< p at the start (log- or linearly spaced)
-  bool linear_spacing = false;   ///< start points equally spaced in f instead of log f
-  Index moments = 2;             ///< moments matched per point
-  Index max_points = 12;         ///< point budget
-  Index max_order = 200;         ///< order budget (columns of V)
-  Index max_iterations = 20;     ///< assessed models ("start" + "optimum" records)
-  Index reoptimize = 1;          ///< re-optimisations at one p after the samples missed a peak
-  Index stagnation_window = 3;   ///< assessments without enough gain before Stagnated (0: off)
-  double stagnation_ratio = 0.99;///< "enough gain": best < ratio * best `window` earlier
+  Index initial_points = 2;        ///< p at the start (log- or linearly spaced)
+  bool linear_spacing = false;     ///< start points equally spaced in f instead of log f
+  Index moments = 2;               ///< moments matched per point
+  Index max_points = 12;           ///< point budget
+  Index max_order = 200;           ///< order budget (columns of V)
+  Index max_iterations = 20;       ///< assessed models ("start" + "optimum" records)
+  Index reoptimize = 1;            ///< re-optimisations at one p after the samples missed a peak
+  Index stagnation_window = 3;     ///< assessments without enough gain before Stagnated (0: off)
+  double stagnation_ratio = 0.99;  ///< "enough gain": best < ratio * best `window` earlier
   /// floor = error_floor * tolerance is added to eps before the logarithm.
   double error_floor = 1e-3;
-  Index max_added_samples = 400; ///< cap on sample frequencies added to the estimator's grid
-  bool stable_only = true;       ///< an unstable model is a failed evaluation
-  Index peaks_per_assessment = 0;///< local error maxima added per assessed model (0: max(5, refine_peaks))
-  Index points_per_growth = 1;   ///< points added when an optimum misses
-  bool prune = true;             ///< after the first pass, drop the points and moments not needed
+  Index max_added_samples = 400;  ///< cap on sample frequencies added to the estimator's grid
+  bool stable_only = true;        ///< an unstable model is a failed evaluation
+  Index peaks_per_assessment =
+      0;  ///< local error maxima added per assessed model (0: max(5, refine_peaks))
+  Index points_per_growth = 1;  ///< points added when an optimum misses
+  bool prune = true;            ///< after the first pass, drop the points and moments not needed
 
   /// Keys, ranges and documentation of the fields above (included by each point search).
   static const OptionSpecs<PointSearchOptions>& specs();
@@ -104,8 +105,8 @@ class PointObjective {
   double penalty() const;
 
   /// Finite-difference Jacobian dL_k/dx_i (S x p) at x with step h (decades of f). Central:
-  /// (L(x + h e_i) - L(x - h e_i)) / 2h; forward: (L(x + h e_i) - L(x)) / h using `at` (the levels at
-  /// x). A coordinate whose +-h leaves the band, or whose perturbed evaluation fails, falls back
+  /// (L(x + h e_i) - L(x - h e_i)) / 2h; forward: (L(x + h e_i) - L(x)) / h using `at` (the levels
+  /// at x). A coordinate whose +-h leaves the band, or whose perturbed evaluation fails, falls back
   /// to the one-sided difference on the other side. nullopt if both sides of a coordinate fail.
   /// Costs 2p (central) or p (forward) counted evaluations.
   std::optional<Matrix> jacobian(const std::vector<double>& x, const Levels& at, double h,
@@ -163,7 +164,8 @@ struct Optimisation {
 /// An optimiser at fixed p: minimise over x starting from x0 using objective.evaluate/value/
 /// jacobian (the objective tracks the best x itself). May throw ecmor::Error only for bugs or
 /// configuration problems; evaluation failures are handled by the objective.
-using Optimiser = std::function<Optimisation(PointObjective& objective, const std::vector<double>& x0)>;
+using Optimiser =
+    std::function<Optimisation(PointObjective& objective, const std::vector<double>& x0)>;
 
 /// Frequencies (Hz) of the local maxima of error.relative above `above`, largest first, at most
 /// `count` (undefined samples, NaN, are skipped).

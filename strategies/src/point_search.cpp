@@ -111,11 +111,10 @@ class PointSearch {
   // `missed_peak`: the assessment found more than twice the error of the sample set.
   End optimise_and_assess(bool& missed_peak) {
     if (m_assessments >= m_o.max_iterations) {
-      return m_run.finish(Termination::IterationLimit,
-                          "iteration budget max_iterations = " +
-                              std::to_string(m_o.max_iterations) +
-                              " (assessed models) used up with " + points_text() + ": " +
-                              m_run.shortfall());
+      return m_run.finish(
+          Termination::IterationLimit,
+          "iteration budget max_iterations = " + std::to_string(m_o.max_iterations) +
+              " (assessed models) used up with " + points_text() + ": " + m_run.shortfall());
     }
     m_objective.begin_round();
     const Optimisation opt = m_optimise(m_objective, m_x);
@@ -124,11 +123,10 @@ class PointSearch {
                           "stopped by request while optimising " + points_text());
     }
     if (m_objective.best_x().empty()) {
-      return m_run.finish(Termination::Failed,
-                          m_strategy + ": every one of " +
-                              std::to_string(m_objective.round_evaluations()) +
-                              " objective evaluations with " + points_text() +
-                              " failed; last: " + m_objective.last_failure());
+      return m_run.finish(Termination::Failed, m_strategy + ": every one of " +
+                                                   std::to_string(m_objective.round_evaluations()) +
+                                                   " objective evaluations with " + points_text() +
+                                                   " failed; last: " + m_objective.last_failure());
     }
     m_x = m_objective.best_x();
     ReducerResult reduced = m_objective.reduce(m_x);
@@ -147,11 +145,11 @@ class PointSearch {
                           "stopped by request after optimising " + points_text());
     }
     if (m_stagnation.record(m_run.best_error())) {
-      return m_run.finish(Termination::Stagnated,
-                          "band error stagnated at " + sci(m_stagnation.last()) +
-                              " over the last " + std::to_string(m_stagnation.window()) +
-                              " assessed models (" + points_text() + "); tolerance " +
-                              sci(m_ctx.tolerance));
+      return m_run.finish(Termination::Stagnated, "band error stagnated at " +
+                                                      sci(m_stagnation.last()) + " over the last " +
+                                                      std::to_string(m_stagnation.window()) +
+                                                      " assessed models (" + points_text() +
+                                                      "); tolerance " + sci(m_ctx.tolerance));
     }
     missed_peak = m_c.error.sup_relative > 2.0 * sample_sup;
     return std::nullopt;
@@ -186,10 +184,10 @@ class PointSearch {
     // Each point adds about the same number of columns (2 m per moment for a complex point).
     const Index next_order = m_c.order() + k * ((m_c.order() + p - 1) / p);
     if (next_order > m_max_order) {
-      return m_run.finish(order_termination(),
-                          order_limit_text() + " would be exceeded by " + std::to_string(p + k) +
-                              " points (about order " + std::to_string(next_order) +
-                              "): " + m_run.shortfall());
+      return m_run.finish(order_termination(), order_limit_text() + " would be exceeded by " +
+                                                   std::to_string(p + k) + " points (about order " +
+                                                   std::to_string(next_order) +
+                                                   "): " + m_run.shortfall());
     }
     m_x.insert(m_x.end(), added.begin(), added.end());
     std::sort(m_x.begin(), m_x.end());
@@ -200,11 +198,11 @@ class PointSearch {
   // reducer may deliver more columns than p points imply at the start or at an optimum (fewer
   // deflated directions). Such a model is not assessed; the cost is its one reduction.
   StrategyResult over_order(Index delivered, const std::string& what) {
-    return m_run.finish(order_termination(),
-                        order_limit_text() + " exceeded: " + what + " gave order " +
-                            std::to_string(delivered) + " (not assessed): " +
-                            (m_run.most_accurate() ? m_run.shortfall()
-                                                   : std::string("no model assessed")));
+    return m_run.finish(
+        order_termination(),
+        order_limit_text() + " exceeded: " + what + " gave order " + std::to_string(delivered) +
+            " (not assessed): " +
+            (m_run.most_accurate() ? m_run.shortfall() : std::string("no model assessed")));
   }
   Termination order_termination() const {
     return m_reducer_limit ? Termination::ReducerExhausted : Termination::MaxOrderReached;

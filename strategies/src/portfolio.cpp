@@ -85,8 +85,8 @@ int select_winner(const std::vector<PortfolioAttempt>& attempts) {
     // clocks differ and every rank must report the same winner.
     const bool faster = process_count() == 1 && a.seconds < b.seconds;
     const bool better = a.met != b.met ? a.met
-                        : a.met ? (a.order != b.order ? a.order < b.order : faster)
-                                : a.band_error < b.band_error;
+                        : a.met        ? (a.order != b.order ? a.order < b.order : faster)
+                                       : a.band_error < b.band_error;
     if (better) best = static_cast<int>(k);
   }
   return best;
@@ -229,8 +229,7 @@ class MemberRunner {
   /// Sets up the reducer and runs the strategy. A stop ends it as interrupted; in a portfolio a
   /// failure is recorded and ends only this member (a plain run's error propagates).
   StrategyResult run_strategy(std::size_t k, PreparedMember& m, TimedReducer& timed,
-                              StrategyContext& ctx, const std::string& label,
-                              double member_start) {
+                              StrategyContext& ctx, const std::string& label, double member_start) {
     bool set_up = false;
     try {
       // The stop condition also reaches inside reducer calls (interrupt.hpp): a time limit or a
@@ -364,8 +363,9 @@ std::vector<PortfolioMember> default_portfolio(const Model& model, const Registr
   std::vector<PortfolioMember> members;
   for (const Candidate& c : candidates) {
     const auto& entries = registry.entries();
-    const auto it = std::find_if(entries.begin(), entries.end(),
-                                 [&](const Registry::Entry& e) { return e.info.name == c.reducer; });
+    const auto it = std::find_if(entries.begin(), entries.end(), [&](const Registry::Entry& e) {
+      return e.info.name == c.reducer;
+    });
     if (it == entries.end() || !c.suits) continue;
     if (second_order ? !it->info.second_order : !it->info.descriptor) continue;
     PortfolioMember m;

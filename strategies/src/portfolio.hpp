@@ -8,11 +8,11 @@
 #include <memory>
 #include <vector>
 
-#include "ecmor/measures/band_error.hpp"
-#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/linalg/recent_factorizations.hpp"
-#include "ecmor/plugin/registry.hpp"
 #include "ecmor/linalg/rigid_body.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/plugin/registry.hpp"
+#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/strategies/driver.hpp"
 #include "stop_policy.hpp"
 

@@ -192,11 +192,10 @@ void Pruning::seed_screen(const Candidate& c) {
   // The candidate keeps only the larger of its two estimates (evaluate or verify); the other
   // one's samples are recomputed from the cache (same model, same deterministic sampling).
   try {
-    const bool holds_verify =
-        c.error.grid_samples != static_cast<Index>(m_estimator.grid().size());
-    add_screen(all_samples(holds_verify ? m_estimator.evaluate(c.result.model)
-                                        : m_estimator.verify(c.result.model,
-                                                             m_run.context().verify_factor)));
+    const bool holds_verify = c.error.grid_samples != static_cast<Index>(m_estimator.grid().size());
+    add_screen(all_samples(
+        holds_verify ? m_estimator.evaluate(c.result.model)
+                     : m_estimator.verify(c.result.model, m_run.context().verify_factor)));
   } catch (const std::exception&) {
     // Screening then rests on the samples already gathered; nothing is lost but sharpness.
   }
@@ -373,8 +372,7 @@ void Pruning::recheck() {
     for (std::size_t step = 0;
          !passed && step < kStepsBack && !m_accepted_sets.empty() && !m_run.stopped(); ++step) {
       ++m_assessed;
-      passed = m_run.assess(m_reduce(m_accepted_sets.back()), "prune", {{"step_back", 1.0}})
-                   .passed;
+      passed = m_run.assess(m_reduce(m_accepted_sets.back()), "prune", {{"step_back", 1.0}}).passed;
       m_accepted_sets.pop_back();
     }
   } catch (const Interrupted&) {
@@ -388,12 +386,11 @@ void Pruning::recheck() {
 std::string Pruning::note() const {
   const Candidate& smallest = *m_run.smallest_pass();
   std::ostringstream os;
-  os << "; pruning: " << m_points.size() << " -> " << smallest.result.points.size()
-     << " points, " << m_moments_before << " -> " << total_moments(smallest.result.points)
-     << " moments, order " << m_order_before << " -> " << smallest.order() << " in " << m_trials
-     << " trials screened on " << m_screen_f.size() << " cached frequencies (" << m_early
-     << " ruled out on the " << kNear << " nearest and the " << kWorst << " worst), "
-     << m_assessed << " of them assessed";
+  os << "; pruning: " << m_points.size() << " -> " << smallest.result.points.size() << " points, "
+     << m_moments_before << " -> " << total_moments(smallest.result.points) << " moments, order "
+     << m_order_before << " -> " << smallest.order() << " in " << m_trials << " trials screened on "
+     << m_screen_f.size() << " cached frequencies (" << m_early << " ruled out on the " << kNear
+     << " nearest and the " << kWorst << " worst), " << m_assessed << " of them assessed";
   if (m_cut) os << (m_run.stopped() ? " (cut short by request)" : " (cut short by max_iterations)");
   if (!m_trial_failure.empty()) os << " (a trial failed: " << m_trial_failure << ")";
   return os.str();

@@ -13,13 +13,20 @@ Strategy::~Strategy() = default;
 
 std::string to_string(Termination t) {
   switch (t) {
-    case Termination::Converged: return "converged";
-    case Termination::MaxOrderReached: return "max_order_reached";
-    case Termination::IterationLimit: return "iteration_limit";
-    case Termination::ReducerExhausted: return "reducer_exhausted";
-    case Termination::Stagnated: return "stagnated";
-    case Termination::Interrupted: return "interrupted";
-    case Termination::Failed: return "failed";
+    case Termination::Converged:
+      return "converged";
+    case Termination::MaxOrderReached:
+      return "max_order_reached";
+    case Termination::IterationLimit:
+      return "iteration_limit";
+    case Termination::ReducerExhausted:
+      return "reducer_exhausted";
+    case Termination::Stagnated:
+      return "stagnated";
+    case Termination::Interrupted:
+      return "interrupted";
+    case Termination::Failed:
+      return "failed";
   }
   return "unknown";
 }

@@ -112,25 +112,22 @@ void StrategyRun::confirm(Candidate& c, const std::map<std::string, double>& ext
   record("verify", c.result, check, c.passed, c.stable, extra);
   // Report the larger of the two values of the supremum; in estimate mode the check's, which
   // is measured against the full model at every frequency it solved (never an estimate).
-  if (check.sup_relative > c.error.sup_relative ||
-      m_ctx.estimator->mode() == ErrorVerify::Estimate)
+  if (check.sup_relative > c.error.sup_relative || m_ctx.estimator->mode() == ErrorVerify::Estimate)
     c.error = std::move(check);
   track(c);
 }
 
 void StrategyRun::track(const Candidate& c) {
   // An unstable model is kept as "most accurate" only when no stable one has been seen.
-  const bool better =
-      !m_most_accurate || (c.stable && !m_most_accurate->stable) ||
-      (c.stable == m_most_accurate->stable &&
-       c.error.sup_relative < m_most_accurate->error.sup_relative);
+  const bool better = !m_most_accurate || (c.stable && !m_most_accurate->stable) ||
+                      (c.stable == m_most_accurate->stable &&
+                       c.error.sup_relative < m_most_accurate->error.sup_relative);
   if (better) m_most_accurate = c;
   if (c.passed && (!m_smallest_pass || c.order() < m_smallest_pass->order())) m_smallest_pass = c;
 }
 
 void StrategyRun::record_trial(const std::string& phase, const ReducerResult& result,
-                               const BandError& error,
-                               const std::map<std::string, double>& extra) {
+                               const BandError& error, const std::map<std::string, double>& extra) {
   record(phase, result, error, error.sup_relative <= m_ctx.tolerance,
          judge_stability(m_ctx, result.model, error.unstable_poles).accepted(), extra);
 }
@@ -203,8 +200,7 @@ std::string StrategyRun::interruption(const std::string& what) const {
 std::string StrategyRun::verified_phrase() const {
   if (m_ctx.estimator != nullptr && m_ctx.estimator->mode() == ErrorVerify::Estimate)
     return " (checked by full solves where the estimate peaks, at random and at the band edges)";
-  return " (verified on a " + std::to_string(m_ctx.verify_factor) +
-         "x denser independent grid)";
+  return " (verified on a " + std::to_string(m_ctx.verify_factor) + "x denser independent grid)";
 }
 
 double band_centre_hz(const Band& band) { return std::sqrt(band.f_min_hz * band.f_max_hz); }

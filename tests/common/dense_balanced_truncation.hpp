@@ -39,7 +39,7 @@ inline BalancedTruncation dense_balanced_truncation(const ReducedModel& model, I
   const Gramians g = gramians(model);
   const Matrix Lp = psd_factor(g.P), Lq = psd_factor(g.Q);
   const Eigen::BDCSVD<Matrix> svd(Lq.transpose() * fo.E * Lp,
-                                     Eigen::ComputeThinU | Eigen::ComputeThinV);
+                                  Eigen::ComputeThinU | Eigen::ComputeThinV);
   BalancedTruncation bt;
   bt.hankel = svd.singularValues();
   if (r < 1 || r > bt.hankel.size() || !(bt.hankel(r - 1) > 0.0))

@@ -65,8 +65,9 @@ inline std::pair<double, double> dense_sup_error(const SecondOrderModel& full,
   const Matrix M = Matrix(full.M), D = Matrix(full.D), K = Matrix(full.K);
   double sup = 0.0, f_sup = 0.0;
   for (Index i = 0; i < samples; ++i) {
-    const double f = band.f_min_hz * std::pow(band.f_max_hz / band.f_min_hz,
-                                              static_cast<double>(i) / static_cast<double>(samples - 1));
+    const double f =
+        band.f_min_hz * std::pow(band.f_max_hz / band.f_min_hz,
+                                 static_cast<double>(i) / static_cast<double>(samples - 1));
     const Complex s(0.0, kTwoPi * f);
     const ComplexMatrix P = (s * s) * M.cast<Complex>() + s * D.cast<Complex>() + K.cast<Complex>();
     const Complex h =

@@ -15,8 +15,8 @@
 #include <variant>
 #include <vector>
 
-#include "ecmor/model/model.hpp"
 #include "ecmor/base/types.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor::test {
 

@@ -7,9 +7,9 @@
 
 #include <atomic>
 #include <chrono>
+#include <exception>
 #include <filesystem>
 #include <fstream>
-#include <exception>
 #include <string>
 
 namespace ecmor::test {

@@ -3,9 +3,9 @@
 
 #include <cmath>
 
-#include "ecmor/measures/band_error.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/measures/band_error.hpp"
 
 namespace ecmor {
 namespace {
@@ -85,7 +85,7 @@ TEST(BandError, PoleSamplesReuseNearbyCachedFrequencies) {
   ResponseCache cache(full, *solver);
   BandErrorOptions no_refine;
   no_refine.verify = ErrorVerify::Dense;  // the dense mode's sampling is tested here
-  no_refine.refine_peaks = 0;  // count pole samples alone
+  no_refine.refine_peaks = 0;             // count pole samples alone
   BandErrorEstimator est(cache, Band{0.01, 10.0}, no_refine);
   auto reduced = dense(std::get<SecondOrderModel>(full));
   reduced.K(0, 0) = k * (1.0 + 1e-3);
@@ -241,7 +241,7 @@ TEST(BandError, ReportsWhereTheRelativeErrorIsUndefined) {
   ResponseCache cache(full, *solver);
   BandErrorOptions opt;
   opt.verify = ErrorVerify::Dense;  // the dense mode's sampling is tested here
-  opt.grid_points = 3;  // 0.1, 1, 10 Hz: the zero sits on the grid
+  opt.grid_points = 3;              // 0.1, 1, 10 Hz: the zero sits on the grid
   opt.refine_peaks = 0;
   opt.zero_threshold = 1e-10;
   BandErrorEstimator est(cache, Band{0.1, 10.0}, opt);

@@ -8,8 +8,8 @@
 #include <limits>
 #include <string>
 
-#include "ecmor/linalg/dense_kernels.hpp"
 #include "ecmor/base/error.hpp"
+#include "ecmor/linalg/dense_kernels.hpp"
 
 namespace ecmor {
 namespace {
@@ -61,10 +61,10 @@ TEST(DenseKernels, ProductsOfEmptyAndMismatchedShapes) {
 TEST(DenseKernels, ThinSvdRecoversKnownFactors) {
   // A = U diag(s) V' with orthonormal U (60 x 12), V (12 x 12) and s spanning ten decades.
   const Index m = 60, k = 12;
-  const Matrix U = Eigen::HouseholderQR<Matrix>(random_matrix(m, k, 4)).householderQ() *
-                   Matrix::Identity(m, k);
-  const Matrix V = Eigen::HouseholderQR<Matrix>(random_matrix(k, k, 5)).householderQ() *
-                   Matrix::Identity(k, k);
+  const Matrix U =
+      Eigen::HouseholderQR<Matrix>(random_matrix(m, k, 4)).householderQ() * Matrix::Identity(m, k);
+  const Matrix V =
+      Eigen::HouseholderQR<Matrix>(random_matrix(k, k, 5)).householderQ() * Matrix::Identity(k, k);
   Vector s(k);
   for (Index i = 0; i < k; ++i) s(i) = std::pow(10.0, -static_cast<double>(i) * 10.0 / (k - 1));
   const Matrix A = U * s.asDiagonal() * V.transpose();

@@ -1,19 +1,18 @@
-// Tests of the ARPACK shift-invert eigensolvers against dense Eigen references and analytic spectra.
-// The factorisation is a test-only dense LU, which also shows that the eigensolvers depend only on
-// the Factorization interface (backend neutrality).
+// Tests of the ARPACK shift-invert eigensolvers against dense Eigen references and analytic
+// spectra. The factorisation is a test-only dense LU, which also shows that the eigensolvers depend
+// only on the Factorization interface (backend neutrality).
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <thread>
 
-#include <Eigen/Eigenvalues>
-
-#include "ecmor/linalg/eigensolver.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/interrupt.hpp"
+#include "ecmor/linalg/eigensolver.hpp"
 
 namespace ecmor {
 namespace {
@@ -31,11 +30,13 @@ class DenseLuFactorization final : public Factorization {
   double rcond() const override { return m_lu.rcond(); }
   Matrix solve(const Matrix& B) const override { return m_lu.solve(B); }
   ComplexMatrix solve(const ComplexMatrix& B) const override {
-    return m_lu.solve(B.real()).cast<Complex>() + Complex(0, 1) * m_lu.solve(B.imag()).cast<Complex>();
+    return m_lu.solve(B.real()).cast<Complex>() +
+           Complex(0, 1) * m_lu.solve(B.imag()).cast<Complex>();
   }
   Matrix solve_transposed(const Matrix& B) const override { return m_lu_t.solve(B); }
   ComplexMatrix solve_transposed(const ComplexMatrix& B) const override {
-    return m_lu_t.solve(B.real()).cast<Complex>() + Complex(0, 1) * m_lu_t.solve(B.imag()).cast<Complex>();
+    return m_lu_t.solve(B.real()).cast<Complex>() +
+           Complex(0, 1) * m_lu_t.solve(B.imag()).cast<Complex>();
   }
 
  private:
@@ -72,8 +73,10 @@ std::string model_dir(const std::string& name) { return "../shared/models/" + na
 
 // sin of the largest principal angle between span(X) and span(Y) (Euclidean): ||(I - QyQy')Qx||_2.
 double largest_angle_sin(const Matrix& X, const Matrix& Y) {
-  const Matrix Qx = Eigen::HouseholderQR<Matrix>(X).householderQ() * Matrix::Identity(X.rows(), X.cols());
-  const Matrix Qy = Eigen::HouseholderQR<Matrix>(Y).householderQ() * Matrix::Identity(Y.rows(), Y.cols());
+  const Matrix Qx =
+      Eigen::HouseholderQR<Matrix>(X).householderQ() * Matrix::Identity(X.rows(), X.cols());
+  const Matrix Qy =
+      Eigen::HouseholderQR<Matrix>(Y).householderQ() * Matrix::Identity(Y.rows(), Y.cols());
   const Matrix R = Qx - Qy * (Qy.transpose() * Qx);
   return Eigen::JacobiSVD<Matrix>(R).singularValues()(0);
 }
@@ -235,7 +238,10 @@ TEST(SymmetricShiftInvert, TriplechainAgainstDenseReference) {
   // The dense eigenvalues nearest sigma: a window [lo, lo + 12) around centre.
   Index lo = centre, hi = centre + 1;  // [lo, hi)
   while (hi - lo < 12) {
-    if (lo > 0 && (hi >= ref.size() || sigma - ref[lo - 1] < ref[hi] - sigma)) --lo; else ++hi;
+    if (lo > 0 && (hi >= ref.size() || sigma - ref[lo - 1] < ref[hi] - sigma))
+      --lo;
+    else
+      ++hi;
   }
   // The window must be separated from the rest, else "nearest 12" is ambiguous.
   const double radius = std::max(sigma - ref[lo], ref[hi - 1] - sigma);
@@ -367,15 +373,15 @@ void check_general(const DescriptorPencil& p, double sigma, Index nev, bool left
   ASSERT_GE(r.eigenvalues.size(), nev);
   ASSERT_LE(r.eigenvalues.size(), nev + 1);
   std::vector<Complex> ref = dense_pencil_eigenvalues(Ad, Ed);
-  std::sort(ref.begin(), ref.end(), [&](Complex a, Complex b) {
-    return std::abs(a - sigma) < std::abs(b - sigma);
-  });
+  std::sort(ref.begin(), ref.end(),
+            [&](Complex a, Complex b) { return std::abs(a - sigma) < std::abs(b - sigma); });
   const double a_norm = Ad.norm(), e_norm = Ed.norm();
   for (Index j = 0; j < r.eigenvalues.size(); ++j) {
     const Complex l = r.eigenvalues[j];
     // Matches one of the dense eigenvalues nearest sigma (QZ's own error is ~eps ||A|| / |beta|).
     double best = std::numeric_limits<double>::infinity();
-    for (std::size_t k = 0; k < static_cast<std::size_t>(r.eigenvalues.size()) + 2 && k < ref.size(); ++k) {
+    for (std::size_t k = 0;
+         k < static_cast<std::size_t>(r.eigenvalues.size()) + 2 && k < ref.size(); ++k) {
       best = std::min(best, std::abs(ref[k] - l));
     }
     EXPECT_LT(best, 1e-9 * std::abs(l)) << "eigenvalue " << l;
@@ -385,9 +391,10 @@ void check_general(const DescriptorPencil& p, double sigma, Index nev, bool left
     const ComplexVector x = r.eigenvectors.col(j);
     EXPECT_NEAR(x.norm(), 1.0, 1e-12);
     // Right: A x = l E x.  Left: y' A = l y' E  <=>  A' y = l E' y.
-    const ComplexVector res = left ? ComplexVector(Ad.transpose().cast<Complex>() * x -
-                                                   l * (Ed.transpose().cast<Complex>() * x))
-                                   : ComplexVector(Ad.cast<Complex>() * x - l * (Ed.cast<Complex>() * x));
+    const ComplexVector res =
+        left ? ComplexVector(Ad.transpose().cast<Complex>() * x -
+                             l * (Ed.transpose().cast<Complex>() * x))
+             : ComplexVector(Ad.cast<Complex>() * x - l * (Ed.cast<Complex>() * x));
     EXPECT_LT(res.norm() / (a_norm + std::abs(l) * e_norm), 1e-11) << "residual of " << l;
   }
   // Every dense eigenvalue strictly nearer sigma than the farthest returned one is returned.
@@ -395,7 +402,8 @@ void check_general(const DescriptorPencil& p, double sigma, Index nev, bool left
   for (const Complex& l : ref) {
     if (std::abs(l - sigma) < radius * (1 - 1e-8)) {
       double best = std::numeric_limits<double>::infinity();
-      for (Index j = 0; j < r.eigenvalues.size(); ++j) best = std::min(best, std::abs(r.eigenvalues[j] - l));
+      for (Index j = 0; j < r.eigenvalues.size(); ++j)
+        best = std::min(best, std::abs(r.eigenvalues[j] - l));
       EXPECT_LT(best, 1e-9 * std::abs(l)) << "missed " << l;
     }
   }
@@ -442,7 +450,8 @@ TEST(GeneralShiftInvert, SingularEDenseFallbackDropsInfiniteEigenvalues) {
   Ed(3, 3) = 0.0;
   const DescriptorPencil p{Ad.sparseView(), Ed.sparseView()};
   // Reference: eliminate x4 = (x1 + x3) (from row 4) -> 3 x 3 standard problem.
-  const Matrix S = Ad.topLeftCorner(3, 3) - Ad.topRightCorner(3, 1) * Ad.bottomLeftCorner(1, 3) / Ad(3, 3);
+  const Matrix S =
+      Ad.topLeftCorner(3, 3) - Ad.topRightCorner(3, 1) * Ad.bottomLeftCorner(1, 3) / Ad(3, 3);
   const Eigen::VectorXcd ref = S.eigenvalues();
   DenseLuFactorization f(Ad - 0.5 * Ed);
   EigenOptions o;
@@ -469,6 +478,7 @@ TEST(GeneralShiftInvert, ComplexFactorisationIsRejected) {
     ComplexMatrix solve(const ComplexMatrix& B) const override { return B; }
     Matrix solve_transposed(const Matrix& B) const override { return B; }
     ComplexMatrix solve_transposed(const ComplexMatrix& B) const override { return B; }
+
    private:
     std::vector<Complex> m_w;
   } f;
@@ -485,8 +495,8 @@ TEST(GeneralShiftInvert, ComplexFactorisationIsRejected) {
 TEST(DenseGeneralizedEigenvalues, DiagonalPencilIsExact) {
   const Vector k = (Vector(4) << 8.0, 1.0, 27.0, 2.0).finished();
   const Vector m = (Vector(4) << 2.0, 4.0, 3.0, 1.0).finished();
-  const Vector l = dense_generalized_eigenvalues(k.asDiagonal().toDenseMatrix(),
-                                                 m.asDiagonal().toDenseMatrix());
+  const Vector l =
+      dense_generalized_eigenvalues(k.asDiagonal().toDenseMatrix(), m.asDiagonal().toDenseMatrix());
   const Vector expected = (Vector(4) << 0.25, 2.0, 4.0, 9.0).finished();
   EXPECT_LT((l - expected).cwiseAbs().maxCoeff(), 1e-14 * 9.0);
 }

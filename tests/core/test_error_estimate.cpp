@@ -8,13 +8,13 @@
 #include <cmath>
 
 #include "../../bench/triple_chain.hpp"
-#include "ecmor/measures/band_error.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/base/interrupt.hpp"
-#include "ecmor/model/projection.hpp"
-#include "ecmor/response/reference_model.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/model/projection.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/response/reference_model.hpp"
 
 namespace ecmor {
 namespace {

@@ -300,7 +300,6 @@ TEST(FlexibleBody, RejectsInconsistentInput) {
   }
 }
 
-
 // Free-floating bodies (elastic_bases): the body frame carries the rigid-body motion, so the
 // elastic coordinates must not. The references are dense eigenpairs of the free block computed
 // here: six zero eigenvalues (the rigid motions), then the elastic ones; elastic modes of a free
@@ -345,8 +344,7 @@ TEST(ElasticBases, AModalBasisOfAFreeBodyLosesItsRigidModesAndKeepsItsElasticOne
   // Mass-normalised elastic modes in ascending order: Me = I, Ke = diag(lambda_7..10).
   const Matrix Me = e.V.transpose() * (f.body.M * e.V), Ke = e.V.transpose() * (f.body.K * e.V);
   EXPECT_LT((Me - Matrix::Identity(4, 4)).cwiseAbs().maxCoeff(), 1e-10);
-  for (Index k = 0; k < 4; ++k)
-    EXPECT_NEAR(Ke(k, k), lambda(6 + k), 1e-9 * lambda(6 + k)) << k;
+  for (Index k = 0; k < 4; ++k) EXPECT_NEAR(Ke(k, k), lambda(6 + k), 1e-9 * lambda(6 + k)) << k;
   // Mean axes: no elastic coordinate moves the centre of mass or turns the body (C_t = 0,
   // C_r(0) = 0), to rounding of sqrt(m) (a mass-normalised coordinate's coupling scale).
   f.body.V = e.V;
@@ -373,8 +371,9 @@ TEST(ElasticBases, AClampedBodyKeepsItsBasis) {
     ecmor::elastic_bases(f.body, 1);
     ADD_FAILURE() << "a clamped block was given a free rigid-body motion";
   } catch (const ecmor::InputError& err) {
-    EXPECT_NE(std::string(err.what()).find("only 0 of the 6 rigid motions of the geometry are free"),
-              std::string::npos)
+    EXPECT_NE(
+        std::string(err.what()).find("only 0 of the 6 rigid motions of the geometry are free"),
+        std::string::npos)
         << err.what();
   }
 }

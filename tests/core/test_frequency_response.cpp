@@ -15,9 +15,9 @@
 
 #include "common/builders.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
-#include "ecmor/model/model_io.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/response/frequency_response.hpp"
 
 namespace {
 
@@ -81,7 +81,6 @@ Reference read_reference(const std::string& name, Index p, Index m) {
 
 // ---------------------------------------------------------------------------------------------
 // Small systems with closed-form responses.
-
 
 constexpr double km = 2.0, kd = 0.3, kk = 50.0, kb = 1.5, kc = -0.7;
 
@@ -406,8 +405,8 @@ TEST(Poles, RepeatedModelsShareTheirPolesChangedOnesDoNot) {
     double moved = 0.0;
     for (Index i = 0; i < q.size(); ++i) {
       const Complex s = q(i);
-      const ComplexMatrix P = (s * s) * r.M.cast<Complex>() + s * r.D.cast<Complex>() +
-                              r.K.cast<Complex>();
+      const ComplexMatrix P =
+          (s * s) * r.M.cast<Complex>() + s * r.D.cast<Complex>() + r.K.cast<Complex>();
       EXPECT_LT(std::abs(P.determinant()) / P.norm() / P.norm(), 1e-12) << which << " " << s;
       double nearest = std::numeric_limits<double>::infinity();
       for (Index j = 0; j < p.size(); ++j) nearest = std::min(nearest, std::abs(s - p(j)));

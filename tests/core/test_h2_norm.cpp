@@ -20,12 +20,12 @@
 #include "common/small_models.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
-#include "ecmor/measures/h2_norm.hpp"
 #include "ecmor/gramians/lyapunov.hpp"
+#include "ecmor/measures/h2_norm.hpp"
 #include "ecmor/model/dense_model.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/model/projection.hpp"
+#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/response/reduced_response.hpp"
 
 namespace ecmor {
@@ -38,7 +38,6 @@ using test::message_of;
 using test::oscillator;
 
 const std::string kModels = "../shared/models/";
-
 
 /// <G1, G2>_H2 for Gi = 1 / (s^2 + di s + ki), by the residues of G1(-s) G2(s) in the left
 /// half-plane (derived by hand, checked by a 2e6-point quadrature: 0.210526315789 for
@@ -369,9 +368,10 @@ TEST(H2Quadrature, Lf10GramiansAgreeWithTheQuadrature) {
   const auto solver = make_shifted_solver(full);
   H2QuadratureOptions options;
   const H2Result q = h2_error_quadrature(full, *solver, nullptr, options);
-  std::printf("[ quadrature ] lf10: ||G||_H2 = %.15g (Gramian), %.15g (quadrature, %ld evals), "
-              "rel diff %.2e\n",
-              by_gramian, q.value, static_cast<long>(q.evaluations), rel(by_gramian, q.value));
+  std::printf(
+      "[ quadrature ] lf10: ||G||_H2 = %.15g (Gramian), %.15g (quadrature, %ld evals), "
+      "rel diff %.2e\n",
+      by_gramian, q.value, static_cast<long>(q.evaluations), rel(by_gramian, q.value));
   EXPECT_TRUE(q.converged) << q.method;
   EXPECT_LT(rel(by_gramian, q.value), 1e-8);
 }

@@ -20,8 +20,8 @@
 #include "common/small_models.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/measures/hinf_norm.hpp"
 #include "ecmor/gramians/lyapunov.hpp"
+#include "ecmor/measures/hinf_norm.hpp"
 #include "ecmor/model/dense_model.hpp"
 #include "ecmor/model/model_io.hpp"
 

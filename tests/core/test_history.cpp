@@ -350,9 +350,10 @@ TEST_F(History, ReaderNamesFileLineAndRule) {
   const std::string good = one_record_csv(m_dir);
   const fs::path bad = m_dir / "bad.csv";
   const std::string file = bad.string();
-  EXPECT_NE(read_error(bad, replaced(good, "band_error,", "error,")).find(
-                file + ":1: no column 'band_error': a history.csv header names iteration,phase,"),
-            std::string::npos)
+  EXPECT_NE(
+      read_error(bad, replaced(good, "band_error,", "error,"))
+          .find(file + ":1: no column 'band_error': a history.csv header names iteration,phase,"),
+      std::string::npos)
       << read_error(bad, replaced(good, "band_error,", "error,"));
   // The record starts on line 2; its note is quoted, so the field count is the header's.
   EXPECT_EQ(read_error(bad, replaced(good, "\n1,", "\n1,2,")),

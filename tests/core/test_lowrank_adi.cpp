@@ -84,7 +84,6 @@ AdiOptions options(Index max_iterations = 1000, bool compress = false) {
   return o;
 }
 
-
 DescriptorModel descriptor(const Matrix& E, const Matrix& A, const Matrix& B, const Matrix& C) {
   DescriptorModel m;
   m.E = sparse(E);
@@ -144,11 +143,11 @@ TEST_P(AdiAgainstDense, ResidualAndGramiansWithinTheResidualBound) {
     const double diff = (Xd - X).norm();
     EXPECT_LE(diff, bound) << name << " " << to_string(side) << ": relative difference "
                            << diff / Xd.norm();
-    std::printf("  %s %s: %ld iterations, rank %ld, residual %.3g (dense %.3g), "
-                "|X - ZZ'|_F / |X|_F = %.3g (bound %.3g)\n",
-                name.c_str(), to_string(side).c_str(), static_cast<long>(r.iterations),
-                static_cast<long>(r.Z.cols()), r.residual, dense_res, diff / Xd.norm(),
-                bound / Xd.norm());
+    std::printf(
+        "  %s %s: %ld iterations, rank %ld, residual %.3g (dense %.3g), "
+        "|X - ZZ'|_F / |X|_F = %.3g (bound %.3g)\n",
+        name.c_str(), to_string(side).c_str(), static_cast<long>(r.iterations),
+        static_cast<long>(r.Z.cols()), r.residual, dense_res, diff / Xd.norm(), bound / Xd.norm());
   }
 }
 
@@ -191,8 +190,7 @@ TEST(LowRankAdi, ComplexPairsInRealArithmeticAndTheHistoryIsTheTrueResidual) {
   // One (complex) factorisation per distinct pair, none for the conjugate; one real per distinct
   // real shift; plus the one of E.
   EXPECT_EQ(r.counters.complex_factorizations, static_cast<Index>(distinct_pairs.size()));
-  EXPECT_EQ(r.factorizations,
-            static_cast<Index>(distinct_pairs.size() + distinct_real.size()) + 1);
+  EXPECT_EQ(r.factorizations, static_cast<Index>(distinct_pairs.size() + distinct_real.size()) + 1);
   // One solve (m = 1 column) per step, a pair costing one complex solve, not two; plus the one
   // E^-1 (A B) of the initial projection basis.
   EXPECT_EQ(r.solves, static_cast<Index>(r.steps.size()) + 1);
@@ -327,7 +325,8 @@ TEST(LowRankAdiErrors, DaeIsNamed) {
     auto solver = make_shifted_solver(model);
     FirstOrderView view(model, *solver);
     LowRankAdi adi(view);
-    const std::string msg = message_of<InputError>([&] { adi.solve(GramianSide::Controllability); });
+    const std::string msg =
+        message_of<InputError>([&] { adi.solve(GramianSide::Controllability); });
     EXPECT_NE(msg.find("E is singular"), std::string::npos) << name << ": " << msg;
     EXPECT_NE(msg.find("DAE"), std::string::npos) << name << ": " << msg;
   }
@@ -427,8 +426,9 @@ TEST(LowRankAdiErrors, InvalidOptionsNameTheField) {
   FirstOrderView view(model, *solver);
   AdiOptions bad;
   bad.max_iterations = -5;
-  EXPECT_NE(message_of<ConfigError>([&] { LowRankAdi adi(view, bad); })
-                .find("AdiOptions::max_iterations = -5"),
+  EXPECT_NE(message_of<ConfigError>([&] {
+              LowRankAdi adi(view, bad);
+            }).find("AdiOptions::max_iterations = -5"),
             std::string::npos);
 }
 

@@ -8,9 +8,11 @@
 //        s(l) = (1/2pi) int_Omega dw / (iw - l)
 //             = (1/2pi i) [Log(i w2 - l) - Log(-i w2 - l) - Log(i w1 - l) + Log(-i w1 - l)],
 //        c_ij = (1/2pi) int_Omega dw / ((iw - l_i)(-iw - conj l_j))
-//             = -(s(l_i) + s(conj l_j)) / (l_i + conj l_j)        (partial fractions; Omega = -Omega)
+//             = -(s(l_i) + s(conj l_j)) / (l_i + conj l_j)        (partial fractions; Omega =
+//             -Omega)
 //    (for Re l < 0 the arguments of Log stay in the right half-plane: no branch cut);
-//  * the same P_Omega by the dense Bartels-Stewart solver from A P E' + E P A' + E Lb B' + B Lb' E' = 0,
+//  * the same P_Omega by the dense Bartels-Stewart solver from A P E' + E P A' + E Lb B' + B Lb' E'
+//  = 0,
 //    which checks the formula for the equation (2 pi, signs) against the definition.
 //
 // The error bound: X_k = L D L' solves the equation with right-hand side G S G' - W S W' exactly
@@ -73,10 +75,10 @@ Complex band_s(Complex l, double w1, double w2) {
 
 /// The dense band references of the file comment for the equation q on +-[w1, w2] rad/s.
 struct DenseBand {
-  Matrix Lb;          ///< (1/2pi) int (iwE - A)^-1 B dw
-  Matrix P_formula;   ///< P_Omega from the eigen-decomposition
-  Matrix P;           ///< P_Omega by Bartels-Stewart from the exact right-hand side
-  Matrix rhs;         ///< E Lb B' + B Lb' E'
+  Matrix Lb;              ///< (1/2pi) int (iwE - A)^-1 B dw
+  Matrix P_formula;       ///< P_Omega from the eigen-decomposition
+  Matrix P;               ///< P_Omega by Bartels-Stewart from the exact right-hand side
+  Matrix rhs;             ///< E Lb B' + B Lb' E'
   double residual = 0.0;  ///< ||A P E' + E P A' + rhs||_2 (absolute)
   double eigenvector_rcond = 0.0;
 };
@@ -182,7 +184,8 @@ TEST_P(BandAgainstDense, FactorsMatchTheDenseBandGramiansWithinTheResidualBound)
     const Matrix GSG = r.G * r.S * r.G.transpose();
     const double rhs_error = norm2(GSG - ref.rhs);
     EXPECT_NEAR(r.rhs_norm, norm2(GSG), 1e-12 * norm2(GSG));
-    const Matrix& Lq = side == GramianSide::Controllability ? g.integrals.input : g.integrals.output;
+    const Matrix& Lq =
+        side == GramianSide::Controllability ? g.integrals.input : g.integrals.output;
     // The quadrature meets its contract: an error below the requested relative tolerance (1e-8,
     // on the Frobenius norm of [L_B L_C], which bounds each part's error) or below its estimate.
     // (The estimate alone can be optimistic at the rounding level of the solves: measured on
@@ -207,23 +210,25 @@ TEST_P(BandAgainstDense, FactorsMatchTheDenseBandGramiansWithinTheResidualBound)
 
     // The truncation: Z Z' is X_k without its negative and compressed eigenvalues, and the
     // reported diagnostics are those of X_k.
-    const Vector theta = Eigen::SelfAdjointEigenSolver<Matrix>(Xk, Eigen::EigenvaluesOnly).eigenvalues();
+    const Vector theta =
+        Eigen::SelfAdjointEigenSolver<Matrix>(Xk, Eigen::EigenvaluesOnly).eigenvalues();
     const double theta_max = theta.maxCoeff();
     const double round_k = 10.0 * static_cast<double>(Xk.rows()) * kEps * theta_max;
     EXPECT_NEAR(r.largest_eigenvalue, theta_max, 1e-10 * theta_max) << what;
     EXPECT_NEAR(r.most_negative_eigenvalue * theta_max, std::min(theta.minCoeff(), 0.0), round_k)
         << what;
     const double truncated = norm2(Xk - X);
-    EXPECT_LE(truncated, std::max(-std::min(theta.minCoeff(), 0.0),
-                                  r.largest_dropped_positive * theta_max) + round_k)
+    EXPECT_LE(truncated,
+              std::max(-std::min(theta.minCoeff(), 0.0), r.largest_dropped_positive * theta_max) +
+                  round_k)
         << what;
 
     // Against the dense band Gramian: the bound of the file comment, with a factor 2 for the
     // rounding in the residuals; X_I by the dense solver (Frobenius: an upper bound of ||.||_2).
     const Index n = Xk.rows();
     const double XI = solve_lyapunov(q.A, q.E, Matrix::Identity(n, n)).norm();
-    const double slack_d = 4.0 * static_cast<double>(n) * kEps * q.A.norm() * ref.P.norm() *
-                           q.E.norm();
+    const double slack_d =
+        4.0 * static_cast<double>(n) * kEps * q.A.norm() * ref.P.norm() * q.E.norm();
     const double bound_k = 2.0 * (rhs_error + res_k + slack_k + ref.residual + slack_d) * XI;
     const double diff_k = norm2(ref.P - Xk), diff = norm2(ref.P - X);
     EXPECT_LE(diff_k, bound_k) << what;
@@ -235,23 +240,24 @@ TEST_P(BandAgainstDense, FactorsMatchTheDenseBandGramiansWithinTheResidualBound)
     EXPECT_LE(diff, 100.0 * (1e-10 + 1e-8) * p_norm) << what;
     // P_Omega >= 0, so X_k's negative eigenvalues are at most its error.
     EXPECT_LE(-std::min(theta.minCoeff(), 0.0), bound_k) << what;
-    std::printf("  %s: %ld iterations, L %ld cols -> rank %ld, residual %.2g, quadrature %ld "
-                "nodes (est %.2g, true %.2g rel), ||P - ZZ'||/||P|| = %.2g (bound %.2g), "
-                "most negative %.2g, eigvec rcond %.1e\n",
-                what.c_str(), static_cast<long>(r.iterations), static_cast<long>(r.L.cols()),
-                static_cast<long>(r.Z.cols()), r.residual,
-                static_cast<long>(g.integrals.quadrature.evaluations),
-                g.integrals.quadrature.error_estimate / g.integrals.quadrature.integral.norm(),
-                (Lq / kTwoPi - ref.Lb).norm() / ref.Lb.norm(), diff / p_norm, bound_k / p_norm,
-                r.most_negative_eigenvalue, ref.eigenvector_rcond);
+    std::printf(
+        "  %s: %ld iterations, L %ld cols -> rank %ld, residual %.2g, quadrature %ld "
+        "nodes (est %.2g, true %.2g rel), ||P - ZZ'||/||P|| = %.2g (bound %.2g), "
+        "most negative %.2g, eigvec rcond %.1e\n",
+        what.c_str(), static_cast<long>(r.iterations), static_cast<long>(r.L.cols()),
+        static_cast<long>(r.Z.cols()), r.residual,
+        static_cast<long>(g.integrals.quadrature.evaluations),
+        g.integrals.quadrature.error_estimate / g.integrals.quadrature.integral.norm(),
+        (Lq / kTwoPi - ref.Lb).norm() / ref.Lb.norm(), diff / p_norm, bound_k / p_norm,
+        r.most_negative_eigenvalue, ref.eigenvector_rcond);
   }
 }
 
 INSTANTIATE_TEST_SUITE_P(
     SharedModels, BandAgainstDense,
-    ::testing::Values(BandCase{"build", 0.5, 2.0},        // peak at 5.1 rad/s = 0.81 Hz
-                      BandCase{"cdplayer", 1.0, 20.0},    // peak at 22.7 rad/s = 3.6 Hz
-                      BandCase{"build_so", 0.5, 2.0},     // second order, velocity output
+    ::testing::Values(BandCase{"build", 0.5, 2.0},      // peak at 5.1 rad/s = 0.81 Hz
+                      BandCase{"cdplayer", 1.0, 20.0},  // peak at 22.7 rad/s = 3.6 Hz
+                      BandCase{"build_so", 0.5, 2.0},   // second order, velocity output
                       BandCase{"triplechain_cmess_n301", 1e-3, 1e-1}),  // second order, 602 states
     [](const ::testing::TestParamInfo<BandCase>& case_info) { return case_info.param.model; });
 
@@ -353,16 +359,19 @@ TEST(LowRankBandErrors, InvalidBandAndOptionsAreNamed) {
   const Model model = load_model(kModels + "build");
   auto solver = make_shifted_solver(model);
   FirstOrderView view(model, *solver);
-  const std::string band = message_of<ConfigError>(
-      [&] { lowrank_band_gramians(view, Band{2.0, 1.0}); });
+  const std::string band = message_of<ConfigError>([&] {
+    lowrank_band_gramians(view, Band{2.0, 1.0});
+  });
   EXPECT_NE(band.find("band.f_max_hz = 1"), std::string::npos) << band;
-  const std::string zero = message_of<ConfigError>(
-      [&] { lowrank_band_gramians(view, Band{0.0, 1.0}); });
+  const std::string zero = message_of<ConfigError>([&] {
+    lowrank_band_gramians(view, Band{0.0, 1.0});
+  });
   EXPECT_NE(zero.find("band.f_min_hz = 0"), std::string::npos) << zero;
   AdiOptions bad;
   bad.tolerance = 2.0;
-  const std::string adi = message_of<ConfigError>(
-      [&] { lowrank_band_gramians(view, Band{0.5, 2.0}, bad); });
+  const std::string adi = message_of<ConfigError>([&] {
+    lowrank_band_gramians(view, Band{0.5, 2.0}, bad);
+  });
   EXPECT_NE(adi.find("AdiOptions::tolerance = 2"), std::string::npos) << adi;
   AdaptiveQuadratureOptions badq;
   badq.max_evaluations = 3;
@@ -380,8 +389,7 @@ TEST(LowRankBandErrors, RightHandSideFactorsAreChecked) {
     return message_of<InputError>([&] { adi.solve(GramianSide::Controllability, g, s); });
   };
   std::string msg = solve(G, Matrix::Identity(3, 3));
-  EXPECT_NE(msg.find("S is 3 x 3: must be square of G's column count 2"), std::string::npos)
-      << msg;
+  EXPECT_NE(msg.find("S is 3 x 3: must be square of G's column count 2"), std::string::npos) << msg;
   msg = solve(Matrix::Ones(5, 2), Matrix::Identity(2, 2));
   EXPECT_NE(msg.find("G is 5 x 2: must have the state size 48 rows"), std::string::npos) << msg;
   msg = solve(Matrix(n, 0), Matrix(0, 0));
@@ -409,8 +417,8 @@ TEST(LowRankBand, ZeroRightHandSideGivesZero) {
   auto solver = make_shifted_solver(model);
   FirstOrderView view(model, *solver);
   LowRankAdi adi(view);
-  const AdiLdlResult r = adi.solve(GramianSide::Observability, Matrix::Zero(48, 2),
-                                   Matrix{{0.0, 1.0}, {1.0, 0.0}});
+  const AdiLdlResult r =
+      adi.solve(GramianSide::Observability, Matrix::Zero(48, 2), Matrix{{0.0, 1.0}, {1.0, 0.0}});
   EXPECT_TRUE(r.converged);
   EXPECT_EQ(r.Z.cols(), 0);
   EXPECT_EQ(r.residual, 0.0);

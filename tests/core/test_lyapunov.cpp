@@ -23,7 +23,6 @@ using test::random_matrix;
 
 using test::message_of;
 
-
 /// A random matrix shifted so that all eigenvalues have Re <= -1 (checked with EigenSolver).
 Matrix random_stable(Index n, unsigned seed) {
   Matrix A = random_matrix(n, n, seed);

@@ -17,11 +17,11 @@
 #include "common/bitwise_equal.hpp"
 #include "common/mat_test_file.hpp"
 #include "common/test_support.hpp"
-#include "ecmor/strategies/config.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/model/matrix_market.hpp"
 #include "ecmor/model/model.hpp"
 #include "ecmor/model/model_io.hpp"
+#include "ecmor/strategies/config.hpp"
 
 namespace fs = std::filesystem;
 

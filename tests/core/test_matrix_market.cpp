@@ -1,7 +1,5 @@
 // Tests of the Matrix Market reader/writer and of atomic file output.
 #include <gtest/gtest.h>
-
-#include "common/test_support.hpp"
 #include <unistd.h>
 
 #include <atomic>
@@ -16,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "common/test_support.hpp"
 #include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/model/matrix_market.hpp"
@@ -299,9 +298,8 @@ TEST(MatrixMarketErrors, UnsupportedComplexAndHermitianSaidPlainly) {
   expect_error(dir, "skew_unsigned.mtx",
                "%%MatrixMarket matrix coordinate unsigned-integer skew-symmetric\n2 2 1\n2 1 3\n",
                1, "field 'unsigned-integer' cannot be skew-symmetric");
-  expect_error(dir, "complex_array.mtx",
-               "%%MatrixMarket matrix array complex general\n1 1\n1 2\n", 1,
-               "field 'complex' is not supported");
+  expect_error(dir, "complex_array.mtx", "%%MatrixMarket matrix array complex general\n1 1\n1 2\n",
+               1, "field 'complex' is not supported");
   expect_error(dir, "herm.mtx", "%%MatrixMarket matrix coordinate real hermitian\n1 1 1\n1 1 1\n",
                1, "symmetry 'hermitian' is not supported");
 }
@@ -428,7 +426,9 @@ TEST(MatrixMarketErrors, DuplicatesWhoseSumOverflows) {
   // The overflow is reported at its line, before later errors, by both readers (found by
   // fuzz_matrix_market: the sparse reader summed after parsing and reported the garbage on line 5
   // of this file instead, the dense reader the overflow on line 4).
-  const char kGarbage[] = "2 2 2\n2 1 -1.5e308\n2 1 -1.5e308\n\x01\0\0" "0";  // with NULs
+  const char kGarbage[] =
+      "2 2 2\n2 1 -1.5e308\n2 1 -1.5e308\n\x01\0\0"
+      "0";  // with NULs
   const std::string then_garbage = kSymmetric + std::string(kGarbage, sizeof kGarbage - 1);
   expect_error(dir, "then_garbage.mtx", then_garbage, 4, "the duplicate entries at (2, 1) sum");
   expect_error(dir, "then_garbage.mtx", then_garbage, 4, "the duplicate entries at (2, 1) sum",

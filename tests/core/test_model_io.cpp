@@ -1,9 +1,5 @@
 // Tests of model loading, validation, definiteness checks, summaries and reduced-model files.
 #include <gtest/gtest.h>
-
-#include "common/builders.hpp"
-#include "common/bitwise_equal.hpp"
-#include "common/test_support.hpp"
 #include <unistd.h>
 
 #include <algorithm>
@@ -18,6 +14,9 @@
 #include <string>
 #include <vector>
 
+#include "common/bitwise_equal.hpp"
+#include "common/builders.hpp"
+#include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/model/matrix_market.hpp"
 #include "ecmor/model/model.hpp"
@@ -35,7 +34,6 @@ const fs::path kModels = fs::path(ECMOR_TEST_SOURCE_DIR) / ".." / "shared" / "mo
 using test::bitwise_equal;
 using test::TempDir;
 using test::write_raw;
-
 
 /// Symmetric positive definite tridiagonal n x n (1D Dirichlet Laplacian).
 SparseMatrix laplacian(Index n, bool neumann = false) {

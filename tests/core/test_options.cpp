@@ -1,8 +1,6 @@
 // Option specs (options.hpp): one list reads, validates and documents a struct's options. Each
 // check is shown to fail with a message naming owner, location, key, value and rule; defaults
 // come from the struct's member initialisers.
-#include "ecmor/base/options.hpp"
-
 #include <gtest/gtest.h>
 
 #include <string>
@@ -10,6 +8,7 @@
 
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
+#include "ecmor/base/options.hpp"
 
 using namespace ecmor;
 
@@ -218,8 +217,8 @@ TEST(Options, RulesNameTheKeyOfAField) {
 }
 
 TEST(Options, AKeyStatedTwiceIsAProgrammingError) {
-  EXPECT_THROW(OptionSpecs<Inner>({option("budget", &Inner::budget, "a"),
-                                   option("budget", &Inner::start, "b")}),
+  EXPECT_THROW(OptionSpecs<Inner>(
+                   {option("budget", &Inner::budget, "a"), option("budget", &Inner::start, "b")}),
                std::logic_error);
   OptionSpecs<Settings> s({option("budget", &Settings::count, "clashes with inner's budget")});
   EXPECT_THROW(s.include(&Settings::inner, inner_specs()), std::logic_error);
@@ -239,8 +238,9 @@ TEST(Options, NumbersPrintAsFmtDoes) {
 
 TEST(Options, MarkdownTableEscapesBars) {
   const std::string t = markdown_table({{"norm", "string", "fro", "a | b"}});
-  EXPECT_EQ(t, "| key | type | default | meaning |\n|---|---|---|---|\n"
-               "| `norm` | string | `fro` | a \\| b |\n");
+  EXPECT_EQ(t,
+            "| key | type | default | meaning |\n|---|---|---|---|\n"
+            "| `norm` | string | `fro` | a \\| b |\n");
 }
 
 }  // namespace

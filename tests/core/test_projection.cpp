@@ -4,9 +4,9 @@
 #include <random>
 
 #include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/model/projection.hpp"
+#include "ecmor/response/frequency_response.hpp"
 
 namespace ecmor {
 namespace {

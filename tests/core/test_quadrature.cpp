@@ -9,12 +9,12 @@
 #include <iostream>
 
 #include "ecmor/base/error.hpp"
-#include "ecmor/measures/h2_norm.hpp"
 #include "ecmor/gramians/lyapunov.hpp"
-#include "ecmor/model/dense_model.hpp"
-#include "ecmor/model/model_io.hpp"
 #include "ecmor/gramians/quadrature.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/measures/h2_norm.hpp"
+#include "ecmor/model/dense_model.hpp"
+#include "ecmor/model/model_io.hpp"
 
 namespace ecmor {
 namespace {
@@ -33,7 +33,8 @@ TEST(IntegrateAdaptive, MatchesAnalyticIntegralsOfAMatrixFunction) {
   o.relative_tolerance = 1e-12;
   const MatrixQuadrature q = integrate_adaptive(f, 0.0, 3.0, o);
   Matrix exact(2, 2);
-  exact << std::exp(3.0) - 1.0, std::atan(3.0), (1.0 - std::cos(30.0)) / 10.0, std::pow(3.0, 6) / 6.0;
+  exact << std::exp(3.0) - 1.0, std::atan(3.0), (1.0 - std::cos(30.0)) / 10.0,
+      std::pow(3.0, 6) / 6.0;
   EXPECT_TRUE(q.converged);
   EXPECT_LT((q.integral - exact).norm(), 1e-11 * exact.norm());
   // The returned rule integrates the same function to the same value.
@@ -94,7 +95,8 @@ TEST(BandPoleIntegral, MatchesQuadratureAndRefusesTheLeftHalfPlane) {
     };
     AdaptiveQuadratureOptions o;
     o.relative_tolerance = 1e-13;
-    const Matrix q = integrate_adaptive(f, kTwoPi * band.f_min_hz, kTwoPi * band.f_max_hz, o).integral;
+    const Matrix q =
+        integrate_adaptive(f, kTwoPi * band.f_min_hz, kTwoPi * band.f_max_hz, o).integral;
     const Complex beta = band_pole_integral(s, band);
     EXPECT_NEAR(beta.real(), q(0, 0), 1e-11 * std::abs(beta));
     EXPECT_NEAR(beta.imag(), q(0, 1), 1e-11 * std::abs(beta));
@@ -122,7 +124,8 @@ void expect_band_integrals_match_dense(const Model& model, const Band& band) {
   const Matrix LB = 2.0 * (R * elu.solve(fo.B).cast<Complex>()).real();
   // (i w E - A)^-T C' = E^-T (i w - F)^-T C'.
   const Eigen::PartialPivLU<Matrix> etlu(fo.E.transpose());
-  const Matrix LC = 2.0 * etlu.solve(Matrix((R.transpose() * fo.C.transpose().cast<Complex>()).real()));
+  const Matrix LC =
+      2.0 * etlu.solve(Matrix((R.transpose() * fo.C.transpose().cast<Complex>()).real()));
 
   auto solver = make_shifted_solver(model);
   FirstOrderView view(model, *solver);

@@ -13,11 +13,11 @@
 #include <vector>
 
 #include "common/test_support.hpp"
-#include "ecmor/measures/band_error.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/measures/band_error.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/model/projection.hpp"
+#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/response/reduced_response.hpp"
 
 namespace ecmor {
@@ -120,8 +120,7 @@ void expect_agrees(const ReducedModel& model, const std::string& what) {
     ASSERT_EQ(got.cols(), ref.cols()) << what;
     const double kappa = condition_of(model, s);
     const double tol = std::max(1e-9, 1e3 * kEps * kappa);
-    EXPECT_LT(relative_difference(got, ref), tol)
-        << what << " s = " << s << " cond " << kappa;
+    EXPECT_LT(relative_difference(got, ref), tol) << what << " s = " << s << " cond " << kappa;
   }
 }
 

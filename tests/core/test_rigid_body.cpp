@@ -22,11 +22,11 @@
 #include "../../bench/triple_chain.hpp"
 #include "common/small_models.hpp"
 #include "ecmor/linalg/eigensolver.hpp"
-#include "ecmor/response/frequency_response.hpp"
-#include "ecmor/model/projection.hpp"
 #include "ecmor/linalg/rigid_body.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
 #include "ecmor/measures/stability.hpp"
+#include "ecmor/model/projection.hpp"
+#include "ecmor/response/frequency_response.hpp"
 
 namespace ecmor {
 namespace {

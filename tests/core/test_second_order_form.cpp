@@ -17,10 +17,8 @@
 namespace ecmor {
 namespace {
 
-using test::sparse;
 using test::shared_model;
-
-
+using test::sparse;
 
 // H(s) = C (s E - A)^-1 B by a dense LU.
 ComplexMatrix dense_h(const DescriptorModel& m, Complex s) {

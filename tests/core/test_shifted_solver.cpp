@@ -13,16 +13,15 @@
 #include "common/builders.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/linalg/first_order_view.hpp"
-#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/linalg/recent_factorizations.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/response/frequency_response.hpp"
 
 namespace {
 
 using ecmor::test::sparse;
 
 using namespace ecmor;
-
 
 /// 2-DOF mass-spring-damper: M = diag(m1, m2), K = [[k1 + k2, -k2], [-k2, k2]], D = 0.1 M + 0.01 K.
 SecondOrderModel two_dof() {
@@ -631,7 +630,6 @@ TEST(ShiftedSolver, FlopCountsOfADenseMatrixAreTheTextbookCounts) {
   auto ldlt = make_shifted_solver(model, ldlt_options());
   expect_flops(*ldlt, Complex(0.0, 2.0), 4.0 * cube / 3.0, "complex LDL^T");
 }
-
 
 TEST(ShiftedSolverLdlt, AgreesWithDenseLuAndReusesTheFirstOrdering) {
   const auto sys = chain(300);

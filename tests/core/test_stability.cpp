@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "common/small_models.hpp"
-#include "ecmor/model/model_io.hpp"
 #include "ecmor/measures/stability.hpp"
+#include "ecmor/model/model_io.hpp"
 
 namespace ecmor {
 namespace {

@@ -31,7 +31,6 @@ using Scheme = TimeIntegrationOptions::Scheme;
 
 const std::string kModels = "../shared/models/";
 
-
 // m q'' + d q' + k q = b u,  y = c q + cv q'.
 SecondOrderModel oscillator(double m, double d, double k, double b, double c, double cv) {
   SecondOrderModel s;
@@ -510,8 +509,8 @@ TEST(TimeSpanSuggestion, FiveTimeConstantsOfTheSlowestTermThatMatters) {
   EXPECT_EQ(one.steps, static_cast<Index>(std::ceil(20.0 * one.t_end)));
   // A second, slow (0.1 Hz, zeta 0.001: tau 1592 s) mode that the outputs barely see (b = c =
   // 1e-5: its step term is 1e-8 of the first one's) does not stretch the span...
-  const TimeSpan weak = suggest_time_span(modes({1.0, 0.1}, {0.05, 0.001}, {1.0, 1e-5}, {1.0, 1e-5}),
-                                          Kind::Step, 0.01, 10);
+  const TimeSpan weak = suggest_time_span(
+      modes({1.0, 0.1}, {0.05, 0.001}, {1.0, 1e-5}, {1.0, 1e-5}), Kind::Step, 0.01, 10);
   EXPECT_TRUE(weak.from_poles) << weak.reason;
   EXPECT_NEAR(weak.t_end, 5.0 * tau1, 1e-9 * tau1);
   // ... seen fully, it does, up to 5 periods of f_min (500 s).
@@ -522,8 +521,8 @@ TEST(TimeSpanSuggestion, FiveTimeConstantsOfTheSlowestTermThatMatters) {
   EXPECT_DOUBLE_EQ(strong.t_end, 500.0);
   EXPECT_NE(strong.reason.find("capped at 5 / f_min"), std::string::npos) << strong.reason;
   // The fastest term is capped at the band's top.
-  const TimeSpan fast = suggest_time_span(modes({1.0, 50.0}, {0.05, 0.05}, {1.0, 50.0}, {1.0, 50.0}),
-                                          Kind::Impulse, 0.01, 10);
+  const TimeSpan fast = suggest_time_span(
+      modes({1.0, 50.0}, {0.05, 0.05}, {1.0, 50.0}, {1.0, 50.0}), Kind::Impulse, 0.01, 10);
   EXPECT_TRUE(fast.from_poles) << fast.reason;
   EXPECT_DOUBLE_EQ(fast.f_fast_hz, 10.0);
 }
@@ -537,8 +536,8 @@ TEST(TimeSpanSuggestion, ResponsesThatDoNotSettleKeepTheBandDefaults) {
   };
   // A rigid-body mode (K = 0 and D = 0 in one direction: a double pole at 0): the step response
   // drifts for ever.
-  expect_band(suggest_time_span(modes({1.0, 0.0}, {0.05, 0.0}, {1.0, 1.0}, {1.0, 1.0}),
-                                Kind::Step, 0.01, 10),
+  expect_band(suggest_time_span(modes({1.0, 0.0}, {0.05, 0.0}, {1.0, 1.0}, {1.0, 1.0}), Kind::Step,
+                                0.01, 10),
               "rigid-body");
   // A pole at 0 with a mode of its own (damped but unrestrained: K = 0, D > 0).
   ReducedSecondOrderModel drifting = modes({1.0, 0.0}, {0.05, 0.0}, {1.0, 1.0}, {1.0, 1.0});

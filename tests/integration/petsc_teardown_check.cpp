@@ -27,9 +27,9 @@
 #include <vector>
 
 #include "common/dense_reference.hpp"
-#include "ecmor/model/model.hpp"
 #include "ecmor/linalg/parallel.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace {
 

@@ -18,12 +18,12 @@
 #include <tuple>
 
 #include "common/test_support.hpp"
-#include "ecmor/body/calculix.hpp"
-#include "ecmor/linalg/eigensolver.hpp"
 #include "ecmor/base/error.hpp"
+#include "ecmor/body/calculix.hpp"
 #include "ecmor/body/fe_geometry.hpp"
-#include "ecmor/model/model_io.hpp"
+#include "ecmor/linalg/eigensolver.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/model/model_io.hpp"
 
 namespace ecmor {
 namespace {

@@ -11,23 +11,22 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <chrono>
-#include <csignal>
-#include <thread>
-
 #include <Eigen/SVD>
+#include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
-#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/model/matrix_market.hpp"
 #include "ecmor/model/model_io.hpp"
+#include "ecmor/response/frequency_response.hpp"
 
 namespace fs = std::filesystem;
 
@@ -90,7 +89,7 @@ std::size_t first_entry_line(const std::vector<std::string>& lines) {
 // D = 0.01 K + 0.1 I, B = ones (N x 1), C = ones (1 x N).
 struct SmallModel {
   std::vector<double> mass = {1.0, 1.0, 1.0};
-  Index b_rows = -1;   // -1: N
+  Index b_rows = -1;  // -1: N
   bool free = false;  // free ends: K is singular (one rigid-body mode)
 };
 
@@ -185,12 +184,14 @@ class Cli : public ::testing::Test {
   /// `out`, stdout and stderr into `log`, and waits (at most 120 s) for its first history record.
   /// Returns the child's pid; fails the test if the run ended or wrote no record by then.
   pid_t start_long_run(const fs::path& out, const fs::path& log) {
-    write_text(config(), "model:    {dir: ../shared/models/triplechain_mess_n1501}\n"
-                         "band:     {f_min_hz: 0.001, f_max_hz: 1.0}\n"
-                         "target:   {tolerance: 1.0e-15}\n"
-                         "reducer:  {name: krylov, point_count: 4}\n"
-                         "strategy: {name: grow_order, max_order: 1500}\n"
-                         "output:   {dir: " + out.string() + "}\n");
+    write_text(config(),
+               "model:    {dir: ../shared/models/triplechain_mess_n1501}\n"
+               "band:     {f_min_hz: 0.001, f_max_hz: 1.0}\n"
+               "target:   {tolerance: 1.0e-15}\n"
+               "reducer:  {name: krylov, point_count: 4}\n"
+               "strategy: {name: grow_order, max_order: 1500}\n"
+               "output:   {dir: " +
+                   out.string() + "}\n");
     const std::string exe = std::string(ECMOR_TEST_BINARY_DIR) + "/bin/ecmor";
     const std::string cfg = config().string();
     const pid_t pid = ::fork();
@@ -454,7 +455,8 @@ TEST_F(Cli, UnknownReducerParameterSuggestsNearest) {
 TEST_F(Cli, InvalidReducerParameterValueIsNamed) {
   write_small_model(model());
   EXPECT_ERROR(reduce(yaml("{name: modal, batch_size: 0}")),
-               config().string() + ":4:", "reducer 'modal'", "batch_size = 0", "must be in [1, 100000]");
+               config().string() + ":4:", "reducer 'modal'", "batch_size = 0",
+               "must be in [1, 100000]");
 }
 
 TEST_F(Cli, UnknownStrategyIsNamed) {
@@ -703,12 +705,14 @@ TEST_F(Cli, SignalWritesHistoryAndBestModelAndExits130) {
 // once kept factorising through its first sweep after a SIGTERM.)
 TEST_F(Cli, SignalDuringTheFirstSweepEndsIt) {
   const fs::path out = output() / "sweep";
-  write_text(config(), "model:    {dir: ../shared/models/triplechain_mess_n1501}\n"
-                       "band:     {f_min_hz: 0.001, f_max_hz: 1.0}\n"
-                       "target:   {tolerance: 1.0e-3}\n"
-                       "reducer:  {name: modal}\n"
-                       "error:    {verify: dense, grid_points: 200000}\n"
-                       "output:   {dir: " + out.string() + "}\n");
+  write_text(config(),
+             "model:    {dir: ../shared/models/triplechain_mess_n1501}\n"
+             "band:     {f_min_hz: 0.001, f_max_hz: 1.0}\n"
+             "target:   {tolerance: 1.0e-3}\n"
+             "reducer:  {name: modal}\n"
+             "error:    {verify: dense, grid_points: 200000}\n"
+             "output:   {dir: " +
+                 out.string() + "}\n");
   const fs::path log = m_dir / "sweep_stdout.txt";
   const std::string exe = std::string(ECMOR_TEST_BINARY_DIR) + "/bin/ecmor";
   const std::string cfg = config().string();
@@ -725,8 +729,8 @@ TEST_F(Cli, SignalDuringTheFirstSweepEndsIt) {
   int status = 0;
   while (read_text(log).find("full-model responses") == std::string::npos &&
          std::chrono::steady_clock::now() - start < std::chrono::seconds(120)) {
-    ASSERT_NE(::waitpid(pid, &status, WNOHANG), pid) << "ended before the signal: "
-                                                      << read_text(log);
+    ASSERT_NE(::waitpid(pid, &status, WNOHANG), pid)
+        << "ended before the signal: " << read_text(log);
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   ASSERT_EQ(::kill(pid, SIGTERM), 0);

@@ -8,6 +8,8 @@
 //  2. on its own grid, 4x denser than the driver's and placed by a golden-ratio (Kronecker)
 //     sequence in log f, which shares no frequency with the driver's grids.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -15,13 +17,11 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include "ecmor/measures/band_error.hpp"
-#include "ecmor/strategies/config.hpp"
-#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/model/model_io.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/strategies/config.hpp"
 
 namespace fs = std::filesystem;
 
@@ -149,8 +149,8 @@ TEST_P(ConfigTarget, MeetsItsToleranceAndTheIndependentRecheckAgrees) {
       f_worst = f[k];
     }
   }
-  EXPECT_LE(worst, config.tolerance) << GetParam() << ": independent grid finds " << worst
-                                     << " at " << f_worst << " Hz";
+  EXPECT_LE(worst, config.tolerance)
+      << GetParam() << ": independent grid finds " << worst << " at " << f_worst << " Hz";
   RecordProperty("order", static_cast<int>(order));
   RecordProperty("reference_points", static_cast<int>(checked));
   std::cout << "[ config   ] " << GetParam() << ": order " << order << ", driver "
@@ -163,7 +163,8 @@ TEST_P(ConfigTarget, MeetsItsToleranceAndTheIndependentRecheckAgrees) {
 GTEST_ALLOW_UNINSTANTIATED_PARAMETERIZED_TEST(ConfigTarget);
 INSTANTIATE_TEST_SUITE_P(Configs, ConfigTarget, ::testing::ValuesIn(config_files()),
                          [](const ::testing::TestParamInfo<std::string>& param_info) {
-                           std::string name = param_info.param.substr(0, param_info.param.size() - 5);
+                           std::string name =
+                               param_info.param.substr(0, param_info.param.size() - 5);
                            for (char& c : name) {
                              if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
                            }

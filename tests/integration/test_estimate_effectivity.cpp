@@ -15,9 +15,9 @@
 
 #include "../../bench/effectivity.hpp"
 #include "common/test_support.hpp"
-#include "ecmor/strategies/config.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/plugin/registry.hpp"
+#include "ecmor/strategies/config.hpp"
 
 namespace ecmor {
 namespace {

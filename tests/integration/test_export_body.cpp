@@ -20,9 +20,9 @@
 #include "common/mat_test_file.hpp"
 #include "common/run_ecmor.hpp"
 #include "ecmor/body/fe_geometry.hpp"
+#include "ecmor/body/sid.hpp"
 #include "ecmor/model/matrix_market.hpp"
 #include "ecmor/model/model_io.hpp"
-#include "ecmor/body/sid.hpp"
 
 namespace fs = std::filesystem;
 
@@ -146,19 +146,18 @@ TEST_F(ExportBody, ReducedBarHasTheBarsMassInvariants) {
   EXPECT_NE(bare.err.find("no nodes.csv and dofs.csv"), std::string::npos) << bare.err;
 }
 
-
 // A free-floating bar reduced with modal (which keeps its six rigid-body modes) and written as
 // .mat only: the body exported from it has the rigid-body motion in its frame, not in its
 // coordinates (n = order - 6), its elastic coordinates are mean axes (C_t = 0), and the .mat copy
 // holds the same numbers as the SID file and the JSON.
 TEST_F(ExportBody, AFreeBodyHasOnlyElasticCoordinates) {
-  std::ofstream(m_dir / "free.yaml") << "model:    {dir: " << (m_dir / "free").string() << "}\n"
-                                     << "band:     {f_min_hz: 1.0, f_max_hz: 300.0}\n"
-                                     << "target:   {tolerance: 1.0e-2}\n"
-                                     << "reducer:  {name: modal}\n"
-                                     << "strategy: {name: grow_order}\n"
-                                     << "output:   {dir: " << (m_dir / "free_run").string()
-                                     << ", format: mat}\n";
+  std::ofstream(m_dir / "free.yaml")
+      << "model:    {dir: " << (m_dir / "free").string() << "}\n"
+      << "band:     {f_min_hz: 1.0, f_max_hz: 300.0}\n"
+      << "target:   {tolerance: 1.0e-2}\n"
+      << "reducer:  {name: modal}\n"
+      << "strategy: {name: grow_order}\n"
+      << "output:   {dir: " << (m_dir / "free_run").string() << ", format: mat}\n";
   const test::CliResult reduced =
       run({"reduce", (m_dir / "free.yaml").string(), "--no-plot", "-q"});
   ASSERT_EQ(reduced.exit_code, 0) << reduced.out << reduced.err;
@@ -203,19 +202,20 @@ TEST_F(ExportBody, AFreeBodyHasOnlyElasticCoordinates) {
   ASSERT_EQ(Ke.rows(), order - 6);
   for (Index a = 0; a < Ke.rows(); ++a)
     for (Index b = 0; b < Ke.cols(); ++b)
-      EXPECT_EQ(Ke(a, b), j.at("Ke")[static_cast<std::size_t>(a)][static_cast<std::size_t>(b)]
-                              .get<double>());
+      EXPECT_EQ(Ke(a, b),
+                j.at("Ke")[static_cast<std::size_t>(a)][static_cast<std::size_t>(b)].get<double>());
   const Matrix J1 = test::mat_read_dense(mat, "J1");  // 3 x 3n: reshape(J1, 3, 3, n) in MATLAB
   ASSERT_EQ(J1.cols(), 3 * (order - 6));
   for (Index k = 0; k < order - 6; ++k)
     for (Index a = 0; a < 3; ++a)
       for (Index b = 0; b < 3; ++b)
-        EXPECT_EQ(J1(a, 3 * k + b), j.at("J").at("a1")[static_cast<std::size_t>(k)]
-                                        [static_cast<std::size_t>(a)][static_cast<std::size_t>(b)]
-                                            .get<double>());
+        EXPECT_EQ(J1(a, 3 * k + b),
+                  j.at("J")
+                      .at("a1")[static_cast<std::size_t>(k)][static_cast<std::size_t>(a)]
+                               [static_cast<std::size_t>(b)]
+                      .get<double>());
   EXPECT_EQ(test::mat_read_dense(mat, "T").rows(), order);
-  EXPECT_EQ(test::mat_read_dense(mat, "frame_ids").rows(),
-            static_cast<Index>(body.frame.size()));
+  EXPECT_EQ(test::mat_read_dense(mat, "frame_ids").rows(), static_cast<Index>(body.frame.size()));
 
   // A run directory without its bases (neither V.mtx nor reduced_model.mat) is refused by name.
   fs::remove(run_dir / "reduced_model.mat");

@@ -22,13 +22,13 @@
 
 #include "../../bench/solid.hpp"
 #include "common/test_support.hpp"
-#include "ecmor/measures/band_error.hpp"
-#include "ecmor/strategies/config.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/measures/band_error.hpp"
 #include "ecmor/model/matrix_market.hpp"
 #include "ecmor/model/model_io.hpp"
-#include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/strategies/config.hpp"
 #include "ecmor/strategies/driver.hpp"
 
 namespace fs = std::filesystem;
@@ -86,7 +86,8 @@ TEST_P(FreeBody, MeetsTheTargetAndKeepsTheRigidBodyPoles) {
   const RunSummary s = reduce_solid(tmp,
                                     "band: {f_min_hz: 20, f_max_hz: 2000}\n"
                                     "target: {tolerance: 1.0e-3, norm: spectral}\n"
-                                    "strategy: {name: " + std::string(run.strategy) + "}\n",
+                                    "strategy: {name: " +
+                                        std::string(run.strategy) + "}\n",
                                     run.reducer, out);
   SCOPED_TRACE(s.message);
   EXPECT_EQ(s.exit_code(), 0);
@@ -195,8 +196,8 @@ TEST_P(ClampedSolid, GreedyKrylovIsWithinOneAndAHalfTimesModalWithStaticCorrecti
     const RunSummary s =
         reduce_solid(tmp,
                      "band: {f_min_hz: 10, f_max_hz: 3000}\ntarget: {tolerance: 1.0e-3}\n"
-                     "strategy: {name: " + std::string(k == 0 ? "grow_order" : "greedy_points") +
-                         "}\n",
+                     "strategy: {name: " +
+                         std::string(k == 0 ? "grow_order" : "greedy_points") + "}\n",
                      reducers[k], out);
     SCOPED_TRACE(std::string(reducers[k]) + ": " + s.message);
     ASSERT_EQ(s.termination, Termination::Converged);
@@ -238,8 +239,7 @@ TEST(ClampedSolidFloor, AToleranceBelowTheReferenceFloorIsNamed) {
 }
 
 // N = 960 and 900: a slender bar and a stubby block.
-INSTANTIATE_TEST_SUITE_P(Shapes, ClampedSolid,
-                         ::testing::Values(Shape{16, 4, 3}, Shape{10, 5, 4}),
+INSTANTIATE_TEST_SUITE_P(Shapes, ClampedSolid, ::testing::Values(Shape{16, 4, 3}, Shape{10, 5, 4}),
                          [](const ::testing::TestParamInfo<Shape>& param) {
                            return std::to_string(param.param.nx) + "x" +
                                   std::to_string(param.param.ny) + "x" +

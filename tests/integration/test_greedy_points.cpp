@@ -20,8 +20,8 @@
 #include "common/interpolation_reducer.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/plugin/registry.hpp"
+#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/strategies/strategy.hpp"
 
 namespace ecmor {
@@ -42,9 +42,7 @@ double chain_stiffness() {
   return (kPi / s) * (kPi / s);
 }
 
-SecondOrderModel chain_model() {
-  return test::spring_chain(kN, chain_stiffness(), kAlpha, kBeta);
-}
+SecondOrderModel chain_model() { return test::spring_chain(kN, chain_stiffness(), kAlpha, kBeta); }
 
 // sup over `samples` log-spaced frequencies of the band of |H - Hr| / |H|, by dense LU.
 std::pair<double, double> dense_sup_error(const SecondOrderModel& full, const ReducedModel& reduced,
@@ -338,13 +336,16 @@ class PoleOnTheBandNear5Hz final : public Reducer {
   void setup(const ReductionContext& ctx) override { m_inner.setup(ctx); }
   ReducerResult reduce(const ReductionRequest& request) override {
     ReducerResult r = m_inner.reduce(request);
-    const bool poisoned = std::any_of(request.points.begin(), request.points.end(),
-                                      poisons);
+    const bool poisoned = std::any_of(request.points.begin(), request.points.end(), poisons);
     if (!poisoned) return r;
     ++poisoned_calls;
     auto& m = std::get<ReducedSecondOrderModel>(r.model);
     const Index n = m.size();
-    auto grow = [n](Matrix& a) { a.conservativeResize(n + 1, n + 1); a.row(n).setZero(); a.col(n).setZero(); };
+    auto grow = [n](Matrix& a) {
+      a.conservativeResize(n + 1, n + 1);
+      a.row(n).setZero();
+      a.col(n).setZero();
+    };
     grow(m.M);
     grow(m.D);
     grow(m.K);

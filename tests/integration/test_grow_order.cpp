@@ -10,9 +10,9 @@
 #include <limits>
 
 #include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/base/interrupt.hpp"
 #include "ecmor/model/projection.hpp"
+#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/strategies/strategy.hpp"
 #include "support.hpp"
 
@@ -80,8 +80,7 @@ struct Fixture {
   BandErrorEstimator estimator{cache, band, BandErrorOptions{}};
   std::vector<IterationRecord> seen;
 
-  StrategyResult run(Reducer& reducer, double tolerance, ParameterMap params,
-                     int stop_after = -1) {
+  StrategyResult run(Reducer& reducer, double tolerance, ParameterMap params, int stop_after = -1) {
     ReductionContext rc{&model, solver.get(), band};
     reducer.setup(rc);
     auto strategy = make_strategy("grow_order", params);
@@ -282,9 +281,9 @@ TEST(Stagnation, OnlyAStrictFallBelowTheRatioIsProgress) {
   using ecmor::strategy_support::Stagnation;
   Stagnation s(2, 0.5);
   EXPECT_FALSE(s.record(1.0));
-  EXPECT_FALSE(s.record(0.8));  // fewer records than the window: no verdict yet
+  EXPECT_FALSE(s.record(0.8));   // fewer records than the window: no verdict yet
   EXPECT_FALSE(s.record(0.49));  // below 0.5 x 1.0
-  EXPECT_TRUE(s.record(0.4));   // not below 0.5 x 0.8
+  EXPECT_TRUE(s.record(0.4));    // not below 0.5 x 0.8
   EXPECT_DOUBLE_EQ(s.before(), 0.8);
   EXPECT_DOUBLE_EQ(s.last(), 0.4);
 

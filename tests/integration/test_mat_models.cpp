@@ -19,9 +19,9 @@
 #include "common/mat_test_file.hpp"
 #include "common/plugin_registry.hpp"
 #include "common/test_support.hpp"
-#include "ecmor/strategies/config.hpp"
 #include "ecmor/model/matrix_market.hpp"
 #include "ecmor/model/model_io.hpp"
+#include "ecmor/strategies/config.hpp"
 #include "ecmor/strategies/driver.hpp"
 
 namespace fs = std::filesystem;

@@ -18,9 +18,9 @@
 #include <vector>
 
 #include "ecmor/linalg/eigensolver.hpp"
-#include "ecmor/model/model_io.hpp"
 #include "ecmor/linalg/parallel.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/model/model_io.hpp"
 
 namespace fs = std::filesystem;
 
@@ -48,7 +48,8 @@ std::string mpi_problem() {
     const std::string cmd =
         "env OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 "
         "OMPI_MCA_btl_vader_single_copy_mechanism=none timeout 60 mpirun --oversubscribe -n 2 "
-        "true >" + out.string() + " 2>&1";
+        "true >" +
+        out.string() + " 2>&1";
     const int status = std::system(cmd.c_str());
     std::string text = read_text(out);
     fs::remove(out);
@@ -169,8 +170,9 @@ TEST_F(PetscBackend, SameOrderAndBandErrorOnOneAndTwoRanks) {
       EXPECT_TRUE(sp["target_met"].get<bool>());
       // MUMPS's analysis is reused across shifts: a few analyses (one per arithmetic and pool
       // slot, measured 3-4, and since the rigid-body analysis of the full model one more: its
-      // real factorisation of K - sigma M, measured 5), however many factorisations. Since the band error's estimate mode a
-      // run makes only ~20 factorisations (it made ~1 200), so the bound is on the analyses.
+      // real factorisation of K - sigma M, measured 5), however many factorisations. Since the band
+      // error's estimate mode a run makes only ~20 factorisations (it made ~1 200), so the bound is
+      // on the analyses.
       const auto analyses = sp["counters"]["symbolic_analyses"].get<int>();
       const auto factorizations = sp["counters"]["factorizations"].get<int>();
       EXPECT_GE(analyses, 1);
@@ -218,11 +220,11 @@ TEST_F(PetscBackend, SingularShiftIsOneClearErrorOnTwoRanks) {
   const fs::path model = m_dir / "model";
   fs::create_directories(model);
   const int n = 40;
-  auto write = [&](const std::string& name, const std::string& body, int rows, int cols,
-                   int nnz) {
+  auto write = [&](const std::string& name, const std::string& body, int rows, int cols, int nnz) {
     std::ofstream f(model / (name + ".mtx"));
-    f << "%%MatrixMarket matrix coordinate real general\n" << rows << " " << cols << " " << nnz
-      << "\n" << body;
+    f << "%%MatrixMarket matrix coordinate real general\n"
+      << rows << " " << cols << " " << nnz << "\n"
+      << body;
   };
   std::ostringstream m, k, d;
   int knnz = 0;
@@ -254,9 +256,9 @@ TEST_F(PetscBackend, SingularShiftIsOneClearErrorOnTwoRanks) {
   EXPECT_NE(r.out.find("MUMPS could not factorise"), std::string::npos) << r.out;
   // Said once: rank 1 prints nothing.
   const std::regex re("MUMPS could not factorise");
-  EXPECT_EQ(std::distance(std::sregex_iterator(r.out.begin(), r.out.end(), re),
-                          std::sregex_iterator()),
-            1)
+  EXPECT_EQ(
+      std::distance(std::sregex_iterator(r.out.begin(), r.out.end(), re), std::sregex_iterator()),
+      1)
       << r.out;
 }
 
@@ -275,7 +277,6 @@ TEST_F(PetscBackend, ErrorOnOneRankEndsTheJobWithTheRank) {
   EXPECT_NE(r.out.find("on rank 0 of 2"), std::string::npos) << r.out;
 }
 
-
 // SLEPc's eigenpairs, in this process (one MPI rank, started by the backend), against the dense
 // generalized eigenvalues of the same pencil: two copies of the triple chain n301, decoupled, so
 // that every eigenvalue is double and the phases SLEPc leaves on complex vectors must be turned
@@ -285,7 +286,8 @@ TEST_F(PetscBackend, SlepcEigenpairsMatchTheDenseReference) {
   ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
   ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
   ::setenv("OMPI_MCA_btl_vader_single_copy_mechanism", "none", 1);
-  const auto one = std::get<SecondOrderModel>(load_model("../shared/models/triplechain_cmess_n301"));
+  const auto one =
+      std::get<SecondOrderModel>(load_model("../shared/models/triplechain_cmess_n301"));
   auto twice = [](const SparseMatrix& A) {
     std::vector<Eigen::Triplet<double>> t;
     for (int k = 0; k < A.outerSize(); ++k)
@@ -319,9 +321,8 @@ TEST_F(PetscBackend, SlepcEigenpairsMatchTheDenseReference) {
   ASSERT_EQ(r.eigenvalues.size(), 12);
   // The 12 reference eigenvalues nearest sigma, ascending.
   std::vector<double> nearest(reference.data(), reference.data() + reference.size());
-  std::sort(nearest.begin(), nearest.end(), [&](double a, double b) {
-    return std::abs(a - sigma) < std::abs(b - sigma);
-  });
+  std::sort(nearest.begin(), nearest.end(),
+            [&](double a, double b) { return std::abs(a - sigma) < std::abs(b - sigma); });
   nearest.resize(12);
   std::sort(nearest.begin(), nearest.end());
   for (Index j = 0; j < 12; ++j)

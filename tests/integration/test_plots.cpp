@@ -23,8 +23,8 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/model/model_io.hpp"
 #include "ecmor/base/types.hpp"
+#include "ecmor/model/model_io.hpp"
 #include "pareto.hpp"
 
 namespace fs = std::filesystem;

@@ -181,8 +181,8 @@ void converges(const std::string& strategy) {
     }
   }
   EXPECT_EQ(fx.seen.size(), r.history.size());
-  std::cout << "[ " << strategy << " ] " << r.message << "; dense re-check " << dense
-            << "; " << r.history.size() << " history records; " << secs << " s\n";
+  std::cout << "[ " << strategy << " ] " << r.message << "; dense re-check " << dense << "; "
+            << r.history.size() << " history records; " << secs << " s\n";
 }
 
 TEST(OptimizePoints, MeetsTheToleranceOnALightlyDampedChain) { converges("optimize_points"); }
@@ -242,8 +242,7 @@ TEST(PointStrategies, IterationBudgetAndObserverStopEndTheRun) {
     {
       Fixture fx;
       test::InterpolationReducer reducer;
-      const StrategyResult r =
-          fx.run(strategy, reducer, 1e-12, params({{"max_iterations", 2LL}}));
+      const StrategyResult r = fx.run(strategy, reducer, 1e-12, params({{"max_iterations", 2LL}}));
       EXPECT_EQ(r.termination, Termination::IterationLimit) << r.message;
       Index assessed = 0;
       for (const IterationRecord& rec : r.history) {
@@ -283,7 +282,8 @@ TEST(PointStrategies, PolledStopRequestEndsAnOptimisationPromptly) {
     const StrategyResult r = make_strategy(strategy, ParameterMap("strategy"))->run(ctx);
     EXPECT_EQ(r.termination, Termination::Interrupted) << strategy << ": " << r.message;
     ASSERT_GE(calls_at_request, 0) << strategy;
-    // At most one objective evaluation (minimax: one Jacobian, 2p + 1 reductions) after the request.
+    // At most one objective evaluation (minimax: one Jacobian, 2p + 1 reductions) after the
+    // request.
     EXPECT_LE(reducer.calls - calls_at_request, 2 * 2 + 1) << strategy;
     EXPECT_TRUE(r.best.has_value()) << strategy;
   }
@@ -459,8 +459,7 @@ TEST(PointStrategies, OrderBudgetHoldsForTheStartAndTheOptimum) {
       EXPECT_EQ(r.termination, Termination::MaxOrderReached) << r.message;
       EXPECT_EQ(assessed_rows(r), 0) << r.message;
       EXPECT_NE(r.message.find("max_order = 6"), std::string::npos) << r.message;
-      EXPECT_NE(r.message.find("start with 2 points gave order 8"), std::string::npos)
-          << r.message;
+      EXPECT_NE(r.message.find("start with 2 points gave order 8"), std::string::npos) << r.message;
     }
     {
       Fixture fx;
@@ -517,9 +516,9 @@ TEST(OptimizePoints, NloptFailureKeepsTheBestPointAndSaysSo) {
     Fixture fx;
     // Call 1: the start's reduction; 2: the warm start's evaluation; 3 and 4: NLopt's first two.
     ThrowsOnceForeign reducer(4);
-    const StrategyResult r = fx.run("optimize_points", reducer, 1e-4,
-                                    params({{"algorithm", algorithm}, {"max_points", 8LL},
-                                            {"max_iterations", 20LL}}));
+    const StrategyResult r =
+        fx.run("optimize_points", reducer, 1e-4,
+               params({{"algorithm", algorithm}, {"max_points", 8LL}, {"max_iterations", 20LL}}));
     EXPECT_NE(r.termination, Termination::Failed) << algorithm << ": " << r.message;
     const IterationRecord* first_optimum = nullptr;
     for (const IterationRecord& rec : r.history) {
@@ -594,9 +593,9 @@ TEST(PointObjective, GrowthPointsTakeThePeakThenSeparatedMaximaAboveTheTolerance
   EXPECT_TRUE(near(hz(point_search::growth_points(e, {}, 2, tol, 1e-3, band)), {2, 9}));
   EXPECT_TRUE(near(hz(point_search::growth_points(e, {}, 10, 0.35, 1e-3, band)), {2, 9}));
   // An existing point at 9 Hz removes that candidate, not the supremum on an existing point.
-  EXPECT_TRUE(near(hz(point_search::growth_points(e, {std::log10(9.0), std::log10(2.0)}, 10, tol,
-                                                   1e-3, band)),
-                   {2, 4, 6}));
+  EXPECT_TRUE(near(
+      hz(point_search::growth_points(e, {std::log10(9.0), std::log10(2.0)}, 10, tol, 1e-3, band)),
+      {2, 4, 6}));
   // A separation of 0.2 decades: 9 Hz is 0.65 decades from 2 Hz (kept), 4 Hz is 0.30 from 2 Hz
   // (kept), 6 Hz is 0.18 from 4 Hz (dropped).
   EXPECT_TRUE(near(hz(point_search::growth_points(e, {}, 10, tol, 0.2, band)), {2, 9, 4}));
@@ -610,8 +609,10 @@ TEST(PointStrategies, GrowthBySeveralPointsThenPruning) {
   const double tol = 1e-4;
   auto run = [&](bool prune, Fixture& fx) {
     test::InterpolationReducer reducer;
-    ParameterMap p = params({{"max_points", 12LL}, {"max_iterations", 20LL},
-                             {"points_per_growth", 3LL}, {"max_evaluations", 60LL}});
+    ParameterMap p = params({{"max_points", 12LL},
+                             {"max_iterations", 20LL},
+                             {"points_per_growth", 3LL},
+                             {"max_evaluations", 60LL}});
     p.set("prune", prune);
     return fx.run("optimize_points", reducer, tol, p);
   };
@@ -638,8 +639,8 @@ TEST(PointStrategies, GrowthBySeveralPointsThenPruning) {
   EXPECT_NE(pruned.message.find("pruning:"), std::string::npos) << pruned.message;
   const SecondOrderModel& m = std::get<SecondOrderModel>(fb.model);
   EXPECT_LE(dense_sup_error(m, pruned.best->V), tol) << pruned.message;
-  std::cout << "without pruning: order " << plain.best->V.cols() << "; with: "
-            << pruned.best->V.cols() << " (" << pruned.message << ")\n";
+  std::cout << "without pruning: order " << plain.best->V.cols()
+            << "; with: " << pruned.best->V.cols() << " (" << pruned.message << ")\n";
 }
 
 TEST(PointStrategies, BadOptionsAreNamed) {
@@ -674,8 +675,7 @@ TEST(PointStrategies, BadOptionsAreNamed) {
       {"minimax_points", params({{"algorithm", std::string("bobyqa")}}), "algorithm"},
   };
   for (const Case& c : cases) {
-    const std::string msg =
-        test::message_of<ConfigError>([&] { make_strategy(c.strategy, c.p); });
+    const std::string msg = test::message_of<ConfigError>([&] { make_strategy(c.strategy, c.p); });
     EXPECT_NE(msg.find(c.key), std::string::npos) << c.strategy << ": " << msg;
   }
 }

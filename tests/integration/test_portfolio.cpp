@@ -11,8 +11,8 @@
 #include <string>
 
 #include "common/test_support.hpp"
-#include "ecmor/strategies/config.hpp"
 #include "ecmor/base/error.hpp"
+#include "ecmor/strategies/config.hpp"
 #include "ecmor/strategies/driver.hpp"
 
 namespace fs = std::filesystem;
@@ -209,11 +209,11 @@ TEST(Portfolio, WithoutMembersTriesTheBundledReducersThatSuitTheModel) {
       // The member alone, as a plain run, ends the same way.
       const std::string reducer = c.labels[k].substr(0, c.labels[k].find('/'));
       const std::string strategy = c.labels[k].substr(c.labels[k].find('/') + 1);
-      const RunSummary alone = run_yaml(
-          head + "reducer: {name: " + reducer + "}\nstrategy: {name: " + strategy +
-              (strategy == "greedy_points" ? ", moments: 2" : "") + "}\noutput: {dir: " +
-              (dir / reducer).string() + "}\n",
-          registry);
+      const RunSummary alone =
+          run_yaml(head + "reducer: {name: " + reducer + "}\nstrategy: {name: " + strategy +
+                       (strategy == "greedy_points" ? ", moments: 2" : "") +
+                       "}\noutput: {dir: " + (dir / reducer).string() + "}\n",
+                   registry);
       EXPECT_EQ(a.met, alone.exit_code() == 0) << a.label() << ": " << a.message;
       if (a.met) {
         EXPECT_EQ(a.order, alone.order) << a.label();
@@ -316,8 +316,9 @@ TEST(Portfolio, AStopRequestEndsTheWholePortfolio) {
   EXPECT_EQ(s.exit_code(), 2);
 }
 
-// The reducer's setup() is the reducer's work: low-rank ADI factorises there, and reduce() then only
-// projects. Those factorisations (and their time) count as the reducer's, not as error control.
+// The reducer's setup() is the reducer's work: low-rank ADI factorises there, and reduce() then
+// only projects. Those factorisations (and their time) count as the reducer's, not as error
+// control.
 TEST(Driver, ReducerSetupWorkCountsAsTheReducers) {
   test::TempDir dir;
   Registry registry;

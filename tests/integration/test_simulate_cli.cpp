@@ -17,9 +17,9 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/model/projection.hpp"
+#include "ecmor/response/frequency_response.hpp"
 
 namespace fs = std::filesystem;
 

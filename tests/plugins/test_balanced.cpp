@@ -1,9 +1,9 @@
 // Tests of the "balanced" reducer plugin (loaded through the registry like any plugin) and of its
-// private Gramian-factor header. References are independent of ecmor's Lyapunov solvers (Hammarling,
-// Bartels-Stewart): Gramian factors by the factored matrix sign function in long double (Roberts'
-// Newton iteration, written here), frequency-limited
-// Gramians by Gauss-Legendre quadrature of their defining integral, transfer functions of the full
-// models in their eigenvector basis (Eigen's QR algorithm), the bound of Glover (1984).
+// private Gramian-factor header. References are independent of ecmor's Lyapunov solvers
+// (Hammarling, Bartels-Stewart): Gramian factors by the factored matrix sign function in long
+// double (Roberts' Newton iteration, written here), frequency-limited Gramians by Gauss-Legendre
+// quadrature of their defining integral, transfer functions of the full models in their eigenvector
+// basis (Eigen's QR algorithm), the bound of Glover (1984).
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
@@ -23,15 +23,15 @@
 #include "balanced/gramian_factors.hpp"
 #include "common/plugin_registry.hpp"
 #include "common/test_support.hpp"
-#include "ecmor/measures/band_error.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/gramians/lyapunov.hpp"
-#include "ecmor/model/dense_model.hpp"
 #include "ecmor/gramians/lyapunov_factor.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/model/dense_model.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/plugin/registry.hpp"
-#include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/response/frequency_response.hpp"
 
 namespace ecmor {
 namespace {
@@ -115,7 +115,8 @@ LMatrix sign_factor(LMatrix F, LMatrix G) {
     for (Index i = 0; i < n; ++i) log_det += std::log(std::abs(lu.matrixLU()(i, i)));
     // Scaling only while far from convergence (it would spoil the quadratic phase).
     const long double distance = (F + I).norm() / std::sqrt(static_cast<long double>(n));
-    const long double c = distance > 1e-2L ? std::exp(-log_det / static_cast<long double>(n)) : 1.0L;
+    const long double c =
+        distance > 1e-2L ? std::exp(-log_det / static_cast<long double>(n)) : 1.0L;
     const LMatrix Fn = 0.5L * (c * F + Finv / c);
     LMatrix Gn(n, 2 * G.cols());
     Gn << std::sqrt(c) * G, Finv * G / std::sqrt(c);
@@ -142,7 +143,8 @@ Vector sign_hsv(const Dense& d) {
   const LMatrix F = lu.solve(LMatrix(d.A.cast<long double>()));
   const LMatrix Bt = lu.solve(LMatrix(d.B.cast<long double>()));
   const LMatrix Zc = sign_factor(F, Bt);
-  const LMatrix Zo = sign_factor(LMatrix(F.transpose()), LMatrix(d.C.transpose().cast<long double>()));
+  const LMatrix Zo =
+      sign_factor(LMatrix(F.transpose()), LMatrix(d.C.transpose().cast<long double>()));
   const Eigen::JacobiSVD<LMatrix> svd(LMatrix(Zo.transpose() * Zc));
   return svd.singularValues().cast<double>();
 }
@@ -565,7 +567,6 @@ TEST(Balanced, HsvToleranceCapsTheOrder) {
   EXPECT_NE(res.note.find("capped"), std::string::npos) << res.note;
   EXPECT_NEAR(first.diagnostics.at("hsv_1"), s(0), 1e-8 * s(0));
 }
-
 
 }  // namespace
 }  // namespace ecmor

@@ -22,10 +22,10 @@
 #include "common/plugin_registry.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/model/model_io.hpp"
-#include "ecmor/response/reduced_response.hpp"
-#include "ecmor/plugin/registry.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/model/model_io.hpp"
+#include "ecmor/plugin/registry.hpp"
+#include "ecmor/response/reduced_response.hpp"
 
 namespace ecmor {
 namespace {
@@ -102,10 +102,11 @@ TEST(BalancedLowRank, FactorsReproduceTheDenseHankelSingularValues) {
       ++compared;
     }
     EXPECT_GE(compared, 3) << name;
-    std::cout << fmt::format("  {}: {} HSVs >= 1e-3 s_1 compared, worst relative difference "
-                             "{:.1e}; ADI {} / {} iterations\n",
-                             name, compared, worst, summary.controllability.iterations,
-                             summary.observability.iterations);
+    std::cout << fmt::format(
+        "  {}: {} HSVs >= 1e-3 s_1 compared, worst relative difference "
+        "{:.1e}; ADI {} / {} iterations\n",
+        name, compared, worst, summary.controllability.iterations,
+        summary.observability.iterations);
   }
 }
 
@@ -169,10 +170,10 @@ TEST(BalancedLowRank, TripleChainSecondOrderVariantsReachThePeersError) {
       const Complex Hr = response(Complex(0.0, ref.omega[k]))(0, 0);
       worst = std::max(worst, std::abs(ref.H[k] - Hr) / std::abs(ref.H[k]));
     }
-    std::cout << fmt::format("  {} r = 20: max relative error {:.3f} on the reference grid, "
-                             "{} unstable poles, Gramians {:.2f} s\n",
-                             variant, worst, r.diagnostics.at("unstable_poles"),
-                             r.diagnostics.at("gramian_seconds"));
+    std::cout << fmt::format(
+        "  {} r = 20: max relative error {:.3f} on the reference grid, "
+        "{} unstable poles, Gramians {:.2f} s\n",
+        variant, worst, r.diagnostics.at("unstable_poles"), r.diagnostics.at("gramian_seconds"));
     if (variant == "p" || variant == "v" || variant == "fv") {
       // The peers' "about 0.20" to its two stated digits.
       EXPECT_LT(worst, 0.205) << variant;
@@ -185,9 +186,9 @@ TEST(BalancedLowRank, TripleChainSecondOrderVariantsReachThePeersError) {
 
 TEST(BalancedLowRank, AnAdiRunThatStopsAtItsBudgetIsReportedOrRefused) {
   // build at 4 ADI iterations is far from converged (its Gramians need dozens).
-  auto f = make("build", params({{"gramians", std::string("lowrank")},
-                                 {"adi_max_iterations", 4LL}}),
-                band_of(0.1, 10.0));
+  auto f =
+      make("build", params({{"gramians", std::string("lowrank")}, {"adi_max_iterations", 4LL}}),
+           band_of(0.1, 10.0));
   const ReducerResult r = f->reducer->reduce(ReductionRequest{4, {}});
   EXPECT_EQ(r.diagnostics.at("adi_converged"), 0.0);
   EXPECT_GT(r.diagnostics.at("adi_residual_c"), 1e-10);
@@ -195,8 +196,10 @@ TEST(BalancedLowRank, AnAdiRunThatStopsAtItsBudgetIsReportedOrRefused) {
   EXPECT_NE(r.note.find("WARNING"), std::string::npos) << r.note;
 
   const std::string msg = message_of<NumericalError>([] {
-    make("build", params({{"gramians", std::string("lowrank")}, {"adi_max_iterations", 4LL},
-                          {"adi_require_convergence", true}}),
+    make("build",
+         params({{"gramians", std::string("lowrank")},
+                 {"adi_max_iterations", 4LL},
+                 {"adi_require_convergence", true}}),
          band_of(0.1, 10.0));
   });
   EXPECT_NE(msg.find("did not reach adi_tolerance"), std::string::npos) << msg;
@@ -217,15 +220,14 @@ TEST(BalancedLowRank, AnAdiRunThatStopsAtItsBudgetIsReportedOrRefused) {
 /// names the floor and the unconverged ADI with its residuals; below the rank it says nothing;
 /// with converged ADI it names the floor only.
 TEST(BalancedLowRank, TheLargestOrderNamesItsCause) {
-  auto f = make("build", params({{"gramians", std::string("lowrank")},
-                                 {"adi_max_iterations", 4LL}}),
-                band_of(0.1, 10.0));
+  auto f =
+      make("build", params({{"gramians", std::string("lowrank")}, {"adi_max_iterations", 4LL}}),
+           band_of(0.1, 10.0));
   const Index cap = f->reducer->max_order();
   ASSERT_GT(cap, 1);
   const ReducerResult at = f->reducer->reduce(ReductionRequest{cap, {}});
   EXPECT_EQ(at.diagnostics.at("order_limit_reached"), 1.0);
-  EXPECT_NE(at.note.find(fmt::format("BT LIMIT: order {} is the largest", cap)),
-            std::string::npos)
+  EXPECT_NE(at.note.find(fmt::format("BT LIMIT: order {} is the largest", cap)), std::string::npos)
       << at.note;
   EXPECT_NE(at.note.find("cause: low-rank ADI did not converge"), std::string::npos) << at.note;
   EXPECT_NE(at.note.find(fmt::format("{:.2e}", at.diagnostics.at("adi_residual_c"))),
@@ -244,8 +246,9 @@ TEST(BalancedLowRank, TheLargestOrderNamesItsCause) {
 
 TEST(BalancedLowRank, BadParametersAreNamed) {
   auto create = [](const ParameterMap& p) { registry().create("balanced", p); };
-  std::string msg = message_of<ConfigError>(
-      [&] { create(params({{"gramians", std::string("dense")}, {"adi_tolerance", 1e-8}})); });
+  std::string msg = message_of<ConfigError>([&] {
+    create(params({{"gramians", std::string("dense")}, {"adi_tolerance", 1e-8}}));
+  });
   EXPECT_NE(msg.find("adi_tolerance"), std::string::npos) << msg;
   EXPECT_NE(msg.find("low-rank Gramians only"), std::string::npos) << msg;
   msg = message_of<ConfigError>([&] { create(params({{"gramians", std::string("sparse")}})); });
@@ -270,7 +273,6 @@ TEST(BalancedLowRank, BadParametersAreNamed) {
   EXPECT_NE(msg.find("balanced"), std::string::npos) << msg;
 }
 
-
 /// Frequency-limited BT on the low-rank route (band quadrature + LDL' ADI) against the dense route
 /// (band Gramians by a matrix function of E^-1 A and Bartels-Stewart; gramian_factors.hpp): two
 /// independent computations of the same band Gramians. The low-rank side is accurate to its
@@ -286,8 +288,8 @@ TEST(BalancedLowRank, BandLimitedLowRankAgreesWithTheDenseBandRoute) {
   };
   for (const Case& c : {Case{"build", band_of(0.5, 2.0)}, Case{"cdplayer", band_of(10.0, 1000.0)},
                         Case{"triplechain_cmess_n301", band_of(1e-3, 1e-1)}}) {
-    auto dense = make(c.name, params({{"gramians", std::string("dense")}, {"band_limited", true}}),
-                      c.band);
+    auto dense =
+        make(c.name, params({{"gramians", std::string("dense")}, {"band_limited", true}}), c.band);
     // cdplayer's ADI needs about 340 iterations per side (the default budget is 300).
     auto lowrank = make(c.name,
                         params({{"gramians", std::string("lowrank")},
@@ -377,8 +379,8 @@ TEST(BalancedLowRank, BandLimitedBeatsPlainOnALargeModelAgainstTheReference) {
       if (f < band.f_min_hz || f > band.f_max_hz) continue;
       const ComplexMatrix Hr = response(Complex(0.0, ref.omega[k]));
       const double full = Eigen::JacobiSVD<ComplexMatrix>(ref.H[k]).singularValues()(0);
-      const double diff = Eigen::JacobiSVD<ComplexMatrix>(ComplexMatrix(ref.H[k] - Hr))
-                              .singularValues()(0);
+      const double diff =
+          Eigen::JacobiSVD<ComplexMatrix>(ComplexMatrix(ref.H[k] - Hr)).singularValues()(0);
       worst = std::max(worst, diff / full);
       ++points;
     }
@@ -393,10 +395,11 @@ TEST(BalancedLowRank, BandLimitedBeatsPlainOnALargeModelAgainstTheReference) {
   EXPECT_EQ(l.diagnostics.count("band_integral_evaluations"), 1u) << "the low-rank band route";
   EXPECT_EQ(l.diagnostics.at("unstable_poles"), 0.0);
   const double ep = band_error(p.model), el = band_error(l.model);
-  std::cout << fmt::format("  rail_5177 r = {}: band error plain BT {:.2e}, frequency-limited "
-                           "{:.2e}; band Gramians {:.1f} s ({} quadrature nodes)\n",
-                           r, ep, el, l.diagnostics.at("gramian_seconds"),
-                           l.diagnostics.at("band_integral_evaluations"));
+  std::cout << fmt::format(
+      "  rail_5177 r = {}: band error plain BT {:.2e}, frequency-limited "
+      "{:.2e}; band Gramians {:.1f} s ({} quadrature nodes)\n",
+      r, ep, el, l.diagnostics.at("gramian_seconds"),
+      l.diagnostics.at("band_integral_evaluations"));
   EXPECT_LT(el, ep);
 }
 

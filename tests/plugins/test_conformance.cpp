@@ -1,6 +1,7 @@
-// The conformance suite (ecmor/plugin/conformance.hpp) and the plugin boundary checks of the registry
-// (core/src/plugin/reducer_guard.cpp). The bundled reducers must pass the suite; a toy reducer with one
-// injected defect at a time shows that each check can fail, and for the reason it names.
+// The conformance suite (ecmor/plugin/conformance.hpp) and the plugin boundary checks of the
+// registry (core/src/plugin/reducer_guard.cpp). The bundled reducers must pass the suite; a toy
+// reducer with one injected defect at a time shows that each check can fail, and for the reason it
+// names.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -10,12 +11,12 @@
 
 #include "common/plugin_registry.hpp"
 #include "common/test_support.hpp"
-#include "ecmor/plugin/conformance.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
-#include "ecmor/model/projection.hpp"
-#include "ecmor/plugin/registry.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/model/projection.hpp"
+#include "ecmor/plugin/conformance.hpp"
+#include "ecmor/plugin/registry.hpp"
+#include "ecmor/response/frequency_response.hpp"
 
 namespace ecmor {
 namespace {

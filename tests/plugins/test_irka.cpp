@@ -19,10 +19,10 @@
 #include "common/plugin_registry.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/plugin/registry.hpp"
-#include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/response/frequency_response.hpp"
 
 namespace ecmor {
 namespace {
@@ -485,11 +485,9 @@ TEST(Irka, ModelChangeTestStopsBeforeTheShiftsConverge) {
   // move (by 0.5 when it settles). model_tolerance 1e-3 ends the run with that reason in fewer
   // iterations than the test on the shifts alone (measured: 3 against 35).
   const Band band = band_of(0.0159, 159.0);
-  auto by_model =
-      make(load_model(shared("cdplayer")), params({{"model_tolerance", 1e-3}}), band);
+  auto by_model = make(load_model(shared("cdplayer")), params({{"model_tolerance", 1e-3}}), band);
   const ReducerResult early = by_model->reducer->reduce(ReductionRequest{20, {}});
-  auto by_shifts =
-      make(load_model(shared("cdplayer")), params({{"model_tolerance", 0.0}}), band);
+  auto by_shifts = make(load_model(shared("cdplayer")), params({{"model_tolerance", 0.0}}), band);
   const ReducerResult late = by_shifts->reducer->reduce(ReductionRequest{20, {}});
   std::cout << "[ irka ] model test: " << early.note << "\n[ irka ] shift test: " << late.note
             << "\n";

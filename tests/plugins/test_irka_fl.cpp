@@ -12,10 +12,10 @@
 
 #include "common/plugin_registry.hpp"
 #include "ecmor/base/error.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 #include "ecmor/measures/h2_norm.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/plugin/registry.hpp"
-#include "ecmor/linalg/shifted_solver.hpp"
 
 namespace ecmor {
 namespace {
@@ -80,11 +80,11 @@ TEST_P(FrequencyLimitedIrka, SmallerBandH2ErrorThanPlainIrka) {
       c.model, c.f_min_hz, c.f_max_hz, c.order, plain.band_error, limited.band_error,
       limited.band_error / plain.band_error, plain.result.note, limited.result.note);
   const double reported = limited.result.diagnostics.at("band_h2_error");
-  std::cout << fmt::format("  reported band H2 error {:.4e} (independent {:.4e}); band integrals: {} "
-                           "nodes, {:.1e} relative\n",
-                           reported, limited.band_error,
-                           limited.result.diagnostics.at("band_integral_evaluations"),
-                           limited.result.diagnostics.at("band_integral_error"));
+  std::cout << fmt::format(
+      "  reported band H2 error {:.4e} (independent {:.4e}); band integrals: {} "
+      "nodes, {:.1e} relative\n",
+      reported, limited.band_error, limited.result.diagnostics.at("band_integral_evaluations"),
+      limited.result.diagnostics.at("band_integral_error"));
   // The reducer's own estimate (its band integrals' Gauss-Kronrod rule on log(omega)) against the
   // independent adaptive quadrature on omega = w0 tan(theta): both resolve the same integrand to
   // far better than 1e-3 (measured agreement 1e-5 or better).
@@ -104,9 +104,9 @@ INSTANTIATE_TEST_SUITE_P(SharedModels, FrequencyLimitedIrka,
                                            Case{"iss_so", 0.1, 1.0, 10, true},
                                            Case{"triplechain_cmess_n301", 0.01, 0.1, 6, true}),
                          [](const ::testing::TestParamInfo<Case>& p) {
-                           return std::string(p.param.model) +
-                                  (p.param.second_order ? "_so" : "") + "_r" +
-                                  std::to_string(p.param.order) + "_" + std::to_string(p.index);
+                           return std::string(p.param.model) + (p.param.second_order ? "_so" : "") +
+                                  "_r" + std::to_string(p.param.order) + "_" +
+                                  std::to_string(p.index);
                          });
 
 TEST(FrequencyLimitedIrkaInput, RefusesTheBestStartAndAStrayQuadratureTolerance) {

@@ -15,14 +15,14 @@
 #include <iostream>
 #include <string>
 
-#include "common/plugin_registry.hpp"
 #include "common/dense_balanced_truncation.hpp"
-#include "ecmor/measures/h2_norm.hpp"
+#include "common/plugin_registry.hpp"
 #include "ecmor/gramians/lyapunov.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/measures/h2_norm.hpp"
 #include "ecmor/model/dense_model.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/plugin/registry.hpp"
-#include "ecmor/linalg/shifted_solver.hpp"
 
 namespace ecmor {
 namespace {

@@ -25,11 +25,11 @@
 #include "common/plugin_registry.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/model/projection.hpp"
 #include "ecmor/plugin/registry.hpp"
-#include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/response/frequency_response.hpp"
 
 namespace ecmor {
 namespace {
@@ -161,7 +161,6 @@ ParameterMap first_order(ParameterMap p) {
   p.set("structure", "first_order");
   return p;
 }
-
 
 // Band in Hz from the models' suggested angular band (info.json lists rad/s).
 Band band_rad(double w_min, double w_max) { return {w_min / kTwoPi, w_max / kTwoPi}; }

@@ -4,6 +4,8 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+#include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -11,16 +13,13 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Eigenvalues>
-#include <Eigen/SparseCholesky>
-
 #include "common/builders.hpp"
 #include "common/dense_reference.hpp"
 #include "common/plugin_registry.hpp"
 #include "ecmor/base/error.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/plugin/registry.hpp"
-#include "ecmor/linalg/shifted_solver.hpp"
 
 namespace ecmor {
 namespace {
@@ -58,21 +57,23 @@ ParameterMap params(bool static_correction, int batch_size = 20) {
   return p;
 }
 
-
 // Band in Hz from the models' suggested angular band (info.json lists rad/s).
 Band band_rad(double w_min, double w_max) { return {w_min / kTwoPi, w_max / kTwoPi}; }
 
 double largest_angle_sin(const Matrix& X, const Matrix& Y) {
-  const Matrix Qx = Eigen::HouseholderQR<Matrix>(X).householderQ() * Matrix::Identity(X.rows(), X.cols());
-  const Matrix Qy = Eigen::HouseholderQR<Matrix>(Y).householderQ() * Matrix::Identity(Y.rows(), Y.cols());
+  const Matrix Qx =
+      Eigen::HouseholderQR<Matrix>(X).householderQ() * Matrix::Identity(X.rows(), X.cols());
+  const Matrix Qy =
+      Eigen::HouseholderQR<Matrix>(Y).householderQ() * Matrix::Identity(Y.rows(), Y.cols());
   return Eigen::JacobiSVD<Matrix>(Matrix(Qx - Qy * (Qy.transpose() * Qx))).singularValues()(0);
 }
 
 // The ranking the plugin documents (README): rigid first, then modes within the band margin by log
 // distance to the band (ascending f on ties), then the rest by ascending f. Written from the spec.
 // Returns all indices in rank order.
-std::vector<Index> ranked_by_frequency(const std::vector<double>& f_hz, const std::vector<bool>& rigid,
-                                       const Band& band, double margin) {
+std::vector<Index> ranked_by_frequency(const std::vector<double>& f_hz,
+                                       const std::vector<bool>& rigid, const Band& band,
+                                       double margin) {
   struct K {
     int tier;
     double d, f;
@@ -87,8 +88,9 @@ std::vector<Index> ranked_by_frequency(const std::vector<double>& f_hz, const st
     } else if (f < band.f_min_hz / margin || f > band.f_max_hz * margin) {
       keys.push_back({2, 0, f, jj});
     } else {
-      const double d = f < band.f_min_hz ? std::log(band.f_min_hz / f)
-                       : f > band.f_max_hz ? std::log(f / band.f_max_hz) : 0.0;
+      const double d = f < band.f_min_hz   ? std::log(band.f_min_hz / f)
+                       : f > band.f_max_hz ? std::log(f / band.f_max_hz)
+                                           : 0.0;
       keys.push_back({1, d, f, jj});
     }
   }
@@ -116,7 +118,8 @@ std::vector<Index> expected_selection(const Vector& lambda, const Band& band, do
 
 // Checks that V holds M-orthonormal eigenvectors of (K, M), each matching the dense eigenpair with
 // the nearest eigenvalue; returns their Rayleigh quotients.
-Vector check_modes(const SecondOrderModel& m, const Matrix& V, const Eigen::GeneralizedSelfAdjointEigenSolver<Matrix>& dense,
+Vector check_modes(const SecondOrderModel& m, const Matrix& V,
+                   const Eigen::GeneralizedSelfAdjointEigenSolver<Matrix>& dense,
                    double value_tol) {
   const Index n = V.cols();
   const Matrix gram = V.transpose() * (m.M * V);
@@ -131,7 +134,8 @@ Vector check_modes(const SecondOrderModel& m, const Matrix& V, const Eigen::Gene
     EXPECT_LT(res, 1e-12) << "residual of column " << j;
     Index best = 0;
     for (Index k = 1; k < dense.eigenvalues().size(); ++k) {
-      if (std::abs(dense.eigenvalues()[k] - rq[j]) < std::abs(dense.eigenvalues()[best] - rq[j])) best = k;
+      if (std::abs(dense.eigenvalues()[k] - rq[j]) < std::abs(dense.eigenvalues()[best] - rq[j]))
+        best = k;
     }
     EXPECT_NEAR(rq[j], dense.eigenvalues()[best],
                 value_tol * std::max(std::abs(dense.eigenvalues()[best]), 1e-14 * scale))
@@ -213,7 +217,8 @@ TEST(Modal, TriplechainSelectsBandModesLikeTheDenseReference) {
   check_modes(m, r.V, dense, 1e-10);
   const std::vector<Index> sel = expected_selection(dense.eigenvalues(), band, 10.0, 0.0, n);
   Matrix ref(m.K.rows(), n);
-  for (Index k = 0; k < n; ++k) ref.col(k) = dense.eigenvectors().col(sel[static_cast<std::size_t>(k)]);
+  for (Index k = 0; k < n; ++k)
+    ref.col(k) = dense.eigenvectors().col(sel[static_cast<std::size_t>(k)]);
   EXPECT_LT(largest_angle_sin(r.V, ref), 1e-8);
   EXPECT_GT(r.diagnostics.at("batches"), 1.0) << "the slicing must have been exercised";
 }
@@ -222,9 +227,10 @@ TEST(Modal, NestedAndIncrementalGrowthEqualsFreshComputation) {
   // A band high in the spectrum: its modes lie many slices above sigma_0.
   const Model model = shared_model("triplechain_saak09_n451");
   const auto& m0 = std::get<SecondOrderModel>(model);
-  const Band band = mid_band(
-      Eigen::GeneralizedSelfAdjointEigenSolver<Matrix>(Matrix(m0.K), Matrix(m0.M), Eigen::EigenvaluesOnly).eigenvalues(),
-      100, 110);
+  const Band band = mid_band(Eigen::GeneralizedSelfAdjointEigenSolver<Matrix>(
+                                 Matrix(m0.K), Matrix(m0.M), Eigen::EigenvaluesOnly)
+                                 .eigenvalues(),
+                             100, 110);
   auto grown = make(model, band, params(false, 8));
   const ReducerResult r10 = grown->reducer->reduce({10, {}});
   const ReducerResult r25 = grown->reducer->reduce({25, {}});
@@ -328,7 +334,8 @@ std::vector<Complex> pencil_eigenvalues(const Matrix& A, const Matrix& E) {
   Eigen::GeneralizedEigenSolver<Matrix> ges(A, E, false);
   std::vector<Complex> out;
   for (Index j = 0; j < A.rows(); ++j) {
-    if (std::abs(ges.betas()[j]) > 1e-13 * std::abs(ges.alphas()[j])) out.push_back(ges.alphas()[j] / ges.betas()[j]);
+    if (std::abs(ges.betas()[j]) > 1e-13 * std::abs(ges.alphas()[j]))
+      out.push_back(ges.alphas()[j] / ges.betas()[j]);
   }
   return out;
 }
@@ -358,9 +365,11 @@ TEST(Modal, BuildDescriptorPetrovGalerkinKeepsTheSelectedPoles) {
   const std::vector<Complex> ref = pencil_eigenvalues(Matrix(m.A), Matrix(m.E));
   std::vector<double> f_ref;
   for (const Complex& l : ref) f_ref.push_back(std::abs(l) / kTwoPi);
-  const std::vector<Index> order = ranked_by_frequency(f_ref, std::vector<bool>(ref.size(), false), band, 10.0);
+  const std::vector<Index> order =
+      ranked_by_frequency(f_ref, std::vector<bool>(ref.size(), false), band, 10.0);
   std::vector<Complex> first;
-  for (std::size_t k = 0; k < got.size(); ++k) first.push_back(ref[static_cast<std::size_t>(order[k])]);
+  for (std::size_t k = 0; k < got.size(); ++k)
+    first.push_back(ref[static_cast<std::size_t>(order[k])]);
   expect_subset(first, got, 1e-8);
 }
 
@@ -374,7 +383,8 @@ TEST(Modal, Rail371SymmetricDescriptorIsGalerkin) {
   const auto& red = std::get<ReducedDescriptorModel>(r.model);
   const Vector poles = Eigen::GeneralizedSelfAdjointEigenSolver<Matrix>(red.A, red.E).eigenvalues();
   // Dense reference: -A phi = mu E phi; the reduced poles are -mu of the selected modes.
-  const Vector mu = Eigen::GeneralizedSelfAdjointEigenSolver<Matrix>(Matrix(-m.A), Matrix(m.E)).eigenvalues();
+  const Vector mu =
+      Eigen::GeneralizedSelfAdjointEigenSolver<Matrix>(Matrix(-m.A), Matrix(m.E)).eigenvalues();
   const std::vector<Index> sel = [&] {
     // mu is the angular frequency here: rank on lambda = mu^2 with the second-order formula.
     return expected_selection(Vector(mu.array().square()), band, 10.0, 0.0, 15);
@@ -383,7 +393,8 @@ TEST(Modal, Rail371SymmetricDescriptorIsGalerkin) {
   for (Index j : sel) expected.push_back(-mu[j]);
   std::sort(expected.begin(), expected.end());
   for (Index j = 0; j < 15; ++j) {
-    EXPECT_NEAR(poles[j], expected[static_cast<std::size_t>(j)], 1e-10 * std::abs(expected[static_cast<std::size_t>(j)]));
+    EXPECT_NEAR(poles[j], expected[static_cast<std::size_t>(j)],
+                1e-10 * std::abs(expected[static_cast<std::size_t>(j)]));
   }
 }
 
@@ -536,8 +547,9 @@ TEST(Modal, DominanceIsRefusedByNameOnTheGeneralPath) {
     make(shared_model("build_so"), band_rad(1e-1, 1e3), p);
     FAIL() << "expected ConfigError";
   } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("mode_ranking: dominance needs the symmetric eigenproblem"),
-              std::string::npos)
+    EXPECT_NE(
+        std::string(e.what()).find("mode_ranking: dominance needs the symmetric eigenproblem"),
+        std::string::npos)
         << e.what();
     EXPECT_NE(std::string(e.what()).find("general"), std::string::npos) << e.what();
   }
@@ -581,7 +593,8 @@ TEST(Modal, NegativeStiffnessIsAnInputErrorNamingK) {
     f->reducer->reduce({5, {}});
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("K has a negative eigenvalue"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("K has a negative eigenvalue"), std::string::npos)
+        << e.what();
   }
 }
 

@@ -53,8 +53,7 @@ void expect_table(const std::string& file, const std::string& name,
                   const std::vector<ParameterDoc>& docs) {
   const std::string expected = markdown_table(docs);
   EXPECT_EQ(documented_table(file, name), expected)
-      << file << ": the option table '" << name
-      << "' differs from the specs; replace it with:\n"
+      << file << ": the option table '" << name << "' differs from the specs; replace it with:\n"
       << expected;
 }
 
@@ -185,8 +184,8 @@ TEST(OptionDocs, EveryDocumentedPortfolioKeyIsRead) {
   const auto docs = strategy_parameters("portfolio");
   ASSERT_FALSE(docs.empty());
   for (const auto& doc : docs) {
-    EXPECT_NO_THROW(parse_run_config(head + "  " + doc.name + ": " + doc.default_value + "\n",
-                                     "run.yaml"))
+    EXPECT_NO_THROW(
+        parse_run_config(head + "  " + doc.name + ": " + doc.default_value + "\n", "run.yaml"))
         << doc.name;
   }
 }
@@ -200,8 +199,9 @@ TEST(OptionDocs, UndocumentedKeysAreRefused) {
   EXPECT_NE(msg.find("unknown key 'batch_sise'"), std::string::npos) << msg;
   ParameterMap q("strategy 'grow_order'");
   q.set("max_ordr", 10);
-  EXPECT_NE(test::message_of<ConfigError>([&] { make_strategy("grow_order", q); })
-                .find("did you mean 'max_order'"),
+  EXPECT_NE(test::message_of<ConfigError>([&] {
+              make_strategy("grow_order", q);
+            }).find("did you mean 'max_order'"),
             std::string::npos);
 }
 

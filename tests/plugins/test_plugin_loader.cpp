@@ -136,8 +136,8 @@ TEST_F(PluginLoader, AbiMismatchNamesBothVersions) {
   EXPECT_EQ(message_of<PluginError>([&] { registry.load_plugin(path); }),
             "plugin " + path.string() +
                 ": was built for ecmor plugin ABI 0 (ecmor 0.0.1, g++ 10.2.1, cxx11-abi 1), this "
-                "ecmor (" ECMOR_VERSION_STRING
-                ") needs ABI " + std::to_string(ECMOR_PLUGIN_ABI_VERSION) +
+                "ecmor (" ECMOR_VERSION_STRING ") needs ABI " +
+                std::to_string(ECMOR_PLUGIN_ABI_VERSION) +
                 ": rebuild the plugin against this ecmor");
   EXPECT_TRUE(registry.names().empty());
 }

@@ -90,7 +90,7 @@ namespace {
 
 // "run.yaml:7: reducer 'modal': batch_size = -3: must be >= 1"
 [[noreturn]] void reject(const ParameterMap& map, const std::string& key, const ParameterValue& v,
-                       const std::string& rule) {
+                         const std::string& rule) {
   std::string prefix = v.location.empty() ? std::string() : v.location + ": ";
   throw ConfigError(
       fmt::format("{}{}: {} = {}: {}", prefix, map.owner(), key, describe(v.value), rule));

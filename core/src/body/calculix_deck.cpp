@@ -9,9 +9,9 @@
 #include <unordered_map>
 #include <unordered_set>
 
-#include "ecmor/body/calculix.hpp"
-#include "ecmor/base/error.hpp"
 #include "base/text_fields.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/body/calculix.hpp"
 
 namespace ecmor {
 namespace {

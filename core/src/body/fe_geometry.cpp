@@ -8,9 +8,9 @@
 #include <ostream>
 #include <unordered_map>
 
+#include "base/text_fields.hpp"
 #include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
-#include "base/text_fields.hpp"
 
 namespace ecmor {
 namespace {

@@ -165,8 +165,7 @@ ElasticBases elastic_bases(const BodyModel& body, Index rigid_modes) {
         "geometry are free (Rayleigh quotients {:.3g} relative to max K_ii / M_ii, at most {:g} "
         "for a free motion): a mechanism or a model whose nodes.csv does not fit K",
         rigid_modes, (energy.array().abs() <= kRigidCeiling * scale).count(), G1.cols(),
-        rigid_modes <= G1.cols() ? std::abs(energy(rigid_modes - 1)) / scale : 0.0,
-        kRigidCeiling));
+        rigid_modes <= G1.cols() ? std::abs(energy(rigid_modes - 1)) / scale : 0.0, kRigidCeiling));
   out.free_motions = rigid_modes;
   const Matrix R = G1 * stiffness.eigenvectors().leftCols(rigid_modes);
   const Matrix MR = body.M * R;
@@ -193,7 +192,9 @@ ElasticBases elastic_bases(const BodyModel& body, Index rigid_modes) {
   out.T.resize(n, static_cast<Index>(kept.size()));
   for (std::size_t j = 0; j < kept.size(); ++j)
     out.T.col(static_cast<Index>(j)) = Z * svd.matrixV().col(kept[j]);
-  const auto without_rigid = [&](const Matrix& X) -> Matrix { return X - R * (MR.transpose() * X); };
+  const auto without_rigid = [&](const Matrix& X) -> Matrix {
+    return X - R * (MR.transpose() * X);
+  };
   out.V = without_rigid(body.V * out.T);
   const bool galerkin = body.W.rows() == body.V.rows() && body.W == body.V;
   if (!galerkin) {

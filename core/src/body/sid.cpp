@@ -10,9 +10,9 @@
 #include <optional>
 #include <sstream>
 
+#include "base/text_fields.hpp"
 #include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
-#include "base/text_fields.hpp"
 
 namespace ecmor {
 namespace {

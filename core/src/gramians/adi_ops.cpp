@@ -8,7 +8,6 @@
 
 namespace ecmor::detail {
 
-
 double gram_norm(const Matrix& X) {
   if (X.cols() == 0) return 0.0;
   const Matrix G = X.transpose() * X;
@@ -28,9 +27,9 @@ double ldl_norm(const Matrix& W, const Matrix& S) {
   const Index k = std::min(W.rows(), W.cols());
   const Matrix R = qr.matrixQR().topRows(k).triangularView<Eigen::Upper>();
   const Matrix T = R * S * R.transpose();
-  const Vector ev = Eigen::SelfAdjointEigenSolver<Matrix>(Matrix((T + T.transpose()) / 2),
-                                                          Eigen::EigenvaluesOnly)
-                        .eigenvalues();
+  const Vector ev =
+      Eigen::SelfAdjointEigenSolver<Matrix>(Matrix((T + T.transpose()) / 2), Eigen::EigenvaluesOnly)
+          .eigenvalues();
   return std::max(std::abs(ev.minCoeff()), std::abs(ev.maxCoeff()));
 }
 

@@ -12,7 +12,6 @@
 
 namespace ecmor::detail {
 
-
 /// Real-arithmetic operations with the first-order realisation (E, A) of the view's model; with
 /// `transposed` they act with E', A' (observability side).
 class AdiRealOps {

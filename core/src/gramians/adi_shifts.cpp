@@ -9,8 +9,8 @@
 #include <optional>
 #include <string>
 
-#include "ecmor/base/error.hpp"
 #include "base/number_text.hpp"
+#include "ecmor/base/error.hpp"
 #include "linalg/qz_solver.hpp"
 
 namespace ecmor::detail {
@@ -58,8 +58,8 @@ std::vector<RitzPair> arnoldi(const Op& op, Index n, Index steps, const char* wh
 Matrix range_basis(const Matrix& X) {
   if (X.cols() == 0) return Matrix(X.rows(), 0);
   const auto [lambda, V] = gram_eigen(X);
-  const double cut = static_cast<double>(X.cols()) * std::numeric_limits<double>::epsilon() *
-                     lambda(0);
+  const double cut =
+      static_cast<double>(X.cols()) * std::numeric_limits<double>::epsilon() * lambda(0);
   Index r = 0;
   while (r < lambda.size() && lambda(r) > cut) ++r;
   return X * (V.leftCols(r) * lambda.head(r).cwiseSqrt().cwiseInverse().asDiagonal());
@@ -131,14 +131,13 @@ double AdiShiftSource::ritz_residual(const RitzPair& r, bool transposed) const {
   return denom > 0.0 ? (Au - r.value * Eu).norm() / denom : 1.0;
 }
 
-std::vector<Complex> AdiShiftSource::admissible(const std::vector<RitzPair>& ritz,
-                                                bool transposed, const char* where,
-                                                AdiResult& result) const {
+std::vector<Complex> AdiShiftSource::admissible(const std::vector<RitzPair>& ritz, bool transposed,
+                                                const char* where, AdiResult& result) const {
   std::vector<Complex> out;
   for (const RitzPair& r : ritz) {
     Complex theta = r.value;
     if (!std::isfinite(theta.real()) || !std::isfinite(theta.imag()) || theta == Complex(0.0))
-      continue;  // infinite (singular projected E) or zero: no usable shift
+      continue;                        // infinite (singular projected E) or zero: no usable shift
     if (theta.imag() < 0.0) continue;  // the conjugate partner carries the pair
     if (theta.real() >= 0.0) {
       const double rho = r.vector.size() > 0 ? ritz_residual(r, transposed) : 1.0;
@@ -148,7 +147,8 @@ std::vector<Complex> AdiShiftSource::admissible(const std::vector<RitzPair>& rit
       if (rho <= m_options.unstable_ritz_residual && theta.real() > 2.0 * rho * std::abs(theta)) {
         throw InputError("low-rank ADI (" + to_string(result.side) +
                          "): the model is not asymptotically stable: the pencil (A, E) has the "
-                         "eigenvalue " + number_text(theta) + " with Re >= 0 (" + where +
+                         "eigenvalue " +
+                         number_text(theta) + " with Re >= 0 (" + where +
                          " Ritz value, relative residual " + number_text(rho) +
                          "); the Gramians do not exist");
       }
@@ -221,21 +221,23 @@ std::vector<Complex> AdiShiftSource::heuristic(const Factorization& e, AdiResult
     p0 = m_view.solver().factorize(Complex(0.0));
   } catch (const NumericalError& err) {
     throw NumericalError(std::string("low-rank ADI heuristic shifts: A is singular (") +
-                         err.what() + "): Arnoldi on A^-1 E is impossible; use projection "
+                         err.what() +
+                         "): Arnoldi on A^-1 E is impossible; use projection "
                          "shifts");
   }
   auto op_minus = [&](const Matrix& x) -> Vector {
     // A^-1 = -(0 E - A)^-1.
     return (-m_ops.solve(*p0, 0.0, m_ops.apply_e(x, false), false)).col(0);
   };
-  std::vector<RitzPair> ritz = arnoldi(op_plus, m_ops.state_size(), m_options.arnoldi_steps, "E^-1 A");
-  for (RitzPair& r : arnoldi(op_minus, m_ops.state_size(), m_options.inverse_arnoldi_steps, "A^-1 E")) {
+  std::vector<RitzPair> ritz =
+      arnoldi(op_plus, m_ops.state_size(), m_options.arnoldi_steps, "E^-1 A");
+  for (RitzPair& r :
+       arnoldi(op_minus, m_ops.state_size(), m_options.inverse_arnoldi_steps, "A^-1 E")) {
     if (r.value == Complex(0.0)) continue;
     r.value = 1.0 / r.value;
     ritz.push_back(std::move(r));
   }
-  const std::vector<Complex> candidates =
-      admissible(ritz, false, "heuristic (Arnoldi)", result);
+  const std::vector<Complex> candidates = admissible(ritz, false, "heuristic (Arnoldi)", result);
   m_heuristic = select_minmax(candidates, m_options.max_shifts);
   return *m_heuristic;
 }

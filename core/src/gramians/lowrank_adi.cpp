@@ -18,6 +18,8 @@
 //    them apart; see AdiOptions::unstable_ritz_residual.
 #include "ecmor/gramians/lowrank_adi.hpp"
 
+#include <fmt/format.h>
+
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <Eigen/QR>
@@ -30,11 +32,9 @@
 #include <optional>
 #include <utility>
 
-#include <fmt/format.h>
-
+#include "base/number_text.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/interrupt.hpp"
-#include "base/number_text.hpp"
 #include "gramians/adi_ops.hpp"
 #include "gramians/adi_shifts.hpp"
 
@@ -84,7 +84,6 @@ void AdiOptions::validate() const {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
 
 /// The rules for an indefinite right-hand side G S G' (see LowRankAdi::solve(side, G, S)).
 void check_ldl_rhs(const std::string& where, Index n, const Matrix& G, const Matrix& S) {
@@ -144,10 +143,9 @@ void semidefinite_factor(const Matrix& L, const Matrix& S, const AdiOptions& opt
   result.largest_eigenvalue = theta_max;
   result.negative_eigenvalues = (theta.array() < 0.0).count();
   result.most_negative_eigenvalue = theta_min < 0.0 && scale > 0.0 ? theta_min / scale : 0.0;
-  const double cut =
-      theta_max > 0.0 && opt.compress
-          ? opt.compression_tolerance * opt.compression_tolerance * theta_max
-          : 0.0;
+  const double cut = theta_max > 0.0 && opt.compress
+                         ? opt.compression_tolerance * opt.compression_tolerance * theta_max
+                         : 0.0;
   Index keep = 0;
   while (keep < k && theta(k - 1 - keep) > cut) ++keep;
   if (keep < k && theta(k - 1 - keep) > 0.0 && theta_max > 0.0)
@@ -210,10 +208,10 @@ struct LowRankAdi::Impl {
     try {
       e_factorization = view.solver().factorize_combination(w);
     } catch (const NumericalError& e) {
-      throw InputError(std::string("low-rank ADI: ") + e_name() +
-                       " is singular (" + e.what() +
+      throw InputError(std::string("low-rank ADI: ") + e_name() + " is singular (" + e.what() +
                        "): a DAE (singular E) is not supported; the Gramians of the first-order "
-                       "realisation need a nonsingular " + e_name());
+                       "realisation need a nonsingular " +
+                       e_name());
     }
   }
 
@@ -243,7 +241,8 @@ struct LowRankAdi::Impl {
     ShiftQueue(Impl& impl, bool tr, const Matrix& W0, AdiResult& result)
         : m_impl(impl), m_tr(tr), m_w0(W0), m_result(result) {
       const AdiOptions& o = impl.options;
-      m_projection_cols = o.projection_columns > 0 ? o.projection_columns : o.max_shifts * W0.cols();
+      m_projection_cols =
+          o.projection_columns > 0 ? o.projection_columns : o.max_shifts * W0.cols();
     }
 
     /// A new set into the queue; false (queue unchanged) when no shift is admissible.
@@ -335,24 +334,25 @@ struct LowRankAdi::Impl {
       result.shifts.push_back(p);
       result.shifts.push_back(std::conj(p));
     }
-    if (!W.allFinite()) throw breakdown("the residual factor is not finite after the shift p = " + number_text(p));
+    if (!W.allFinite())
+      throw breakdown("the residual factor is not finite after the shift p = " + number_text(p));
   }
 
   /// The ADI iteration from W_0 = W with the residual W_k S W_k' (S == nullptr: S = I, the plain
   /// equation); rhs_norm = ||W_0 S W_0'||_2 > 0. Returns the uncompressed factor (X_k = L S~ L',
   /// S~ = diag(S, ..., S)) and fills the iteration fields of `result` (residuals, steps, shifts,
   /// shift_sets, iterations, residual, converged, message).
-  Matrix iterate(GramianSide side, Matrix W, const Matrix* S, double rhs_norm,
-                 AdiResult& result) {
+  Matrix iterate(GramianSide side, Matrix W, const Matrix* S, double rhs_norm, AdiResult& result) {
     const bool tr = side == GramianSide::Observability;
     GrowingFactor Z(ops.state_size(), std::max<Index>(4 * W.cols(), 16));
     ShiftQueue queue(*this, tr, W, result);
     if (!queue.refill(Z)) {
-      throw NumericalError("low-rank ADI (" + to_string(side) + "): no admissible shift: every "
-                           "Ritz value of the initial " + to_string(options.shifts) +
-                           " shift set is infinite, zero or on the imaginary axis (" +
-                           std::to_string(result.mirrored_ritz_values) +
-                           " had Re >= 0); an undamped model?");
+      throw NumericalError(
+          "low-rank ADI (" + to_string(side) +
+          "): no admissible shift: every "
+          "Ritz value of the initial " +
+          to_string(options.shifts) + " shift set is infinite, zero or on the imaginary axis (" +
+          std::to_string(result.mirrored_ritz_values) + " had Re >= 0); an undamped model?");
     }
     double res = 1.0;
     while (result.iterations < options.max_iterations && res > options.tolerance) {
@@ -509,8 +509,7 @@ double residual_of(FirstOrderView& view, const Matrix& Z, GramianSide side, cons
   RS.rightCols(m) = S != nullptr ? Matrix(R.rightCols(m) * *S) : Matrix(R.rightCols(m));
   const Matrix T = RS * R.transpose();
   const Matrix Ts = (T + T.transpose()) / 2;
-  const Vector ev =
-      Eigen::SelfAdjointEigenSolver<Matrix>(Ts, Eigen::EigenvaluesOnly).eigenvalues();
+  const Vector ev = Eigen::SelfAdjointEigenSolver<Matrix>(Ts, Eigen::EigenvaluesOnly).eigenvalues();
   const double norm = std::max(std::abs(ev.minCoeff()), std::abs(ev.maxCoeff()));
   return rhs > 0.0 ? norm / rhs : norm;
 }
@@ -570,9 +569,9 @@ LowRankBandGramians lowrank_band_gramians(FirstOrderView& view, const Band& band
   out.quadrature_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   LowRankAdi adi(view, options);
   const Matrix E_Lb = view.apply_e(Matrix(out.integrals.input / kTwoPi));
-  out.controllability = adi.solve(GramianSide::Controllability,
-                                  balanced_pair(E_Lb, view.input_matrix()),
-                                  swap_weight(view.inputs()));
+  out.controllability =
+      adi.solve(GramianSide::Controllability, balanced_pair(E_Lb, view.input_matrix()),
+                swap_weight(view.inputs()));
   const Matrix Et_Lc = view.apply_e_transposed(Matrix(out.integrals.output / kTwoPi));
   out.observability = adi.solve(GramianSide::Observability,
                                 balanced_pair(Et_Lc, Matrix(view.output_matrix().transpose())),

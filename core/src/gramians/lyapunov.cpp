@@ -1,7 +1,6 @@
 // lyapunov.cpp: dense Lyapunov and Sylvester equations by Bartels-Stewart on the complex Schur
 // form, Gramians of small stable models, and the dense conversion of small full models.
 #include "ecmor/gramians/lyapunov.hpp"
-#include "ecmor/model/dense_model.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -16,11 +15,12 @@
 #include <variant>
 #include <vector>
 
-#include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
 #include "base/number_text.hpp"
-#include "linalg/qz_solver.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/model/dense_model.hpp"
+#include "ecmor/response/frequency_response.hpp"
 #include "linalg/dense_lapack.hpp"
+#include "linalg/qz_solver.hpp"
 
 namespace ecmor {
 

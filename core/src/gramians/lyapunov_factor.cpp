@@ -14,9 +14,9 @@
 #include <type_traits>
 #include <vector>
 
-#include "ecmor/linalg/dense_kernels.hpp"
-#include "ecmor/base/error.hpp"
 #include "base/number_text.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/linalg/dense_kernels.hpp"
 #include "linalg/dense_lapack.hpp"
 
 namespace ecmor {

@@ -11,11 +11,11 @@
 #include <optional>
 #include <string>
 
+#include "base/number_text.hpp"
+#include "base/parallel_for.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/response/reduced_response.hpp"
 #include "linalg/gauss_kronrod.hpp"
-#include "base/number_text.hpp"
-#include "base/parallel_for.hpp"
 
 namespace ecmor {
 namespace {

@@ -10,8 +10,8 @@
 #include <type_traits>
 #include <vector>
 
-#include "ecmor/linalg/dense_kernels.hpp"
 #include "ecmor/base/error.hpp"
+#include "ecmor/linalg/dense_kernels.hpp"
 
 extern "C" {
 // LAPACK (the library behind liblapack.so.3: OpenBLAS's, or the reference one). The trailing
@@ -97,19 +97,19 @@ ThinSvd thin_svd(const Matrix& A) {
   std::vector<int> iwork(8 * static_cast<std::size_t>(k));
   int info = 0, lwork = -1;
   double query = 0.0;
-  dgesdd_("S", &m, &n, a.data(), &m, out.s.data(), out.U.data(), &m, Vt.data(), &k, &query,
-          &lwork, iwork.data(), &info, 1);
+  dgesdd_("S", &m, &n, a.data(), &m, out.s.data(), out.U.data(), &m, Vt.data(), &k, &query, &lwork,
+          iwork.data(), &info, 1);
   if (info == 0) {
     lwork = std::max(static_cast<int>(query), 1);
     std::vector<double> work(static_cast<std::size_t>(lwork));
-    dgesdd_("S", &m, &n, a.data(), &m, out.s.data(), out.U.data(), &m, Vt.data(), &k,
-            work.data(), &lwork, iwork.data(), &info, 1);
+    dgesdd_("S", &m, &n, a.data(), &m, out.s.data(), out.U.data(), &m, Vt.data(), &k, work.data(),
+            &lwork, iwork.data(), &info, 1);
   }
   if (info != 0)
     throw NumericalError("thin_svd: LAPACK's dgesdd " +
                          std::string(info > 0 ? "did not converge" : "refused an argument") +
-                         " (info " + std::to_string(info) + ") on a " + std::to_string(m) +
-                         " x " + std::to_string(n) + " matrix");
+                         " (info " + std::to_string(info) + ") on a " + std::to_string(m) + " x " +
+                         std::to_string(n) + " matrix");
   out.V = Vt.transpose();
   return out;
 }

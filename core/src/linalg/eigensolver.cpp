@@ -1,6 +1,9 @@
 // eigensolver.cpp: ARPACK-ng shift-invert drivers (reverse communication) and dense fallbacks.
 #include "ecmor/linalg/eigensolver.hpp"
 
+#include <fmt/format.h>
+
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <mutex>
@@ -8,9 +11,6 @@
 #include <random>
 #include <string>
 #include <vector>
-
-#include <Eigen/Eigenvalues>
-#include <fmt/format.h>
 
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/interrupt.hpp"
@@ -32,17 +32,28 @@ std::mutex g_arpack_mutex;
 // meaning in all of them; the routine-specific ones are in each routine's table below.
 std::string arpack_common_info(int info) {
   switch (info) {
-    case -1: return "N must be positive";
-    case -2: return "nev must be positive";
-    case -4: return "the maximum number of restarts must be positive";
-    case -5: return "invalid 'which'";
-    case -6: return "invalid 'bmat'";
-    case -7: return "workl too short";
-    case -9: return "the starting vector is zero";
-    case -10: return "invalid mode iparam(7)";
-    case -11: return "mode 1 with bmat = 'G' is incompatible";
-    case -12: return "iparam(1) must be 0 or 1";
-    default: return fmt::format("unknown ARPACK error (info = {})", info);
+    case -1:
+      return "N must be positive";
+    case -2:
+      return "nev must be positive";
+    case -4:
+      return "the maximum number of restarts must be positive";
+    case -5:
+      return "invalid 'which'";
+    case -6:
+      return "invalid 'bmat'";
+    case -7:
+      return "workl too short";
+    case -9:
+      return "the starting vector is zero";
+    case -10:
+      return "invalid mode iparam(7)";
+    case -11:
+      return "mode 1 with bmat = 'G' is incompatible";
+    case -12:
+      return "iparam(1) must be 0 or 1";
+    default:
+      return fmt::format("unknown ARPACK error (info = {})", info);
   }
 }
 
@@ -52,29 +63,39 @@ std::string saupd_info(int info, const int* iparam) {
       return fmt::format("maximum number of restarts reached: {} converged", iparam[4]);
     case 3:
       return "no shifts could be applied during an implicit restart (increase ncv)";
-    case -3: return "ncv must satisfy nev < ncv <= N";
-    case -8: return "the tridiagonal eigenvalue computation (LAPACK dsteqr) failed";
-    case -13: return "nev and which = 'BE' are incompatible";
+    case -3:
+      return "ncv must satisfy nev < ncv <= N";
+    case -8:
+      return "the tridiagonal eigenvalue computation (LAPACK dsteqr) failed";
+    case -13:
+      return "nev and which = 'BE' are incompatible";
     case -9999:
       return fmt::format(
           "could not build a Lanczos factorization (size {} reached): the operator may not be "
           "symmetric in the M inner product (M indefinite or K, M unsymmetric?)",
           iparam[4]);
-    default: return arpack_common_info(info);
+    default:
+      return arpack_common_info(info);
   }
 }
 
 std::string seupd_info(int info) {
   switch (info) {
-    case -3: return "ncv must satisfy nev < ncv <= N";
-    case -8: return "the tridiagonal eigenvalue computation (LAPACK dsteqr) failed";
-    case -14: return "dsaupd found no eigenvalue to sufficient accuracy";
-    case -15: return "howmny must be 'A' or 'S'";
-    case -16: return "howmny = 'S' is not implemented";
+    case -3:
+      return "ncv must satisfy nev < ncv <= N";
+    case -8:
+      return "the tridiagonal eigenvalue computation (LAPACK dsteqr) failed";
+    case -14:
+      return "dsaupd found no eigenvalue to sufficient accuracy";
+    case -15:
+      return "howmny must be 'A' or 'S'";
+    case -16:
+      return "howmny = 'S' is not implemented";
     case -17:
       return "dseupd counted a different number of converged Ritz values than dsaupd (the "
              "operator is probably not symmetric in the M inner product)";
-    default: return arpack_common_info(info);
+    default:
+      return arpack_common_info(info);
   }
 }
 
@@ -84,47 +105,55 @@ std::string naupd_info(int info, const int* iparam) {
       return fmt::format("maximum number of restarts reached: {} converged", iparam[4]);
     case 3:
       return "no shifts could be applied during an implicit restart (increase ncv)";
-    case -3: return "ncv must satisfy nev + 2 <= ncv <= N";
-    case -8: return "the Hessenberg eigenvalue computation (LAPACK dlahqr) failed";
+    case -3:
+      return "ncv must satisfy nev + 2 <= ncv <= N";
+    case -8:
+      return "the Hessenberg eigenvalue computation (LAPACK dlahqr) failed";
     case -9999:
       return fmt::format("could not build an Arnoldi factorization (size {} reached)", iparam[4]);
-    default: return arpack_common_info(info);
+    default:
+      return arpack_common_info(info);
   }
 }
 
 std::string neupd_info(int info) {
   switch (info) {
-    case -3: return "ncv must satisfy nev + 2 <= ncv <= N";
-    case -8: return "the Schur form computation (LAPACK dlahqr) failed";
-    case -9: return "the eigenvector computation (LAPACK dtrevc) failed";
-    case -13: return "howmny must be 'A' or 'P' when eigenvectors are asked for";
-    case -14: return "dnaupd found no eigenvalue to sufficient accuracy";
+    case -3:
+      return "ncv must satisfy nev + 2 <= ncv <= N";
+    case -8:
+      return "the Schur form computation (LAPACK dlahqr) failed";
+    case -9:
+      return "the eigenvector computation (LAPACK dtrevc) failed";
+    case -13:
+      return "howmny must be 'A' or 'P' when eigenvectors are asked for";
+    case -14:
+      return "dnaupd found no eigenvalue to sufficient accuracy";
     case -15:
       return "dneupd counted a different number of converged Ritz values than dnaupd";
-    default: return arpack_common_info(info);
+    default:
+      return arpack_common_info(info);
   }
 }
 
-Index default_ncv(Index n, Index nev) {
-  return std::min(n, std::max<Index>(2 * nev + 1, 20));
-}
+Index default_ncv(Index n, Index nev) { return std::min(n, std::max<Index>(2 * nev + 1, 20)); }
 
-void check_operands(const char* function, const Factorization& factorization,
-                    const SparseMatrix& B, const char* b_name) {
+void check_operands(const char* function, const Factorization& factorization, const SparseMatrix& B,
+                    const char* b_name) {
   if (B.rows() != B.cols()) {
-    throw InputError(fmt::format("{}: {} is {} x {}: must be square", function, b_name, B.rows(),
-                                 B.cols()));
+    throw InputError(
+        fmt::format("{}: {} is {} x {}: must be square", function, b_name, B.rows(), B.cols()));
   }
   if (factorization.size() != B.rows()) {
-    throw InputError(fmt::format("{}: the factorisation is {} x {} but {} is {} x {}: sizes must "
-                                 "agree",
-                                 function, factorization.size(), factorization.size(), b_name,
-                                 B.rows(), B.cols()));
+    throw InputError(fmt::format(
+        "{}: the factorisation is {} x {} but {} is {} x {}: sizes must "
+        "agree",
+        function, factorization.size(), factorization.size(), b_name, B.rows(), B.cols()));
   }
   if (factorization.is_complex()) {
-    throw InputError(fmt::format("{}: the factorisation ({}) is complex: shift-invert needs a "
-                                 "real shift",
-                                 function, factorization.method()));
+    throw InputError(
+        fmt::format("{}: the factorisation ({}) is complex: shift-invert needs a "
+                    "real shift",
+                    function, factorization.method()));
   }
 }
 
@@ -205,7 +234,8 @@ GeneralEigenResult finish_general(std::vector<Complex>& lambda, ComplexMatrix& X
   });
   Index keep = std::min(nev, count);
   if (keep < count && keep > 0) {
-    const Complex last = lambda[static_cast<std::size_t>(order[static_cast<std::size_t>(keep - 1)])];
+    const Complex last =
+        lambda[static_cast<std::size_t>(order[static_cast<std::size_t>(keep - 1)])];
     const Complex next = lambda[static_cast<std::size_t>(order[static_cast<std::size_t>(keep)])];
     if (last.imag() != 0.0 && std::abs(next - std::conj(last)) <= 1e-12 * std::abs(last)) ++keep;
   }
@@ -216,7 +246,8 @@ GeneralEigenResult finish_general(std::vector<Complex>& lambda, ComplexMatrix& X
     const Index j = order[static_cast<std::size_t>(k)];
     result.eigenvalues[k] = lambda[static_cast<std::size_t>(j)];
     const double norm = X.col(j).norm();
-    result.eigenvectors.col(k) = norm > 0.0 ? ComplexVector(X.col(j) / norm) : ComplexVector(X.col(j));
+    result.eigenvectors.col(k) =
+        norm > 0.0 ? ComplexVector(X.col(j) / norm) : ComplexVector(X.col(j));
   }
   return result;
 }
@@ -228,8 +259,8 @@ GeneralEigenResult dense_general(const Factorization& factorization, const Spars
                                  double sigma, Index nev, bool left) {
   const Index n = E.rows();
   const Matrix Ed = Matrix(E);
-  const Matrix op = left ? factorization.solve_transposed(Matrix(Ed.transpose()))
-                         : factorization.solve(Ed);
+  const Matrix op =
+      left ? factorization.solve_transposed(Matrix(Ed.transpose())) : factorization.solve(Ed);
   Eigen::EigenSolver<Matrix> es(op, true);
   if (es.info() != Eigen::Success) {
     throw NumericalError("general_shift_invert: the dense nonsymmetric eigensolver failed");
@@ -260,9 +291,10 @@ void EigenOptions::validate(Index n) const {
     throw ConfigError(fmt::format("EigenOptions::nev = {}: must be < N = {}", nev, n));
   }
   if (ncv != 0 && (ncv <= nev || ncv > n)) {
-    throw ConfigError(fmt::format("EigenOptions::ncv = {}: must be 0 (automatic) or in (nev, N] "
-                                  "= ({}, {}]",
-                                  ncv, nev, n));
+    throw ConfigError(
+        fmt::format("EigenOptions::ncv = {}: must be 0 (automatic) or in (nev, N] "
+                    "= ({}, {}]",
+                    ncv, nev, n));
   }
   if (!(tolerance >= 0.0) || !std::isfinite(tolerance)) {
     throw ConfigError(
@@ -329,16 +361,18 @@ SymmetricEigenResult symmetric_shift_invert(const Factorization& factorization,
     } else if (ido == 2) {
       out = M * in;
     } else {
-      throw NumericalError(fmt::format("symmetric_shift_invert: dsaupd asked for ido = {}, which "
-                                       "mode 3 never requests",
-                                       ido));
+      throw NumericalError(
+          fmt::format("symmetric_shift_invert: dsaupd asked for ido = {}, which "
+                      "mode 3 never requests",
+                      ido));
     }
   }
   result.iterations = iparam[2];
   if (info < 0 || info == 3) {
-    throw NumericalError(fmt::format("symmetric_shift_invert (sigma = {:g}, nev = {}, ncv = {}): "
-                                     "ARPACK dsaupd info = {}: {}",
-                                     sigma, nev, ncv, info, saupd_info(info, iparam)));
+    throw NumericalError(
+        fmt::format("symmetric_shift_invert (sigma = {:g}, nev = {}, ncv = {}): "
+                    "ARPACK dsaupd info = {}: {}",
+                    sigma, nev, ncv, info, saupd_info(info, iparam)));
   }
   const int converged_aupd = iparam[4];
   if (info == 1 || converged_aupd < nev) {
@@ -356,9 +390,10 @@ SymmetricEigenResult symmetric_shift_invert(const Factorization& factorization,
            options.tolerance, resid.data(), ncv, V.data(), N, iparam, ipntr, workd.data(),
            workl.data(), lworkl, &info);
   if (info != 0) {
-    throw NumericalError(fmt::format("symmetric_shift_invert (sigma = {:g}, nev = {}): ARPACK "
-                                     "dseupd info = {}: {}",
-                                     sigma, nev, info, seupd_info(info)));
+    throw NumericalError(
+        fmt::format("symmetric_shift_invert (sigma = {:g}, nev = {}): ARPACK "
+                    "dseupd info = {}: {}",
+                    sigma, nev, info, seupd_info(info)));
   }
   const int nconv = std::min(iparam[4], nev);
   std::vector<Index> order(static_cast<std::size_t>(nconv));
@@ -401,8 +436,8 @@ GeneralEigenResult general_shift_invert(const Factorization& factorization, cons
   GeneralEigenResult result;
   const SparseMatrix Et = left ? SparseMatrix(E.transpose()) : SparseMatrix();
 
-  const std::string where = fmt::format("ARPACK dnaupd (sigma = {:g}, nev = {}, ncv = {}{})",
-                                        sigma, nev, ncv, left ? ", left eigenvectors" : "");
+  const std::string where = fmt::format("ARPACK dnaupd (sigma = {:g}, nev = {}, ncv = {}{})", sigma,
+                                        nev, ncv, left ? ", left eigenvectors" : "");
   std::lock_guard<std::mutex> lock(g_arpack_mutex);
   Matrix x(n, 1);
   for (;;) {
@@ -411,9 +446,10 @@ GeneralEigenResult general_shift_invert(const Factorization& factorization, cons
     if (ido == 99) break;
     check_interrupt(where);
     if (ido != -1 && ido != 1) {
-      throw NumericalError(fmt::format("general_shift_invert: dnaupd asked for ido = {}, which "
-                                       "mode 1 never requests",
-                                       ido));
+      throw NumericalError(
+          fmt::format("general_shift_invert: dnaupd asked for ido = {}, which "
+                      "mode 1 never requests",
+                      ido));
     }
     Eigen::Map<Vector> in(workd.data() + ipntr[0] - 1, n);
     Eigen::Map<Vector> out(workd.data() + ipntr[1] - 1, n);
@@ -428,9 +464,10 @@ GeneralEigenResult general_shift_invert(const Factorization& factorization, cons
   }
   result.iterations = iparam[2];
   if (info < 0 || info == 3) {
-    throw NumericalError(fmt::format("general_shift_invert (sigma = {:g}, nev = {}, ncv = {}): "
-                                     "ARPACK dnaupd info = {}: {}",
-                                     sigma, nev, ncv, info, naupd_info(info, iparam)));
+    throw NumericalError(
+        fmt::format("general_shift_invert (sigma = {:g}, nev = {}, ncv = {}): "
+                    "ARPACK dnaupd info = {}: {}",
+                    sigma, nev, ncv, info, naupd_info(info, iparam)));
   }
   if (info == 1 || iparam[4] < nev) {
     throw NumericalError(fmt::format(
@@ -449,17 +486,18 @@ GeneralEigenResult general_shift_invert(const Factorization& factorization, cons
            N, "LM", nev, options.tolerance, resid.data(), ncv, V.data(), N, iparam, ipntr,
            workd.data(), workl.data(), lworkl, &info);
   if (info != 0) {
-    throw NumericalError(fmt::format("general_shift_invert (sigma = {:g}, nev = {}): ARPACK "
-                                     "dneupd info = {}: {}",
-                                     sigma, nev, info, neupd_info(info)));
+    throw NumericalError(
+        fmt::format("general_shift_invert (sigma = {:g}, nev = {}): ARPACK "
+                    "dneupd info = {}: {}",
+                    sigma, nev, info, neupd_info(info)));
   }
   const int nconv = std::min(iparam[4], nev + 1);
   // dneupd's real storage: a real Ritz value has its vector in one column; a pair nu, conj(nu)
   // (di > 0 first) has Re in column j and Im in column j + 1.
   std::vector<Complex> lambda;
   std::vector<ComplexVector> vectors;
-  const double nu_max = std::sqrt((dr.head(nconv).array().square() +
-                                   di.head(nconv).array().square()).maxCoeff());
+  const double nu_max =
+      std::sqrt((dr.head(nconv).array().square() + di.head(nconv).array().square()).maxCoeff());
   for (int j = 0; j < nconv; ++j) {
     const Complex nu(dr[j], di[j]);
     const bool infinite = std::abs(nu) <= kInfiniteNuTol * nu_max;
@@ -471,7 +509,8 @@ GeneralEigenResult general_shift_invert(const Factorization& factorization, cons
       continue;
     }
     if (j + 1 >= nconv) break;  // half a pair at the end: its partner was not delivered
-    const ComplexVector z = Z.col(j).cast<Complex>() + Complex(0.0, 1.0) * Z.col(j + 1).cast<Complex>();
+    const ComplexVector z =
+        Z.col(j).cast<Complex>() + Complex(0.0, 1.0) * Z.col(j + 1).cast<Complex>();
     if (!infinite) {
       lambda.push_back(sigma + 1.0 / nu);
       vectors.push_back(z);
@@ -490,14 +529,16 @@ GeneralEigenResult general_shift_invert(const Factorization& factorization, cons
 
 Vector dense_generalized_eigenvalues(const Matrix& K, const Matrix& M) {
   if (K.rows() != K.cols() || M.rows() != M.cols() || K.rows() != M.rows()) {
-    throw InputError(fmt::format("dense_generalized_eigenvalues: K is {} x {} and M is {} x {}: "
-                                 "both must be square of one size",
-                                 K.rows(), K.cols(), M.rows(), M.cols()));
+    throw InputError(
+        fmt::format("dense_generalized_eigenvalues: K is {} x {} and M is {} x {}: "
+                    "both must be square of one size",
+                    K.rows(), K.cols(), M.rows(), M.cols()));
   }
   if (K.rows() > 5000) {
-    throw InputError(fmt::format("dense_generalized_eigenvalues: N = {} > 5000: too large for a "
-                                 "dense eigensolver",
-                                 K.rows()));
+    throw InputError(
+        fmt::format("dense_generalized_eigenvalues: N = {} > 5000: too large for a "
+                    "dense eigensolver",
+                    K.rows()));
   }
   const auto asym = [](const Matrix& A) {
     const double norm = A.norm();
@@ -525,15 +566,17 @@ Vector dense_generalized_eigenvalues(const Matrix& K, const Matrix& M) {
   for (Index j = 0; j < K.rows(); ++j) {
     const double scale = std::abs(alpha[j]) + std::abs(beta[j]);
     if (std::abs(beta[j]) <= 1e-14 * scale) {
-      throw NumericalError(fmt::format("dense_generalized_eigenvalues: the pencil has an infinite "
-                                       "eigenvalue (M singular, beta[{}] = {:g})",
-                                       j, beta[j]));
+      throw NumericalError(
+          fmt::format("dense_generalized_eigenvalues: the pencil has an infinite "
+                      "eigenvalue (M singular, beta[{}] = {:g})",
+                      j, beta[j]));
     }
     const Complex l = alpha[j] / beta[j];
     if (std::abs(l.imag()) > 1e-8 * std::abs(l)) {
-      throw NumericalError(fmt::format("dense_generalized_eigenvalues: complex eigenvalue {:g}{:+g}i "
-                                       "(the result type holds real eigenvalues only)",
-                                       l.real(), l.imag()));
+      throw NumericalError(
+          fmt::format("dense_generalized_eigenvalues: complex eigenvalue {:g}{:+g}i "
+                      "(the result type holds real eigenvalues only)",
+                      l.real(), l.imag()));
     }
     lambda[j] = l.real();
   }

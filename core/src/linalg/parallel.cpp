@@ -92,9 +92,8 @@ bool petsc_has_eigensolver(const Factorization& factorization) {
   return api != nullptr && api->symmetric_eigs != nullptr && factorization.method() == "mumps";
 }
 
-SymmetricEigenResult petsc_symmetric_eigs(const Factorization& factorization,
-                                          const SparseMatrix& M, double sigma,
-                                          const EigenOptions& options) {
+SymmetricEigenResult petsc_symmetric_eigs(const Factorization& factorization, const SparseMatrix& M,
+                                          double sigma, const EigenOptions& options) {
   return g_mpi.load()->symmetric_eigs(factorization, M, sigma, options);
 }
 

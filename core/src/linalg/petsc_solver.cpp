@@ -19,11 +19,11 @@
 
 #include <chrono>
 #include <cmath>
-#include <random>
 #include <cstdlib>
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <random>
 #include <vector>
 
 #include "ecmor/base/error.hpp"
@@ -98,7 +98,7 @@ struct RowPattern {
   PetscInt row_begin = 0, row_end = 0;
   std::vector<PetscInt> offset;  // size rows + 1
   std::vector<PetscInt> cols;
-  std::vector<PetscInt> diag_nnz, off_nnz;  // for preallocation
+  std::vector<PetscInt> diag_nnz, off_nnz;                          // for preallocation
   std::vector<std::vector<std::pair<PetscInt, PetscInt>>> scatter;  // per term: (value idx, pos)
 };
 
@@ -187,8 +187,7 @@ class SolverState {
   /// The combination sum_k w_k T_k as a distributed PETSc matrix (the caller destroys it).
   Mat assemble(std::span<const Complex> weights) const {
     const std::vector<PetscScalar> values = combination_values(weights);
-    return make_matrix(m_pattern.diag_nnz, m_pattern.off_nnz,
-                       [&](Mat A) { set_rows(A, values); });
+    return make_matrix(m_pattern.diag_nnz, m_pattern.off_nnz, [&](Mat A) { set_rows(A, values); });
   }
 
   /// Overwrites the values of a matrix made by assemble() with another combination: the same
@@ -208,7 +207,8 @@ class SolverState {
     std::vector<PetscInt> diag(static_cast<std::size_t>(local), 0), off(diag);
     for (PetscInt r = 0; r < local; ++r)
       for (RowMatrix::InnerIterator it(R, r); it; ++it)
-        ++((it.col() >= p.row_begin && it.col() < p.row_end) ? diag : off)[static_cast<std::size_t>(r)];
+        ++((it.col() >= p.row_begin && it.col() < p.row_end) ? diag
+                                                             : off)[static_cast<std::size_t>(r)];
     return make_matrix(diag, off, [&](Mat A) {
       std::vector<PetscInt> cols;
       std::vector<PetscScalar> values;
@@ -247,8 +247,8 @@ class SolverState {
       const PetscInt row = p.row_begin + r;
       const PetscInt b = p.offset[static_cast<std::size_t>(r)];
       const PetscInt e = p.offset[static_cast<std::size_t>(r) + 1];
-      ECMOR_PETSC(MatSetValues(A, 1, &row, e - b, p.cols.data() + b, values.data() + b,
-                               INSERT_VALUES));
+      ECMOR_PETSC(
+          MatSetValues(A, 1, &row, e - b, p.cols.data() + b, values.data() + b, INSERT_VALUES));
     }
   }
 
@@ -312,17 +312,16 @@ class SolverState {
       for (std::size_t k = 0; k < rows.size(); ++k) {
         const auto& R = rows[k];
         for (typename std::decay_t<decltype(R)>::InnerIterator it(R, r); it; ++it) {
-          const auto pos = std::lower_bound(merged.begin(), merged.end(),
-                                            static_cast<PetscInt>(it.col())) -
-                           merged.begin();
+          const auto pos =
+              std::lower_bound(merged.begin(), merged.end(), static_cast<PetscInt>(it.col())) -
+              merged.begin();
           const auto value_index = static_cast<PetscInt>(&it.value() - R.valuePtr());
           p.scatter[k].emplace_back(value_index, base + static_cast<PetscInt>(pos));
         }
       }
     }
     m_row_values.clear();
-    for (const auto& R : rows)
-      m_row_values.emplace_back(R.valuePtr(), R.valuePtr() + R.nonZeros());
+    for (const auto& R : rows) m_row_values.emplace_back(R.valuePtr(), R.valuePtr() + R.nonZeros());
   }
 
   Index m_n = 0;
@@ -373,10 +372,9 @@ class PetscSolver final : public ShiftedSolver {
                       bool transposed) const {
     require_weights(weights);
     if (x.rows() != m_terms.n)
-      throw InputError(fmt::format("PETSc backend: {}: x has {} rows, expected {}",
-                                   transposed ? "apply_combination_transposed"
-                                              : "apply_combination",
-                                   x.rows(), m_terms.n));
+      throw InputError(fmt::format(
+          "PETSc backend: {}: x has {} rows, expected {}",
+          transposed ? "apply_combination_transposed" : "apply_combination", x.rows(), m_terms.n));
     const Matrix xr = x.real(), xi = x.imag();
     ComplexMatrix y = ComplexMatrix::Zero(m_terms.n, x.cols());
     Matrix tr, ti;
@@ -464,8 +462,8 @@ class PetscFactorization final : public Factorization {
     ECMOR_PETSC(MatMumpsGetInfog(F, 28, &null_pivots));
     if (err != MAT_FACTOR_NOERROR || null_pivots > 0) {
       std::string w;
-      for (const Complex& c : m_weights) w += fmt::format("{}{:g}{:+g}i", w.empty() ? "" : ", ",
-                                                          c.real(), c.imag());
+      for (const Complex& c : m_weights)
+        w += fmt::format("{}{:g}{:+g}i", w.empty() ? "" : ", ", c.real(), c.imag());
       throw NumericalError(fmt::format(
           "PETSc backend: MUMPS could not factorise the combination with weights ({}): the "
           "matrix is (numerically) singular ({} null pivot{}, MatFactorError {})",
@@ -495,14 +493,12 @@ class PetscFactorization final : public Factorization {
   double rcond() const override { return std::numeric_limits<double>::quiet_NaN(); }
 
   Matrix solve(const Matrix& B) const override {
-    if (m_complex)
-      throw NumericalError("PETSc backend: real solve with a complex factorisation");
+    if (m_complex) throw NumericalError("PETSc backend: real solve with a complex factorisation");
     return run(B.cast<Complex>(), false).real();
   }
   ComplexMatrix solve(const ComplexMatrix& B) const override { return run(B, false); }
   Matrix solve_transposed(const Matrix& B) const override {
-    if (m_complex)
-      throw NumericalError("PETSc backend: real solve with a complex factorisation");
+    if (m_complex) throw NumericalError("PETSc backend: real solve with a complex factorisation");
     return run(B.cast<Complex>(), true).real();
   }
   ComplexMatrix solve_transposed(const ComplexMatrix& B) const override { return run(B, true); }
@@ -532,10 +528,10 @@ class PetscFactorization final : public Factorization {
       } else {
         ECMOR_PETSC(KSPSolve(m_slot.ksp, m_slot.b, m_slot.x));
       }
-      ECMOR_PETSC(VecScatterBegin(m_slot.scatter, m_slot.x, m_slot.all, INSERT_VALUES,
-                                  SCATTER_FORWARD));
-      ECMOR_PETSC(VecScatterEnd(m_slot.scatter, m_slot.x, m_slot.all, INSERT_VALUES,
-                                SCATTER_FORWARD));
+      ECMOR_PETSC(
+          VecScatterBegin(m_slot.scatter, m_slot.x, m_slot.all, INSERT_VALUES, SCATTER_FORWARD));
+      ECMOR_PETSC(
+          VecScatterEnd(m_slot.scatter, m_slot.x, m_slot.all, INSERT_VALUES, SCATTER_FORWARD));
       const PetscScalar* x = nullptr;
       ECMOR_PETSC(VecGetArrayRead(m_slot.all, &x));
       for (Index r = 0; r < B.rows(); ++r)
@@ -645,8 +641,8 @@ SymmetricEigenResult symmetric_eigs(const Factorization& factorization, const Sp
   if (F == nullptr)
     throw InputError("PETSc backend: the SLEPc eigensolver needs a factorisation of this backend");
   const Index n = F->size();
-  const std::string where = fmt::format("SLEPc Krylov-Schur (sigma = {:g}, nev = {})", sigma,
-                                        options.nev);
+  const std::string where =
+      fmt::format("SLEPc Krylov-Schur (sigma = {:g}, nev = {})", sigma, options.nev);
   EpsObjects o;
   ShiftInvertContext ctx;
   o.M = F->state().distribute(M);
@@ -710,10 +706,10 @@ SymmetricEigenResult symmetric_eigs(const Factorization& factorization, const Sp
   ECMOR_PETSC(EPSGetConverged(o.eps, &nconv));
   ECMOR_PETSC(EPSGetIterationNumber(o.eps, &iterations));
   if (nconv < static_cast<PetscInt>(options.nev))
-    throw NumericalError(fmt::format("{}: only {} of {} eigenpairs converged in {} restarts "
-                                     "(SLEPc reason {})",
-                                     where, nconv, options.nev, iterations,
-                                     static_cast<int>(reason)));
+    throw NumericalError(
+        fmt::format("{}: only {} of {} eigenpairs converged in {} restarts "
+                    "(SLEPc reason {})",
+                    where, nconv, options.nev, iterations, static_cast<int>(reason)));
 
   // The nev eigenpairs nearest sigma (SLEPc sorts them by |nu|), gathered on every rank.
   const Index nev = options.nev;
@@ -740,7 +736,8 @@ SymmetricEigenResult symmetric_eigs(const Factorization& factorization, const Sp
   // until the group is spanned. (Parts that are rounding noise never reach that size.)
   std::vector<Index> order(static_cast<std::size_t>(nev));
   for (Index j = 0; j < nev; ++j) order[static_cast<std::size_t>(j)] = j;
-  std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) { return lambda(a) < lambda(b); });
+  std::stable_sort(order.begin(), order.end(),
+                   [&](Index a, Index b) { return lambda(a) < lambda(b); });
   SymmetricEigenResult result;
   result.eigenvalues.resize(nev);
   result.eigenvectors.resize(n, nev);
@@ -759,7 +756,7 @@ SymmetricEigenResult symmetric_eigs(const Factorization& factorization, const Sp
       ++e;
     struct Part {
       Vector v;
-      double size;      // its M-norm
+      double size;       // its M-norm
       double reference;  // the M-norm of its complex vector
     };
     std::vector<Part> parts;

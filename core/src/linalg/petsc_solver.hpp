@@ -11,8 +11,8 @@
 #include <memory>
 
 #include "ecmor/linalg/eigensolver.hpp"
-#include "ecmor/model/model.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor::detail {
 
@@ -29,9 +29,8 @@ struct PetscBackendApi {
   /// SLEPc's Krylov-Schur on K phi = lambda M phi in shift-invert form, applying the MUMPS
   /// factorisation `factorization` of K - sigma M (made by this module's solver); the result has
   /// the meaning of ecmor::symmetric_shift_invert. Null when the module was built without SLEPc.
-  SymmetricEigenResult (*symmetric_eigs)(const Factorization& factorization,
-                                         const SparseMatrix& M, double sigma,
-                                         const EigenOptions& options);
+  SymmetricEigenResult (*symmetric_eigs)(const Factorization& factorization, const SparseMatrix& M,
+                                         double sigma, const EigenOptions& options);
 };
 
 constexpr int kPetscBackendApiVersion = 2;
@@ -43,9 +42,8 @@ std::unique_ptr<ShiftedSolver> make_petsc_solver(const Model& model);
 /// True when `factorization` was made by the PETSc backend and the module has SLEPc: then
 /// symmetric_shift_invert hands the problem to petsc_symmetric_eigs.
 bool petsc_has_eigensolver(const Factorization& factorization);
-SymmetricEigenResult petsc_symmetric_eigs(const Factorization& factorization,
-                                          const SparseMatrix& M, double sigma,
-                                          const EigenOptions& options);
+SymmetricEigenResult petsc_symmetric_eigs(const Factorization& factorization, const SparseMatrix& M,
+                                          double sigma, const EigenOptions& options);
 
 }  // namespace ecmor::detail
 

@@ -11,9 +11,9 @@
 #include <optional>
 #include <vector>
 
-#include "ecmor/linalg/eigensolver.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/interrupt.hpp"
+#include "ecmor/linalg/eigensolver.hpp"
 
 namespace ecmor {
 
@@ -270,17 +270,18 @@ RigidBodyModes analyse(const Model& model, ShiftedSolver& solver) {
   const SparseMatrix& Ms = *pencil.M;
   const char* k_name = pencil.k_name();
   if (!(relative_asymmetry(Ks) <= kSymmetry) || !(relative_asymmetry(Ms) <= kSymmetry)) {
-    r.method = fmt::format("{} or {} is not symmetric: no rigid-body analysis", k_name,
-                           pencil.m_name());
+    r.method =
+        fmt::format("{} or {} is not symmetric: no rigid-body analysis", k_name, pencil.m_name());
     return r;
   }
   if (!is_positive_definite(Ms)) {
     // A singular E (a DAE) or massless degrees of freedom: (K, M) has infinite eigenvalues, and
     // Lanczos on it need not converge (mna1: minutes without an answer). Such models are judged
     // by their poles alone.
-    r.method = fmt::format("{} is not positive definite (a DAE or massless degrees of freedom): "
-                           "no rigid-body analysis",
-                           pencil.m_name());
+    r.method = fmt::format(
+        "{} is not positive definite (a DAE or massless degrees of freedom): "
+        "no rigid-body analysis",
+        pencil.m_name());
     return r;
   }
   r.scale = spectrum_scale(Ks, Ms);

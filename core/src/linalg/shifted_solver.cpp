@@ -49,9 +49,9 @@
 #include <stdexcept>
 #include <utility>
 
+#include "base/parallel_for.hpp"
 #include "ecmor/base/error.hpp"
 #include "linalg/mumps_ldlt.hpp"
-#include "base/parallel_for.hpp"
 #include "linalg/petsc_solver.hpp"
 
 namespace ecmor {

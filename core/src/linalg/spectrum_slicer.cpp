@@ -22,11 +22,15 @@ constexpr double kTrustRatio = 1e4;
 
 SymmetricSlicer::SymmetricSlicer(const SparseMatrix& Ks, const SparseMatrix& Ms,
                                  ShiftedSolver& solver, FactorizeFn factorize, bool second_order,
-                                 const SliceOptions& options, double f_min_hz,
-                                 RigidBodyModes rigid)
-    : m_K(Ks), m_M(Ms), m_solver(solver), m_factorize(std::move(factorize)),
+                                 const SliceOptions& options, double f_min_hz, RigidBodyModes rigid)
+    : m_K(Ks),
+      m_M(Ms),
+      m_solver(solver),
+      m_factorize(std::move(factorize)),
       m_second_order(second_order),
-      m_options(options), m_n(Ks.rows()), m_rigid(std::move(rigid)) {
+      m_options(options),
+      m_n(Ks.rows()),
+      m_rigid(std::move(rigid)) {
   m_scale = spectrum_scale(Ks, Ms);
   m_k_norm = Ks.norm();
   m_phi.resize(m_n, 0);
@@ -84,11 +88,11 @@ void SymmetricSlicer::next_batch() {
           "{}: {} has a negative eigenvalue ({}): it must be positive semidefinite for "
           "modal truncation",
           m_options.caller, m_second_order ? "K" : "-A",
-          cholesky_failed ? fmt::format("the Cholesky factorisation of {} - sigma M failed at "
-                                        "sigma = {:g} < 0",
-                                        m_second_order ? "K" : "-A", sigma)
-                          : fmt::format("{:g}, spectrum scale {:g}", r.eigenvalues.minCoeff(),
-                                        m_scale)));
+          cholesky_failed
+              ? fmt::format("the Cholesky factorisation of {} - sigma M failed at "
+                            "sigma = {:g} < 0",
+                            m_second_order ? "K" : "-A", sigma)
+              : fmt::format("{:g}, spectrum scale {:g}", r.eigenvalues.minCoeff(), m_scale)));
     }
     m_factorizations.push_back(F);
     m_shifts.push_back(sigma);

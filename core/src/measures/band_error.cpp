@@ -1,5 +1,6 @@
 #include "ecmor/measures/band_error.hpp"
 
+#include <fmt/format.h>
 #include <omp.h>
 
 #include <algorithm>
@@ -7,8 +8,6 @@
 #include <exception>
 #include <numeric>
 #include <sstream>
-
-#include <fmt/format.h>
 
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/parameters.hpp"
@@ -31,8 +30,8 @@ void Band::validate() const {
                       "e.g. 1e-3 * f_max_hz for a band starting near 0)");
   }
   if (!std::isfinite(f_max_hz) || !(f_max_hz > f_min_hz)) {
-    throw ConfigError("band.f_max_hz = " + fmt(f_max_hz) + ": must be finite and > band.f_min_hz = " +
-                      fmt(f_min_hz));
+    throw ConfigError("band.f_max_hz = " + fmt(f_max_hz) +
+                      ": must be finite and > band.f_min_hz = " + fmt(f_min_hz));
   }
 }
 
@@ -49,9 +48,12 @@ ErrorNorm parse_error_norm(const std::string& name) {
 
 std::string to_string(ErrorVerify verify) {
   switch (verify) {
-    case ErrorVerify::Dense: return "dense";
-    case ErrorVerify::Estimate: return "estimate";
-    case ErrorVerify::Auto: break;
+    case ErrorVerify::Dense:
+      return "dense";
+    case ErrorVerify::Estimate:
+      return "estimate";
+    case ErrorVerify::Auto:
+      break;
   }
   return "auto";
 }
@@ -80,7 +82,8 @@ void BandErrorOptions::validate() const {
   };
   if (grid_points < 2) bad("grid_points", std::to_string(grid_points), "must be >= 2");
   if (grid_points > 1000000) bad("grid_points", std::to_string(grid_points), "must be <= 1e6");
-  if (max_pole_samples < 0) bad("max_pole_samples", std::to_string(max_pole_samples), "must be >= 0");
+  if (max_pole_samples < 0)
+    bad("max_pole_samples", std::to_string(max_pole_samples), "must be >= 0");
   if (refine_peaks < 0) bad("refine_peaks", std::to_string(refine_peaks), "must be >= 0");
   if (refine_evaluations < 0 || refine_evaluations > 200) {
     bad("refine_evaluations", std::to_string(refine_evaluations), "must be in [0, 200]");
@@ -88,7 +91,8 @@ void BandErrorOptions::validate() const {
   if (!(zero_threshold >= 0.0) || !(zero_threshold < 1.0)) {
     bad("zero_threshold", std::to_string(zero_threshold), "must be in [0, 1)");
   }
-  if (dense_max_states < 0) bad("dense_max_states", std::to_string(dense_max_states), "must be >= 0");
+  if (dense_max_states < 0)
+    bad("dense_max_states", std::to_string(dense_max_states), "must be >= 0");
   if (estimate_points < 2 || estimate_points > 1000000)
     bad("estimate_points", std::to_string(estimate_points), "must be in [2, 1e6]");
   if (reference_points < 2 || reference_points > 10000)
@@ -122,10 +126,10 @@ namespace {
 // Error measures at one frequency.
 struct Sample {
   double f_hz = 0.0;
-  double abs2 = 0.0;    // ||H - Hr||_2
-  double absF = 0.0;    // ||H - Hr||_F
-  double ref2 = 0.0;    // ||H||_2
-  double refF = 0.0;    // ||H||_F
+  double abs2 = 0.0;      // ||H - Hr||_2
+  double absF = 0.0;      // ||H - Hr||_F
+  double ref2 = 0.0;      // ||H||_2
+  double refF = 0.0;      // ||H||_F
   bool singular = false;  // Hr has a pole exactly here
   bool exact = true;      // H is the full model's own (not a reference model's estimate)
   ComplexMatrix H;        // the reference side (empty where the full model is singular)
@@ -346,7 +350,8 @@ BandError assemble_band_error(CandidateResponse& candidate, std::vector<double> 
                                                : br.c - kGolden * (br.c - br.a);
       }
       std::vector<double> trial_f(trial.size());
-      std::transform(trial.begin(), trial.end(), trial_f.begin(), [](double x) { return std::exp(x); });
+      std::transform(trial.begin(), trial.end(), trial_f.begin(),
+                     [](double x) { return std::exp(x); });
       const std::vector<Sample> got = sample(source, candidate, trial_f, threads);
       std::vector<Bracket> next;
       for (std::size_t j = 0; j < brackets.size(); ++j) {
@@ -358,11 +363,17 @@ BandError assemble_band_error(CandidateResponse& candidate, std::vector<double> 
         br.stalled = rel(got[j]) > before * (1.0 + 1e-4) ? 0 : br.stalled + 1;
         if (rel(got[j]) > before) {
           // New best: the old centre becomes a bracket end.
-          if (x > br.c) br.a = br.c; else br.b = br.c;
+          if (x > br.c)
+            br.a = br.c;
+          else
+            br.b = br.c;
           br.c = x;
           br.best = got[j];
         } else {
-          if (x > br.c) br.b = x; else br.a = x;
+          if (x > br.c)
+            br.b = x;
+          else
+            br.a = x;
         }
         // A peak is done when the bracket is below 1e-9 relative in f (far below any resonance
         // width) or its value has stopped rising for 6 steps; one still rising near a zero of H
@@ -420,7 +431,8 @@ BandError assemble_band_error(CandidateResponse& candidate, std::vector<double> 
     out.f_hz[k] = s.f_hz;
     out.relative_spectral[k] = relative_of(s, ErrorNorm::Spectral, zero2, zeroF);
     out.relative_frobenius[k] = relative_of(s, ErrorNorm::Frobenius, zero2, zeroF);
-    out.relative[k] = norm == ErrorNorm::Spectral ? out.relative_spectral[k] : out.relative_frobenius[k];
+    out.relative[k] =
+        norm == ErrorNorm::Spectral ? out.relative_spectral[k] : out.relative_frobenius[k];
     out.absolute[k] = s.abs2;
     out.reference[k] = s.ref2;
     out.exact[k] = s.exact ? 1 : 0;
@@ -565,10 +577,10 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
                                        bool dense_peaks) {
   const Index before = m_full.size();
   detail::CandidateResponse candidate(reduced);
-  BandError out = detail::assemble_band_error(
-      candidate, std::move(f_hz), full_source(),
-      detail::SamplingPlan{grid, pole_count, refine, dense_peaks}, m_options, m_band, m_scale2,
-      m_scaleF, m_full.threads());
+  BandError out =
+      detail::assemble_band_error(candidate, std::move(f_hz), full_source(),
+                                  detail::SamplingPlan{grid, pole_count, refine, dense_peaks},
+                                  m_options, m_band, m_scale2, m_scaleF, m_full.threads());
   out.checked_samples = static_cast<Index>(out.f_hz.size());
   out.new_full_solves = m_full.size() - before;
   return out;
@@ -596,15 +608,16 @@ BandError BandErrorEstimator::evaluate(const ReducedModel& reduced) {
     // relative width 2 zeta: there |H| near an isolated resonance is within 0.05 % of its value at
     // Im(p) (1 / sqrt(1 + (1/32)^2)), and the refinement of the error's local maxima runs on top.
     // Otherwise the sample is taken exactly at Im(p) (and cached for the next model).
-    for (const auto& [zeta, f_pole] : detail::pole_frequencies(p, m_band, m_options.max_pole_samples)) {
+    for (const auto& [zeta, f_pole] :
+         detail::pole_frequencies(p, m_band, m_options.max_pole_samples)) {
       double fp = f_pole;
       if (const auto near = m_full.nearest_cached(fp, zeta / 32.0)) fp = *near;
       f.push_back(fp);
       ++pole_count;
     }
   }
-  BandError out = assemble(reduced, std::move(f), static_cast<Index>(m_grid.size()), pole_count,
-                           true, false);
+  BandError out =
+      assemble(reduced, std::move(f), static_cast<Index>(m_grid.size()), pole_count, true, false);
   out.unstable_poles = unstable;
   return out;
 }

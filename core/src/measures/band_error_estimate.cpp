@@ -16,9 +16,9 @@
 #include <exception>
 #include <numeric>
 
+#include "base/parallel_for.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/response/frequency_response.hpp"
-#include "base/parallel_for.hpp"
 
 namespace ecmor::detail {
 
@@ -253,9 +253,9 @@ ReferenceValues EstimateEngine::values(const std::vector<double>& f_hz) {
       out.exact[exact_at[j]] = 1;
     }
   }
-  m_overhead_flops += static_cast<double>(missing_at.size()) *
-                      ReferenceCost(m_reference.reduced())
-                          .per_frequency(!m_dense_lu && m_response->hessenberg());
+  m_overhead_flops +=
+      static_cast<double>(missing_at.size()) *
+      ReferenceCost(m_reference.reduced()).per_frequency(!m_dense_lu && m_response->hessenberg());
   const ReducedResponse& response = *m_response;
   const ReducedModel& reference = m_reference.reduced();
   // Serial for a few frequencies (the refinement's rounds): see sample() in band_error.cpp.
@@ -299,8 +299,8 @@ std::vector<double> EstimateEngine::sample_set(CandidateResponse& reduced, Index
   return f;
 }
 
-BandError EstimateEngine::assemble(CandidateResponse& reduced, std::vector<double> f_hz,
-                                   Index grid, Index poles, bool refine, bool dense_peaks) {
+BandError EstimateEngine::assemble(CandidateResponse& reduced, std::vector<double> f_hz, Index grid,
+                                   Index poles, bool refine, bool dense_peaks) {
   BandError e = assemble_band_error(
       reduced, std::move(f_hz), [this](const std::vector<double>& f) { return values(f); },
       SamplingPlan{grid, poles, refine, dense_peaks}, m_options, m_band, m_scale2, m_scaleF,
@@ -377,8 +377,7 @@ BandError EstimateEngine::evaluate(const ReducedModel& model) {
   return e;
 }
 
-BandError EstimateEngine::evaluate_on(const ReducedModel& model,
-                                      const std::vector<double>& f_hz) {
+BandError EstimateEngine::evaluate_on(const ReducedModel& model, const std::vector<double>& f_hz) {
   CandidateResponse reduced(model);
   BandError e = assemble(reduced, f_hz, static_cast<Index>(f_hz.size()), 0, false, false);
   finish(e, false, {}, 0);

@@ -6,10 +6,10 @@
 #include <random>
 #include <vector>
 
-#include "measures/band_error_sampling.hpp"
 #include "ecmor/measures/band_error.hpp"
 #include "ecmor/response/reduced_response.hpp"
 #include "ecmor/response/reference_model.hpp"
+#include "measures/band_error_sampling.hpp"
 
 namespace ecmor::detail {
 

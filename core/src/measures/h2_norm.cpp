@@ -11,14 +11,14 @@
 #include <utility>
 #include <variant>
 
+#include "base/number_text.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/gramians/lyapunov.hpp"
 #include "ecmor/model/dense_model.hpp"
+#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/response/reduced_response.hpp"
 #include "linalg/gauss_kronrod.hpp"
 #include "model/model_checks.hpp"
-#include "base/number_text.hpp"
 
 namespace ecmor {
 using detail::kNodes;

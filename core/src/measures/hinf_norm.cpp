@@ -15,14 +15,14 @@
 #include <variant>
 #include <vector>
 
+#include "base/number_text.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/gramians/lyapunov.hpp"
 #include "ecmor/model/dense_model.hpp"
+#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/response/reduced_response.hpp"
-#include "model/model_checks.hpp"
-#include "base/number_text.hpp"
 #include "linalg/dense_lapack.hpp"
+#include "model/model_checks.hpp"
 
 namespace ecmor {
 namespace {

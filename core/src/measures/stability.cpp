@@ -6,16 +6,15 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <Eigen/QR>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
 
 #include "ecmor/base/error.hpp"
-#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/gramians/lyapunov.hpp"
 #include "ecmor/model/dense_model.hpp"
+#include "ecmor/response/frequency_response.hpp"
 #include "linalg/power_of_two_scaling.hpp"
 
 namespace ecmor {
@@ -98,8 +97,8 @@ StabilityReport dense_check(const Model& model, Index states) {
   std::vector<bool> at_zero(static_cast<std::size_t>(p.size()), false);
   for (std::size_t k = 0; k < order.size(); ++k) {
     const std::size_t i = static_cast<std::size_t>(order[k]);
-    if (zero_poles > 0 && (static_cast<Index>(k) < zero_poles ||
-                           modulus[i] <= kZeroTolerance * largest))
+    if (zero_poles > 0 &&
+        (static_cast<Index>(k) < zero_poles || modulus[i] <= kZeroTolerance * largest))
       at_zero[i] = true;
   }
   auto on_axis = [&](Index i) {
@@ -118,16 +117,18 @@ StabilityReport dense_check(const Model& model, Index states) {
   }
   if (right > 0) {
     r.verdict = Stability::Unstable;
-    r.reason = fmt::format("{} pole(s) in the right half-plane, the largest real part {:.4g} "
-                           "(pole {:.4g}{:+.4g}i)",
-                           right, worst_right.real(), worst_right.real(), worst_right.imag());
+    r.reason = fmt::format(
+        "{} pole(s) in the right half-plane, the largest real part {:.4g} "
+        "(pole {:.4g}{:+.4g}i)",
+        right, worst_right.real(), worst_right.real(), worst_right.imag());
   } else if (axis > 0) {
     r.verdict = Stability::Marginal;
-    r.reason = fmt::format("{} pole(s) on the imaginary axis ({} at s = 0: A has rank "
-                           "deficiency {}), e.g. {:.4g}{:+.4g}i: undamped modes or rigid-body "
-                           "motion",
-                           axis, std::count(at_zero.begin(), at_zero.end(), true), zero_poles,
-                           worst_axis.real(), worst_axis.imag());
+    r.reason = fmt::format(
+        "{} pole(s) on the imaginary axis ({} at s = 0: A has rank "
+        "deficiency {}), e.g. {:.4g}{:+.4g}i: undamped modes or rigid-body "
+        "motion",
+        axis, std::count(at_zero.begin(), at_zero.end(), true), zero_poles, worst_axis.real(),
+        worst_axis.imag());
   } else {
     r.verdict = Stability::Asymptotic;
     r.reason = fmt::format("every pole has Re < 0; the largest real part is {:.4g}", max_re);
@@ -274,7 +275,8 @@ ReducedStability reduced_model_stability(const ReducedModel& reduced, const Rigi
     // (with them, poles at 0 are counted too, and the poles below decide).
     out.verdict = ReducedVerdict::Unstable;
     out.label = "unstable";
-    out.reason = fmt::format("{} pole{} with Re >= 0", known_unstable, known_unstable == 1 ? "" : "s");
+    out.reason =
+        fmt::format("{} pole{} with Re >= 0", known_unstable, known_unstable == 1 ? "" : "s");
     return out;
   }
   if (!rigid && known_unstable == 0) {

@@ -3,8 +3,8 @@
 // by ReducedResponse and by the time-span suggestion of time_domain.hpp).
 #include <optional>
 
-#include "ecmor/model/model.hpp"
 #include "ecmor/base/types.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor::detail {
 

@@ -15,10 +15,10 @@
 
 #include "ecmor/base/error.hpp"
 #include "ecmor/linalg/first_order_view.hpp"
-#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 #include "ecmor/model/projection.hpp"
 #include "ecmor/plugin/reducer.hpp"
-#include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/response/frequency_response.hpp"
 
 namespace ecmor::conformance {
 

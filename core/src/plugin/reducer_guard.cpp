@@ -19,9 +19,9 @@ bool all_finite(const Matrix& X) { return X.allFinite(); }
 /// The name of the first reduced matrix with a NaN or Inf entry, or null.
 const char* non_finite_matrix(const ReducedModel& model) {
   if (const auto* so = std::get_if<ReducedSecondOrderModel>(&model)) {
-    const std::pair<const char*, const Matrix*> matrices[] = {
-        {"Mr", &so->M}, {"Dr", &so->D}, {"Kr", &so->K},
-        {"Br", &so->B}, {"Cr", &so->C}, {"Cvr", &so->Cv}};
+    const std::pair<const char*, const Matrix*> matrices[] = {{"Mr", &so->M}, {"Dr", &so->D},
+                                                              {"Kr", &so->K}, {"Br", &so->B},
+                                                              {"Cr", &so->C}, {"Cvr", &so->Cv}};
     for (const auto& [name, A] : matrices)
       if (!all_finite(*A)) return name;
     return nullptr;

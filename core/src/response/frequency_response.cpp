@@ -20,10 +20,10 @@
 #include <utility>
 #include <variant>
 
-#include "ecmor/base/error.hpp"
-#include "ecmor/base/interrupt.hpp"
 #include "base/number_text.hpp"
 #include "base/parallel_for.hpp"
+#include "ecmor/base/error.hpp"
+#include "ecmor/base/interrupt.hpp"
 #include "linalg/power_of_two_scaling.hpp"
 #include "linalg/qz_solver.hpp"
 

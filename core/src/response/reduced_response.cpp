@@ -1,7 +1,5 @@
 #include "ecmor/response/reduced_response.hpp"
 
-#include "model/first_order_realisation.hpp"
-
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -11,6 +9,7 @@
 
 #include "ecmor/base/error.hpp"
 #include "ecmor/response/frequency_response.hpp"
+#include "model/first_order_realisation.hpp"
 
 namespace ecmor {
 namespace {
@@ -44,9 +43,8 @@ void check_shapes(const Sys& sys) {
   const Index n = sys.size();
   auto square = [&](const Matrix& A, const char* name) {
     if (A.rows() != n || A.cols() != n)
-      throw InputError(origin + name + " is " + dims(A) + ": must be N x N = " +
-                       std::to_string(n) + " x " + std::to_string(n) + " (the size of " + ref +
-                       ")");
+      throw InputError(origin + name + " is " + dims(A) + ": must be N x N = " + std::to_string(n) +
+                       " x " + std::to_string(n) + " (the size of " + ref + ")");
   };
   auto outputs = [&](const Matrix& C, const char* name) {
     if (C.cols() != n)
@@ -70,8 +68,8 @@ void check_shapes(const Sys& sys) {
     square(sys.E, "E");
   }
   if (sys.B.rows() != n)
-    throw InputError(origin + "B has " + std::to_string(sys.B.rows()) + " rows: must equal N = " +
-                     std::to_string(n) + " (the size of " + ref + ")");
+    throw InputError(origin + "B has " + std::to_string(sys.B.rows()) +
+                     " rows: must equal N = " + std::to_string(n) + " (the size of " + ref + ")");
   outputs(sys.C, "C");
 }
 
@@ -183,9 +181,9 @@ namespace {
 // failed store forwarding per element, measured 2x slower than the row-wise original), while
 // split parts give plain real axpys that vectorise.
 struct Workspace {
-  Vector ar, ai;  // column k of (s I - H) Z, rows 0..k
-  Vector cr, ci;  // column k - 1 of (s I - H) Z, rows 0..k - 1
-  Matrix yr, yi;  // right-hand sides G, becoming R^-1 G from the bottom up (n x m)
+  Vector ar, ai;              // column k of (s I - H) Z, rows 0..k
+  Vector cr, ci;              // column k - 1 of (s I - H) Z, rows 0..k - 1
+  Matrix yr, yi;              // right-hand sides G, becoming R^-1 G from the bottom up (n x m)
   Vector lar, lai, lcr, lci;  // columns k and k - 1 of L Z
 };
 

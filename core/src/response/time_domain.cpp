@@ -441,9 +441,10 @@ OutputError output_error(const TimeResponse& full, const TimeResponse& reduced) 
 TimeSpan suggest_time_span(const ReducedModel& model, InputSignal::Kind input, double f_min_hz,
                            double f_max_hz) {
   if (!(f_min_hz > 0.0 && f_max_hz > f_min_hz && std::isfinite(f_max_hz)))
-    throw ConfigError(fmt::format("suggest_time_span: band [{:g}, {:g}] Hz: must satisfy 0 < "
-                                  "f_min_hz < f_max_hz",
-                                  f_min_hz, f_max_hz));
+    throw ConfigError(
+        fmt::format("suggest_time_span: band [{:g}, {:g}] Hz: must satisfy 0 < "
+                    "f_min_hz < f_max_hz",
+                    f_min_hz, f_max_hz));
   TimeSpan band;
   band.t_end = 5.0 / f_min_hz;
   band.f_fast_hz = f_max_hz;
@@ -472,7 +473,7 @@ TimeSpan suggest_time_span(const ReducedModel& model, InputSignal::Kind input, d
     return band;
   }
   const ComplexMatrix Y = vlu.solve(sys->G.cast<Complex>());  // rows: w_i^T G
-  const ComplexMatrix LV = sys->L.cast<Complex>() * V;         // columns: L v_i
+  const ComplexMatrix LV = sys->L.cast<Complex>() * V;        // columns: L v_i
   const Index n = p.size();
   // Amplitude of each modal term of the response: ||L v_i|| ||w_i^T G|| (impulse), over |p_i|
   // for a step (the term (R_i / p_i) e^(p_i t)); a pole at 0 gives an infinite amplitude.
@@ -493,10 +494,12 @@ TimeSpan suggest_time_span(const ReducedModel& model, InputSignal::Kind input, d
   for (Index i = 0; i < n; ++i) {
     if (!(amplitude[static_cast<std::size_t>(i)] >= 1e-3 * largest)) continue;
     const double rate = -p(i).real();
-    if (!(rate > 1e-12 * std::abs(p(i))) || !std::isfinite(amplitude[static_cast<std::size_t>(i)])) {
-      band.reason += fmt::format(" (a term that matters does not decay: pole {:.3g}{:+.3g}i, a "
-                                 "rigid-body, undamped or unstable mode)",
-                                 p(i).real(), p(i).imag());
+    if (!(rate > 1e-12 * std::abs(p(i))) ||
+        !std::isfinite(amplitude[static_cast<std::size_t>(i)])) {
+      band.reason += fmt::format(
+          " (a term that matters does not decay: pole {:.3g}{:+.3g}i, a "
+          "rigid-body, undamped or unstable mode)",
+          p(i).real(), p(i).imag());
       return band;
     }
     slowest_rate = std::min(slowest_rate, rate);
@@ -512,8 +515,7 @@ TimeSpan suggest_time_span(const ReducedModel& model, InputSignal::Kind input, d
   out.reason = fmt::format(
       "5 time constants of the slowest decaying term of the response that matters (tau = {:.3g} "
       "s{}), 20 steps per period of its fastest ({:.3g} Hz)",
-      out.tau_slow, out.t_end < 5.0 * out.tau_slow ? ", capped at 5 / f_min" : "",
-      out.f_fast_hz);
+      out.tau_slow, out.t_end < 5.0 * out.tau_slow ? ", capped at 5 / f_min" : "", out.f_fast_hz);
   return out;
 }
 

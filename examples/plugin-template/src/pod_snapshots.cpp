@@ -21,8 +21,8 @@
 
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/options.hpp"
-#include "ecmor/plugin/plugin.hpp"
 #include "ecmor/model/projection.hpp"
+#include "ecmor/plugin/plugin.hpp"
 
 namespace pod_snapshots {
 namespace {

@@ -12,9 +12,9 @@
 ///
 ///   struct Options { Index batch_size = 20; bool shrink = true; Mode mode = Mode::Band; };
 ///   const OptionSpecs<Options> kSpecs({
-///       option("batch_size", &Options::batch_size, "eigenpairs per run").range(Range::closed(1, 1e5)),
-///       option("shrink", &Options::shrink, "bisect after the first pass"),
-///       choice("mode", &Options::mode, {{"band", Mode::Band}, {"dominance", Mode::Dominance}},
+///       option("batch_size", &Options::batch_size, "eigenpairs per run").range(Range::closed(1,
+///       1e5)), option("shrink", &Options::shrink, "bisect after the first pass"), choice("mode",
+///       &Options::mode, {{"band", Mode::Band}, {"dominance", Mode::Dominance}},
 ///              "order of the modes"),
 ///   });
 ///   Options o = kSpecs.read(params);            // in create()
@@ -38,8 +38,8 @@
 #include <utility>
 #include <vector>
 
-#include "ecmor/export.hpp"
 #include "ecmor/base/parameters.hpp"
+#include "ecmor/export.hpp"
 
 namespace ecmor {
 
@@ -52,7 +52,8 @@ inline std::string option_number(double v) {
   if (v == std::trunc(v) && std::abs(v) < 1e15) return std::to_string(static_cast<long long>(v));
   char buffer[64];
   const double a = std::abs(v);
-  const auto format = a >= 1e-4 && a < 1e16 ? std::chars_format::fixed : std::chars_format::scientific;
+  const auto format =
+      a >= 1e-4 && a < 1e16 ? std::chars_format::fixed : std::chars_format::scientific;
   const auto end = std::to_chars(buffer, buffer + sizeof buffer, v, format).ptr;
   return std::string(buffer, end);
 }
@@ -67,10 +68,10 @@ struct Range {
   bool hi_open = false;
 
   static Range any() { return {}; }
-  static Range at_least(double lo) { return {lo, kInf, false, false}; }          ///< [lo, inf]
-  static Range above(double lo) { return {lo, kInf, true, false}; }              ///< (lo, inf]
-  static Range closed(double lo, double hi) { return {lo, hi, false, false}; }   ///< [lo, hi]
-  static Range open(double lo, double hi) { return {lo, hi, true, true}; }       ///< (lo, hi)
+  static Range at_least(double lo) { return {lo, kInf, false, false}; }             ///< [lo, inf]
+  static Range above(double lo) { return {lo, kInf, true, false}; }                 ///< (lo, inf]
+  static Range closed(double lo, double hi) { return {lo, hi, false, false}; }      ///< [lo, hi]
+  static Range open(double lo, double hi) { return {lo, hi, true, true}; }          ///< (lo, hi)
   static Range open_closed(double lo, double hi) { return {lo, hi, true, false}; }  ///< (lo, hi]
   static Range closed_open(double lo, double hi) { return {lo, hi, false, true}; }  ///< [lo, hi)
   /// The same range without infinite values.
@@ -115,8 +116,7 @@ class Option {
   using Show = std::function<std::string(const O&)>;
   using Address = std::function<const void*(const O&)>;
 
-  Option(std::string key, std::string type, std::string doc, Read read, Show show,
-         Address address)
+  Option(std::string key, std::string type, std::string doc, Read read, Show show, Address address)
       : m_key(std::move(key)),
         m_type(std::move(type)),
         m_doc(std::move(doc)),
@@ -257,8 +257,8 @@ inline std::string list_text(const std::vector<double>& v) {
 template <class O>
 void check_range(const Option<O>& self, const ParameterMap& p, double v) {
   if (!self.valid_range().contains(v)) {
-    p.fail(self.key(), self.key() + " = " + option_number(v) + ": must be " +
-                           self.valid_range().text());
+    p.fail(self.key(),
+           self.key() + " = " + option_number(v) + ": must be " + self.valid_range().text());
   }
 }
 
@@ -287,8 +287,7 @@ Option<O> option(std::string key, T O::*field, std::string doc) {
         options_detail::check_range(self, p, static_cast<double>(v));
         o.*field = static_cast<T>(v);
       },
-      [field](const O& o) { return std::to_string(o.*field); },
-      options_detail::address_of(field));
+      [field](const O& o) { return std::to_string(o.*field); }, options_detail::address_of(field));
 }
 
 /// A real option (NaN is always refused).
@@ -315,9 +314,8 @@ Option<O> option(std::string key, std::vector<double> O::*field, std::string doc
         for (std::size_t i = 0; i < v.size(); ++i) {
           const bool integral = std::isfinite(v[i]) && v[i] == std::trunc(v[i]);
           if (!self.valid_range().contains(v[i]) || (self.integer_items() && !integral)) {
-            p.fail(self.key(), self.key() + "[" + std::to_string(i) + "] = " +
-                                   option_number(v[i]) + ": must be " +
-                                   (self.integer_items() ? "an integer " : "") +
+            p.fail(self.key(), self.key() + "[" + std::to_string(i) + "] = " + option_number(v[i]) +
+                                   ": must be " + (self.integer_items() ? "an integer " : "") +
                                    self.valid_range().text());
           }
         }

@@ -1,10 +1,10 @@
 #pragma once
 /// \file parameters.hpp
-/// A small, core-owned parameter map: how YAML settings reach reducers and strategies (yaml-cpp does
-/// not cross the plugin boundary). Values remember where they came from ("run.yaml:7") so errors
-/// can name the line. Every get_* marks the key as known; check_unused() then reports the keys
-/// nobody asked for, suggesting the nearest known key ("unknown key 'max_ordr' ... did you mean
-/// 'max_order'?").
+/// A small, core-owned parameter map: how YAML settings reach reducers and strategies (yaml-cpp
+/// does not cross the plugin boundary). Values remember where they came from ("run.yaml:7") so
+/// errors can name the line. Every get_* marks the key as known; check_unused() then reports the
+/// keys nobody asked for, suggesting the nearest known key ("unknown key 'max_ordr' ... did you
+/// mean 'max_order'?").
 
 #include <limits>
 #include <map>
@@ -41,7 +41,9 @@ class ECMOR_API ParameterMap {
 
   void set(const std::string& key, ParameterValue value);
   void set(const std::string& key, bool v) { set(key, ParameterValue{v, {}}); }
-  void set(const std::string& key, int v) { set(key, ParameterValue{static_cast<long long>(v), {}}); }
+  void set(const std::string& key, int v) {
+    set(key, ParameterValue{static_cast<long long>(v), {}});
+  }
   void set(const std::string& key, long long v) { set(key, ParameterValue{v, {}}); }
   void set(const std::string& key, double v) { set(key, ParameterValue{v, {}}); }
   void set(const std::string& key, const char* v) { set(key, ParameterValue{std::string(v), {}}); }
@@ -90,6 +92,7 @@ ECMOR_API std::size_t edit_distance(const std::string& a, const std::string& b);
 /// The candidate nearest to `word` if it is close enough to be a plausible typo, else "".
 ECMOR_API std::string nearest(const std::string& word, const std::vector<std::string>& candidates);
 /// " (did you mean 'x'?)" or " (valid: a, b, c)" for error messages.
-ECMOR_API std::string suggestion(const std::string& word, const std::vector<std::string>& candidates);
+ECMOR_API std::string suggestion(const std::string& word,
+                                 const std::vector<std::string>& candidates);
 
 }  // namespace ecmor

@@ -2,12 +2,11 @@
 /// \file types.hpp
 /// Scalar, vector and matrix types used throughout ecmor's public API.
 
+#include <Eigen/Dense>
+#include <Eigen/SparseCore>
 #include <complex>
 #include <cstdint>
 #include <limits>
-
-#include <Eigen/Dense>
-#include <Eigen/SparseCore>
 
 namespace ecmor {
 
@@ -15,7 +14,8 @@ using Index = Eigen::Index;
 using Real = double;
 using Complex = std::complex<double>;
 
-/// Sparse matrices of full models: column-major with 32-bit indices (what CHOLMOD/UMFPACK "di" take).
+/// Sparse matrices of full models: column-major with 32-bit indices (what CHOLMOD/UMFPACK "di"
+/// take).
 using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
 using ComplexSparseMatrix = Eigen::SparseMatrix<Complex, Eigen::ColMajor, int>;
 using Matrix = Eigen::MatrixXd;

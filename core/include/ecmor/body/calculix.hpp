@@ -20,9 +20,9 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/export.hpp"
-#include "ecmor/body/fe_geometry.hpp"
 #include "ecmor/base/types.hpp"
+#include "ecmor/body/fe_geometry.hpp"
+#include "ecmor/export.hpp"
 
 namespace ecmor {
 

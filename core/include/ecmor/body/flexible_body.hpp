@@ -21,10 +21,10 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/export.hpp"
+#include "ecmor/base/types.hpp"
 #include "ecmor/body/fe_geometry.hpp"
 #include "ecmor/body/sid.hpp"
-#include "ecmor/base/types.hpp"
+#include "ecmor/export.hpp"
 
 namespace ecmor {
 

@@ -23,8 +23,8 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/export.hpp"
 #include "ecmor/base/types.hpp"
+#include "ecmor/export.hpp"
 
 namespace ecmor {
 

@@ -10,8 +10,8 @@
 /// The truncation is stable and ||G - Gr||_inf <= 2 (s_{r+1} + ... + s_n). Moore (1981); Tombs
 /// and Postlethwaite (1987); Glover (1984).
 
-#include "ecmor/export.hpp"
 #include "ecmor/base/types.hpp"
+#include "ecmor/export.hpp"
 #include "ecmor/model/model.hpp"
 
 namespace ecmor {

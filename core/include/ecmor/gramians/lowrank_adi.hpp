@@ -48,12 +48,12 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/export.hpp"
-#include "ecmor/model/band.hpp"
-#include "ecmor/linalg/first_order_view.hpp"
-#include "ecmor/gramians/quadrature.hpp"
-#include "ecmor/linalg/shifted_solver.hpp"
 #include "ecmor/base/types.hpp"
+#include "ecmor/export.hpp"
+#include "ecmor/gramians/quadrature.hpp"
+#include "ecmor/linalg/first_order_view.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/model/band.hpp"
 
 namespace ecmor {
 
@@ -65,7 +65,8 @@ ECMOR_API std::string to_string(GramianSide side);
 /// How ADI shifts are generated.
 enum class AdiShiftStrategy {
   /// Self-generating projection shifts (Benner, Kuerschner, Saak 2014): Ritz values of the pencil
-  /// projected on span(B, E^-1 A B) (span(C', E^-T A' C') for observability) at the start, then on the columns of Z
+  /// projected on span(B, E^-1 A B) (span(C', E^-T A' C') for observability) at the start, then on
+  /// the columns of Z
   /// added since the last shift set; a new set is generated each time a set is used up.
   Projection,
   /// Penzl's heuristic: Ritz values of Arnoldi on E^-1 A and on A^-1 E, a fixed set selected by
@@ -117,9 +118,9 @@ struct ECMOR_API AdiOptions {
 
 /// One ADI step: a real shift or a complex conjugate pair done as one real double step.
 struct AdiStep {
-  Complex shift;           ///< p (for a pair: the member with Im p > 0)
-  double residual = 0.0;   ///< ||R||_2 / ||B B'||_2 after the step
-  Index columns = 0;       ///< columns of Z after the step
+  Complex shift;          ///< p (for a pair: the member with Im p > 0)
+  double residual = 0.0;  ///< ||R||_2 / ||B B'||_2 after the step
+  Index columns = 0;      ///< columns of Z after the step
 };
 
 /// Result of one low-rank ADI run.
@@ -245,8 +246,8 @@ ECMOR_API LowRankGramians lowrank_gramians(FirstOrderView& view, const AdiOption
 /// \throws InputError when Z does not have state_size() rows.
 ECMOR_API double lowrank_residual(FirstOrderView& view, const Matrix& Z, GramianSide side);
 
-/// ||A Z Z' E' + E Z Z' A' + G S G'||_2 / ||G S G'||_2 (controllability; observability with A', E'),
-/// the residual of a semidefinite factor Z (e.g. AdiLdlResult::Z after the truncation) for an
+/// ||A Z Z' E' + E Z Z' A' + G S G'||_2 / ||G S G'||_2 (controllability; observability with A',
+/// E'), the residual of a semidefinite factor Z (e.g. AdiLdlResult::Z after the truncation) for an
 /// indefinite right-hand side, by the same QR route as lowrank_residual, O(N (2r + k)^2).
 /// \throws InputError when Z or G does not have state_size() rows or S is not k x k for G's k
 ///         columns.
@@ -285,8 +286,8 @@ struct ECMOR_API LowRankBandGramians {
 /// \throws ConfigError for an invalid band, ADI or quadrature options; NumericalError when a
 ///         quadrature node's factorisation fails (a pole on the imaginary axis inside the band);
 ///         otherwise as LowRankAdi::solve.
-ECMOR_API LowRankBandGramians lowrank_band_gramians(FirstOrderView& view, const Band& band,
-                                                    const AdiOptions& options = {},
-                                                    const AdaptiveQuadratureOptions& quadrature = {});
+ECMOR_API LowRankBandGramians
+lowrank_band_gramians(FirstOrderView& view, const Band& band, const AdiOptions& options = {},
+                      const AdaptiveQuadratureOptions& quadrature = {});
 
 }  // namespace ecmor

@@ -6,13 +6,14 @@
 ///     A P E' + E P A' + B B' = 0,        A' Q E + E' Q A + C' C = 0,
 /// the factors Zc (P = Zc Zc'), Zo (E'QE = Zo Zo') and Zq = E^-T Zo (Q = Zq Zq') are computed by
 /// Hammarling's method (S. J. Hammarling, "Numerical solution of the stable, non-negative definite
-/// Lyapunov equation", IMA J. Numer. Anal. 2, 1982): the pencil is brought to a standard matrix F as
-/// SchurPencil does (F = A, F = L^-1 A L^-T for E = L L' symmetric positive definite, F = E^-1 A
+/// Lyapunov equation", IMA J. Numer. Anal. 2, 1982): the pencil is brought to a standard matrix F
+/// as SchurPencil does (F = A, F = L^-1 A L^-T for E = L L' symmetric positive definite, F = E^-1 A
 /// otherwise), F = U T U^H (complex Schur form: the real Schur form with each 2 x 2 block
 /// triangularised by one complex rotation, or the symmetric eigendecomposition), and the Cholesky
 /// factor R of the solution of T X + X T^H + G G^H = 0 is computed column by column from the last,
-/// each step one triangular solve with T's leading block plus a rank-one update of G. The observability
-/// factor comes from the same Schur form (F' = U T^H U^H, T^H flipped to upper triangular form).
+/// each step one triangular solve with T's leading block plus a rank-one update of G. The
+/// observability factor comes from the same Schur form (F' = U T^H U^H, T^H flipped to upper
+/// triangular form).
 ///
 /// Why: a factor computed directly has a small normwise error, so the Hankel singular values (the
 /// singular values of Zo' Zc) carry absolute errors of about eps s_1; factoring computed Gramians
@@ -35,9 +36,9 @@ namespace ecmor {
 
 /// The three factors of the two Gramians of (E, A, B, C).
 struct LyapunovFactors {
-  Matrix Zc;  ///< P ~ Zc Zc' (n x kc)
-  Matrix Zq;  ///< Q ~ Zq Zq' (n x ko)
-  Matrix Zo;  ///< E'QE ~ Zo Zo' (n x ko), computed directly, Zq = E^-T Zo
+  Matrix Zc;               ///< P ~ Zc Zc' (n x kc)
+  Matrix Zq;               ///< Q ~ Zq Zq' (n x ko)
+  Matrix Zo;               ///< E'QE ~ Zo Zo' (n x ko), computed directly, Zq = E^-T Zo
   bool symmetric = false;  ///< F was symmetric (A symmetric, E identity or s.p.d.)
 };
 

@@ -13,11 +13,11 @@
 #include <functional>
 #include <vector>
 
-#include "ecmor/model/band.hpp"
+#include "ecmor/base/types.hpp"
 #include "ecmor/export.hpp"
 #include "ecmor/linalg/first_order_view.hpp"
+#include "ecmor/model/band.hpp"
 #include "ecmor/model/model.hpp"
-#include "ecmor/base/types.hpp"
 
 namespace ecmor {
 
@@ -64,13 +64,13 @@ ECMOR_API MatrixQuadrature integrate_adaptive(const MatrixIntegrand& f, double a
 /// The band integrals L_B (state_size() x inputs) and L_C (state_size() x outputs) of the
 /// file comment, of the first-order realisation seen through `view`.
 struct ECMOR_API BandResolventIntegrals {
-  Matrix input;   ///< L_B
-  Matrix output;  ///< L_C
+  Matrix input;                 ///< L_B
+  Matrix output;                ///< L_C
   MatrixQuadrature quadrature;  ///< of [L_B L_C]; integral holds the two side by side
   const char* variable = "";    ///< "log(omega)" or "omega": the integration variable used
   /// A band quadrature rule from the same partition, with the model's response there:
-  /// (1/pi) integral_{w1}^{w2} f(w) dw ~ sum weights[k] f(omega[k]), and response[k] = G(i omega[k]).
-  /// It gives band H2 norms and errors, e.g. band_h2_squared_error().
+  /// (1/pi) integral_{w1}^{w2} f(w) dw ~ sum weights[k] f(omega[k]), and response[k] = G(i
+  /// omega[k]). It gives band H2 norms and errors, e.g. band_h2_squared_error().
   std::vector<double> omega, weights;
   std::vector<ComplexMatrix> response;
 };
@@ -85,9 +85,10 @@ ECMOR_API double band_h2_squared_error(const BandResolventIntegrals& integrals,
 /// of structural models, where resonances are spread logarithmically), else over omega; one
 /// factorisation of the model's P(i omega) per node, through view's solver.
 /// \throws ConfigError for an invalid band or options; NumericalError when a node's
-///         factorisation fails (a pole on the imaginary axis inside the band), naming the frequency.
-ECMOR_API BandResolventIntegrals band_resolvent_integrals(FirstOrderView& view, const Band& band,
-                                                          const AdaptiveQuadratureOptions& options = {});
+///         factorisation fails (a pole on the imaginary axis inside the band), naming the
+///         frequency.
+ECMOR_API BandResolventIntegrals band_resolvent_integrals(
+    FirstOrderView& view, const Band& band, const AdaptiveQuadratureOptions& options = {});
 
 /// beta(s) = integral_{B and -B} dw / (s - i w) = 2 (atan(w2 / s) - atan(w1 / s)) for Re s > 0
 /// (complex atan; the path w / s stays off its branch cuts). By the resolvent identity

@@ -12,8 +12,8 @@
 /// 121 s to 85 s when these SVDs moved from Eigen's BDCSVD to dgesdd, docs/benchmarks.md). Called
 /// inside an OpenMP parallel region, OpenBLAS runs on the calling thread only. Use these for
 /// matrices of that size, Eigen's for the rest.
-#include "ecmor/export.hpp"
 #include "ecmor/base/types.hpp"
+#include "ecmor/export.hpp"
 
 namespace ecmor {
 

@@ -9,17 +9,17 @@
 ///
 /// Tiny problems: ARPACK needs nev < ncv <= N (symmetric) and nev + 2 <= ncv <= N (general). For
 /// N <= kDenseEigenThreshold, or when nev leaves no room for a Krylov space (nev >= N - 1), both
-/// functions fall back to a dense eigensolver on the same shift-inverted operator (N solves with the
-/// factorisation, then a dense symmetric resp. real nonsymmetric eigensolver), so the results have
-/// the same meaning and the same accuracy profile (best near sigma) as the ARPACK path.
+/// functions fall back to a dense eigensolver on the same shift-inverted operator (N solves with
+/// the factorisation, then a dense symmetric resp. real nonsymmetric eigensolver), so the results
+/// have the same meaning and the same accuracy profile (best near sigma) as the ARPACK path.
 
 #include <cstdint>
 #include <functional>
 #include <string>
 
+#include "ecmor/base/types.hpp"
 #include "ecmor/export.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
-#include "ecmor/base/types.hpp"
 
 namespace ecmor {
 
@@ -27,24 +27,25 @@ namespace ecmor {
 constexpr Index kDenseEigenThreshold = 30;
 
 struct ECMOR_API EigenOptions {
-  Index nev = 6;              ///< number of eigenpairs wanted, 1 <= nev < N
-  Index ncv = 0;              ///< Lanczos/Arnoldi basis size, nev < ncv <= N; 0: min(N, max(2 nev + 1, 20))
-  double tolerance = 0.0;     ///< ARPACK's relative accuracy of the Ritz values, >= 0; 0: machine precision
-  Index max_iterations = 1000;///< implicit restarts, >= 1
-  std::uint64_t seed = 0;     ///< 0: ARPACK's default start vector; else a seeded random one
+  Index nev = 6;  ///< number of eigenpairs wanted, 1 <= nev < N
+  Index ncv = 0;  ///< Lanczos/Arnoldi basis size, nev < ncv <= N; 0: min(N, max(2 nev + 1, 20))
+  double tolerance =
+      0.0;  ///< ARPACK's relative accuracy of the Ritz values, >= 0; 0: machine precision
+  Index max_iterations = 1000;  ///< implicit restarts, >= 1
+  std::uint64_t seed = 0;       ///< 0: ARPACK's default start vector; else a seeded random one
   /// \throws ConfigError naming the field, its value and the rule, e.g.
   ///         "EigenOptions::ncv = 4: must be in (nev, N] = (6, 18]".
   void validate(Index n) const;
 };
 
 /// K phi = lambda M phi, K and M symmetric, M positive definite, the nev eigenvalues nearest sigma,
-/// by ARPACK's dsaupd/dseupd in shift-invert mode (mode 3): OP = (K - sigma M)^-1 M, inner product M.
-/// A factorisation of the PETSc backend (method() "mumps") in a build with SLEPc goes to SLEPc's
+/// by ARPACK's dsaupd/dseupd in shift-invert mode (mode 3): OP = (K - sigma M)^-1 M, inner product
+/// M. A factorisation of the PETSc backend (method() "mumps") in a build with SLEPc goes to SLEPc's
 /// Krylov-Schur instead, on the same operator and inner product (see docs/cluster.md).
 struct SymmetricEigenResult {
-  Vector eigenvalues;   ///< lambda, ascending
-  Matrix eigenvectors;  ///< N x nconv, M-orthonormal columns
-  Index iterations = 0; ///< ARPACK restarts (0 for the dense fallback)
+  Vector eigenvalues;               ///< lambda, ascending
+  Matrix eigenvectors;              ///< N x nconv, M-orthonormal columns
+  Index iterations = 0;             ///< ARPACK restarts (0 for the dense fallback)
   Index operator_applications = 0;  ///< solves with the factorisation (right-hand-side columns)
   bool dense_fallback = false;      ///< solved by the dense fallback (tiny problem)
   /// "arpack", "dense" (the fallback) or "slepc" (Krylov-Schur, for a factorisation of the
@@ -68,8 +69,8 @@ ECMOR_API SymmetricEigenResult symmetric_shift_invert(const Factorization& facto
 /// solves y -> (A' - sigma E')^-1 E' y.
 /// A complex conjugate pair is never split: the result may hold nev + 1 eigenpairs.
 struct GeneralEigenResult {
-  ComplexVector eigenvalues;    ///< lambda, sorted by distance to sigma (conjugate pairs adjacent)
-  ComplexMatrix eigenvectors;   ///< N x nconv, unit 2-norm columns
+  ComplexVector eigenvalues;   ///< lambda, sorted by distance to sigma (conjugate pairs adjacent)
+  ComplexMatrix eigenvectors;  ///< N x nconv, unit 2-norm columns
   Index iterations = 0;
   Index operator_applications = 0;
   bool dense_fallback = false;  ///< solved by the dense fallback (tiny problem)

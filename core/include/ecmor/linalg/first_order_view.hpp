@@ -26,9 +26,9 @@
 #include <variant>
 
 #include "ecmor/base/error.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
 #include "ecmor/model/model.hpp"
 #include "ecmor/model/projection.hpp"
-#include "ecmor/linalg/shifted_solver.hpp"
 
 namespace ecmor {
 

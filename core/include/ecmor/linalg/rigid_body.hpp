@@ -27,8 +27,8 @@
 #include <string>
 
 #include "ecmor/export.hpp"
-#include "ecmor/model/model.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor {
 

@@ -7,11 +7,12 @@
 /// T_2 = M; or T_0 = -A, T_1 = E), e.g. K - sigma M for shift-invert eigensolvers.
 ///
 /// Reducers use only this interface, never a sparse library directly, so that another backend
-/// (e.g. a distributed PETSc/MUMPS one) can be plugged in without touching any reducer. The embedded
-/// backend (make_shifted_solver) uses SuiteSparse:
+/// (e.g. a distributed PETSc/MUMPS one) can be plugged in without touching any reducer. The
+/// embedded backend (make_shifted_solver) uses SuiteSparse:
 ///  * the union sparsity pattern of all coefficients is built once, and symbolic analysis is done
 ///    once per pattern and arithmetic (real/complex), then reused by every numeric factorisation;
-///  * real symmetric combinations try CHOLMOD (LL'), falling back to UMFPACK (LU) when the matrix is
+///  * real symmetric combinations try CHOLMOD (LL'), falling back to UMFPACK (LU) when the matrix
+///  is
 ///    not positive definite; complex symmetric combinations of large models use MUMPS (LDL^T, about
 ///    half the work of an LU); other complex or unsymmetric combinations use UMFPACK;
 ///  * fill-reducing orderings: AMD, or METIS nested dissection where AMD's predicted fill is large
@@ -30,22 +31,22 @@
 #include <string>
 #include <vector>
 
+#include "ecmor/base/types.hpp"
 #include "ecmor/export.hpp"
 #include "ecmor/model/model.hpp"
-#include "ecmor/base/types.hpp"
 
 namespace ecmor {
 
 /// Cumulative work counters of a ShiftedSolver (a snapshot; see ShiftedSolver::counters()).
 struct ECMOR_API SolverCounters {
-  Index symbolic_analyses = 0;    ///< symbolic (pattern) analyses
-  Index factorizations = 0;       ///< numeric factorisations of any kind
+  Index symbolic_analyses = 0;  ///< symbolic (pattern) analyses
+  Index factorizations = 0;     ///< numeric factorisations of any kind
   Index cholesky_factorizations = 0;
   Index lu_factorizations = 0;
   Index ldlt_factorizations = 0;  ///< complex symmetric LDL^T (MUMPS)
   Index complex_factorizations = 0;
-  Index failed_cholesky = 0;      ///< Cholesky attempts that found the matrix indefinite
-  Index solves = 0;               ///< right-hand-side columns solved
+  Index failed_cholesky = 0;  ///< Cholesky attempts that found the matrix indefinite
+  Index solves = 0;           ///< right-hand-side columns solved
   double analysis_seconds = 0.0;
   double factorization_seconds = 0.0;
   double solve_seconds = 0.0;
@@ -86,7 +87,8 @@ class ECMOR_API Factorization {
   virtual ComplexMatrix solve_transposed(const ComplexMatrix& B) const = 0;
 };
 
-/// Backend-neutral shifted solver bound to one model's coefficient matrices (which must outlive it).
+/// Backend-neutral shifted solver bound to one model's coefficient matrices (which must outlive
+/// it).
 class ECMOR_API ShiftedSolver {
  public:
   virtual ~ShiftedSolver();

@@ -21,10 +21,10 @@ namespace ecmor {
 
 /// The eigensolver settings of one slice.
 struct SliceOptions {
-  Index batch_size = 20;          ///< eigenpairs per ARPACK run (one slice), >= 1
-  double tolerance = 0.0;         ///< ARPACK's relative accuracy of the Ritz values; 0 = eps
-  Index max_iterations = 1000;    ///< ARPACK implicit restarts per run
-  std::uint64_t seed = 1;         ///< seed of ARPACK's start vectors
+  Index batch_size = 20;        ///< eigenpairs per ARPACK run (one slice), >= 1
+  double tolerance = 0.0;       ///< ARPACK's relative accuracy of the Ritz values; 0 = eps
+  Index max_iterations = 1000;  ///< ARPACK implicit restarts per run
+  std::uint64_t seed = 1;       ///< seed of ARPACK's start vectors
   std::string caller = "spectrum slicing";  ///< names the caller at the start of error messages
 };
 
@@ -38,9 +38,9 @@ struct SliceOptions {
 /// "every eigenvalue in an interval"). The first shift sigma_0 < 0 lies below the whole spectrum
 /// (Ks positive semidefinite, checked on the results), so it covers (-inf, sigma_0 + t]. A later
 /// shift sigma = lambda_cov + delta is accepted only if sigma - t <= lambda_cov, so the union of
-/// covered intervals stays one interval (-inf, lambda_cov]; otherwise delta shrinks and the batch is
-/// redone. Hence every eigenvalue below the frontier is known and none is skipped. (Caveat of any
-/// single-vector Lanczos method: copies of an exactly multiple eigenvalue are found through
+/// covered intervals stays one interval (-inf, lambda_cov]; otherwise delta shrinks and the batch
+/// is redone. Hence every eigenvalue below the frontier is known and none is skipped. (Caveat of
+/// any single-vector Lanczos method: copies of an exactly multiple eigenvalue are found through
 /// rounding; the deduplication below keeps every genuinely new copy.)
 class ECMOR_API SymmetricSlicer {
  public:

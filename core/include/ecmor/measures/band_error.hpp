@@ -32,10 +32,10 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/model/band.hpp"
 #include "ecmor/export.hpp"
-#include "ecmor/response/frequency_response.hpp"
+#include "ecmor/model/band.hpp"
 #include "ecmor/model/model.hpp"
+#include "ecmor/response/frequency_response.hpp"
 
 namespace ecmor {
 
@@ -59,10 +59,10 @@ ECMOR_API ErrorVerify parse_error_verify(const std::string& name);
 
 struct ECMOR_API BandErrorOptions {
   ErrorNorm norm = ErrorNorm::Spectral;  ///< which relative error the supremum is taken of
-  Index grid_points = 200;     ///< initial log-spaced samples over the band, >= 2
-  bool pole_samples = true;    ///< also sample at Im(p)/2pi of reduced poles inside the band
-  Index max_pole_samples = 400;///< at most this many pole samples (the least damped first)
-  Index refine_peaks = 5;      ///< local maxima refined per evaluation, >= 0
+  Index grid_points = 200;               ///< initial log-spaced samples over the band, >= 2
+  bool pole_samples = true;      ///< also sample at Im(p)/2pi of reduced poles inside the band
+  Index max_pole_samples = 400;  ///< at most this many pole samples (the least damped first)
+  Index refine_peaks = 5;        ///< local maxima refined per evaluation, >= 0
   /// Golden-section steps per refined peak at most, >= 0; a peak stops earlier once its value has
   /// not risen (by 1e-4 relative) for 6 steps or its bracket is below 1e-9 relative in f.
   Index refine_evaluations = 40;
@@ -95,20 +95,20 @@ struct ECMOR_API BandErrorOptions {
 
 /// One evaluation of the error of a reduced model over the band.
 struct ECMOR_API BandError {
-  double sup_relative = 0.0;  ///< sup over the sampled band of the chosen relative error
-  double f_peak_hz = 0.0;     ///< where it peaks
-  double hinf_absolute = 0.0; ///< band H-infinity of H - Hr (Eq. 20), sampled
+  double sup_relative = 0.0;   ///< sup over the sampled band of the chosen relative error
+  double f_peak_hz = 0.0;      ///< where it peaks
+  double hinf_absolute = 0.0;  ///< band H-infinity of H - Hr (Eq. 20), sampled
   double f_hinf_hz = 0.0;
-  double h2_absolute = 0.0;   ///< sqrt of the band H2 norm squared of H - Hr (see file comment)
+  double h2_absolute = 0.0;  ///< sqrt of the band H2 norm squared of H - Hr (see file comment)
   ErrorNorm norm = ErrorNorm::Spectral;
 
   /// All sampled frequencies, ascending, with their errors.
   std::vector<double> f_hz;
-  std::vector<double> relative;   ///< relative error in the chosen norm (NaN where undefined)
+  std::vector<double> relative;  ///< relative error in the chosen norm (NaN where undefined)
   std::vector<double> relative_spectral;
   std::vector<double> relative_frobenius;
-  std::vector<double> absolute;   ///< ||H - Hr||_2
-  std::vector<double> reference;  ///< ||H||_2
+  std::vector<double> absolute;        ///< ||H - Hr||_2
+  std::vector<double> reference;       ///< ||H||_2
   std::vector<double> undefined_f_hz;  ///< where H vanishes (relative error undefined)
 
   Index grid_samples = 0, pole_samples = 0, refinement_samples = 0;
@@ -123,10 +123,10 @@ struct ECMOR_API BandError {
   /// Estimate mode: sup of the estimated relative error over the samples without a full solve
   /// (NaN in dense mode, where every sample is exact).
   double estimate_sup = std::numeric_limits<double>::quiet_NaN();
-  bool estimated = false;       ///< sup_relative includes estimated samples (not a certified value)
-  Index checked_samples = 0;    ///< samples measured against the full model (estimate mode)
-  Index new_full_solves = 0;    ///< full-model responses this evaluation computed
-  Index reference_order = 0;    ///< order of the reference model used (estimate mode)
+  bool estimated = false;     ///< sup_relative includes estimated samples (not a certified value)
+  Index checked_samples = 0;  ///< samples measured against the full model (estimate mode)
+  Index new_full_solves = 0;  ///< full-model responses this evaluation computed
+  Index reference_order = 0;  ///< order of the reference model used (estimate mode)
   /// Estimate mode: the reference model's own evaluation error where the full model was solved
   /// (it interpolates there in exact arithmetic): estimates below it are rounding.
   double reference_floor = 0.0;
@@ -146,7 +146,7 @@ struct ECMOR_API BandError {
 namespace detail {
 class EstimateEngine;
 struct ReferenceValues;
-}
+}  // namespace detail
 
 /// Evaluates band errors of reduced models against a (cached) full model.
 class ECMOR_API BandErrorEstimator {
@@ -168,7 +168,8 @@ class ECMOR_API BandErrorEstimator {
 
   /// Estimate mode: adds the columns of a candidate's basis (V or W, N rows) to the reference
   /// model, so that the reference is at least as rich as the candidates it judges. Ignored in
-  /// dense mode and for bases that do not have N rows (a first-order basis of a second-order model).
+  /// dense mode and for bases that do not have N rows (a first-order basis of a second-order
+  /// model).
   void offer_basis(const Matrix& basis);
   /// The resolved mode: Dense or Estimate (Dense after a switch, see switch_note()).
   ErrorVerify mode() const { return m_engine ? ErrorVerify::Estimate : ErrorVerify::Dense; }
@@ -186,8 +187,8 @@ class ECMOR_API BandErrorEstimator {
   const std::vector<double>& grid() const { return m_grid; }
 
  private:
-  BandError assemble(const ReducedModel& reduced, std::vector<double> f_hz, Index grid,
-                     Index poles, bool refine, bool dense_peaks);
+  BandError assemble(const ReducedModel& reduced, std::vector<double> f_hz, Index grid, Index poles,
+                     bool refine, bool dense_peaks);
   std::function<detail::ReferenceValues(const std::vector<double>&)> full_source();
   // Dense mode from here on: the full model on the whole grid, and the scales taken from it.
   void start_dense();
@@ -205,7 +206,7 @@ class ECMOR_API BandErrorEstimator {
   double m_scale2 = 0.0;
   double m_scaleF = 0.0;
   std::unique_ptr<detail::EstimateEngine> m_engine;  // estimate mode only
-  Index m_evaluations = 0;     // evaluate/evaluate_on/verify calls so far
+  Index m_evaluations = 0;                           // evaluate/evaluate_on/verify calls so far
   double m_rent_flops = 0.0;  // auto mode: the estimate's cost over the dense mode's so far
   std::string m_switch_note;
 };

@@ -11,14 +11,14 @@
 /// The H2 norm exists for asymptotically stable, strictly proper models only: unstable models and
 /// descriptor models with singular E (DAEs) are refused with an InputError.
 
-#include <string>
 #include <optional>
+#include <string>
 #include <vector>
 
-#include "ecmor/measures/band_error.hpp"
 #include "ecmor/export.hpp"
-#include "ecmor/model/model.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor {
 

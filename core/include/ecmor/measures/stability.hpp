@@ -9,8 +9,8 @@
 #include <string>
 
 #include "ecmor/export.hpp"
-#include "ecmor/model/model.hpp"
 #include "ecmor/linalg/rigid_body.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor {
 

@@ -1,12 +1,12 @@
 #pragma once
 /// \file matrix_market.hpp
 /// Matrix Market (https://math.nist.gov/MatrixMarket/formats.html) reading and writing.
-/// Supported on read: `matrix coordinate|array real|integer|pattern general|symmetric|skew-symmetric`.
-/// Every malformed file gives an InputError naming the file, the line and the rule broken:
-/// bad or missing header, bad size line, truncated data, out-of-range index, duplicate entry in a
-/// symmetric file's upper triangle, non-finite value (NaN, Inf), duplicate entries whose sum
-/// overflows, trailing garbage, sizes that promise more than the file can hold. Writing is atomic
-/// (temporary file + rename).
+/// Supported on read: `matrix coordinate|array real|integer|pattern
+/// general|symmetric|skew-symmetric`. Every malformed file gives an InputError naming the file, the
+/// line and the rule broken: bad or missing header, bad size line, truncated data, out-of-range
+/// index, duplicate entry in a symmetric file's upper triangle, non-finite value (NaN, Inf),
+/// duplicate entries whose sum overflows, trailing garbage, sizes that promise more than the file
+/// can hold. Writing is atomic (temporary file + rename).
 ///
 /// Messages read "<path>: line <n>: <rule>", e.g.
 ///   "A.mtx: line 99: truncated data: expected 120 entries, file ends after 97 at line 99".
@@ -23,8 +23,8 @@
 #include <filesystem>
 #include <string>
 
-#include "ecmor/export.hpp"
 #include "ecmor/base/types.hpp"
+#include "ecmor/export.hpp"
 
 namespace ecmor {
 

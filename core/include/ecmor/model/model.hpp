@@ -4,16 +4,16 @@
 ///     M q'' + D q' + K q = B u,   y = C q + Cv q'
 /// and first-order descriptor (seed Eq. 1)
 ///     E x' = A x + B u,           y = C x.
-/// Full models hold sparse N x N matrices; reduced models (seed Eqs. 2 and 4) hold dense n x n ones.
-/// B (N x m) and C, Cv (p x N) are dense in both: m and p are small.
+/// Full models hold sparse N x N matrices; reduced models (seed Eqs. 2 and 4) hold dense n x n
+/// ones. B (N x m) and C, Cv (p x N) are dense in both: m and p are small.
 
 #include <optional>
 #include <string>
 #include <string_view>
 #include <variant>
 
-#include "ecmor/export.hpp"
 #include "ecmor/base/types.hpp"
+#include "ecmor/export.hpp"
 
 namespace ecmor {
 

@@ -110,7 +110,7 @@ ECMOR_API ProjectionBases read_projection_bases(const std::filesystem::path& run
 
 /// Sizes, nnz, symmetry and definiteness of a model's matrices (for `ecmor info`).
 struct MatrixSummary {
-  std::string name;   ///< "M", "K", "E", ...
+  std::string name;  ///< "M", "K", "E", ...
   Index rows = 0, cols = 0, nnz = 0;
   double relative_asymmetry = 0.0;  ///< ||A - A'||_F / ||A||_F (NaN for non-square B, C, Cv)
   /// "positive definite" / "not positive definite" for symmetric M, D, K, E (Cholesky);

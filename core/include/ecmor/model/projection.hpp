@@ -17,7 +17,8 @@ ECMOR_API ReducedDescriptorModel project(const DescriptorModel& model, const Mat
 /// Dispatch on the model kind; the reduced model has the same kind.
 ECMOR_API ReducedModel project(const Model& model, const Matrix& V, const Matrix& W);
 
-/// Inner product for orthogonalisation: Euclidean x'y, or x' G y with G symmetric positive definite.
+/// Inner product for orthogonalisation: Euclidean x'y, or x' G y with G symmetric positive
+/// definite.
 struct InnerProduct {
   const SparseMatrix* G = nullptr;  ///< nullptr: Euclidean
 };

@@ -31,10 +31,10 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/measures/band_error.hpp"
-#include "ecmor/export.hpp"
-#include "ecmor/model/model.hpp"
 #include "ecmor/base/parameters.hpp"
+#include "ecmor/export.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/model/model.hpp"
 #include "ecmor/plugin/registry.hpp"
 
 namespace ecmor::conformance {

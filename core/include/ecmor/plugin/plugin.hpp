@@ -27,31 +27,31 @@
 
 #define ECMOR_PLUGIN_STRINGIFY2(x) #x
 #define ECMOR_PLUGIN_STRINGIFY(x) ECMOR_PLUGIN_STRINGIFY2(x)
-#define ECMOR_PLUGIN_BUILD_INFO                                                  \
-  "ecmor " ECMOR_VERSION_STRING ", g++ " __VERSION__ ", cxx11-abi " ECMOR_PLUGIN_STRINGIFY( \
-      _GLIBCXX_USE_CXX11_ABI)
+#define ECMOR_PLUGIN_BUILD_INFO                      \
+  "ecmor " ECMOR_VERSION_STRING ", g++ " __VERSION__ \
+  ", cxx11-abi " ECMOR_PLUGIN_STRINGIFY(_GLIBCXX_USE_CXX11_ABI)
 
 /// The compile configuration that must be identical in ecmor and a plugin, because Eigen matrices,
 /// std::string and std::variant cross the boundary by value: the Eigen version, Eigen's alignment
 /// (changed by -mavx and friends), its index type and libstdc++'s string ABI. Compared as a string
 /// by the loader before anything in the plugin is called.
-#define ECMOR_PLUGIN_CONFIGURATION                                                             \
+#define ECMOR_PLUGIN_CONFIGURATION \
   "eigen " ECMOR_PLUGIN_STRINGIFY(EIGEN_WORLD_VERSION) "." ECMOR_PLUGIN_STRINGIFY(              \
       EIGEN_MAJOR_VERSION) "." ECMOR_PLUGIN_STRINGIFY(EIGEN_MINOR_VERSION) ", max-align " ECMOR_PLUGIN_STRINGIFY(EIGEN_MAX_ALIGN_BYTES) ", static-align " ECMOR_PLUGIN_STRINGIFY(EIGEN_MAX_STATIC_ALIGN_BYTES) ", index " ECMOR_PLUGIN_STRINGIFY(EIGEN_DEFAULT_DENSE_INDEX_TYPE) ", cxx11-abi " ECMOR_PLUGIN_STRINGIFY(_GLIBCXX_USE_CXX11_ABI)
 
-#define ECMOR_PLUGIN(register_function)                                                   \
+#define ECMOR_PLUGIN(register_function)                                                        \
   extern "C" __attribute__((visibility("default"))) const char* ecmor_plugin_configuration() { \
-    return ECMOR_PLUGIN_CONFIGURATION;                                                     \
-  }                                                                                        \
-  extern "C" __attribute__((visibility("default"))) int ecmor_plugin_abi_version() {     \
-    return ECMOR_PLUGIN_ABI_VERSION;                                                       \
-  }                                                                                        \
-  extern "C" __attribute__((visibility("default"))) const char* ecmor_plugin_build_info() { \
-    return ECMOR_PLUGIN_BUILD_INFO;                                                        \
-  }                                                                                        \
-  extern "C" __attribute__((visibility("default"))) void ecmor_plugin_register(            \
-      ::ecmor::Registry* registry) {                                                       \
-    register_function(*registry);                                                          \
+    return ECMOR_PLUGIN_CONFIGURATION;                                                         \
+  }                                                                                            \
+  extern "C" __attribute__((visibility("default"))) int ecmor_plugin_abi_version() {           \
+    return ECMOR_PLUGIN_ABI_VERSION;                                                           \
+  }                                                                                            \
+  extern "C" __attribute__((visibility("default"))) const char* ecmor_plugin_build_info() {    \
+    return ECMOR_PLUGIN_BUILD_INFO;                                                            \
+  }                                                                                            \
+  extern "C" __attribute__((visibility("default"))) void ecmor_plugin_register(                \
+      ::ecmor::Registry* registry) {                                                           \
+    register_function(*registry);                                                              \
   }
 
 namespace ecmor {

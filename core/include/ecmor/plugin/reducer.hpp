@@ -14,11 +14,11 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/model/band.hpp"
-#include "ecmor/export.hpp"
-#include "ecmor/model/model.hpp"
 #include "ecmor/base/parameters.hpp"
+#include "ecmor/export.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/model/band.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor {
 
@@ -38,9 +38,9 @@ inline ExpansionPoint point_at_hz(double f_hz, Index moments = 1) {
 
 /// What the driver hands a reducer once, before the first reduce().
 struct ReductionContext {
-  const Model* model = nullptr;      ///< the full model (outlives the reducer's use of it)
-  ShiftedSolver* solver = nullptr;   ///< shared factorisations and counters
-  Band band;                         ///< the frequency band of interest (Hz)
+  const Model* model = nullptr;     ///< the full model (outlives the reducer's use of it)
+  ShiftedSolver* solver = nullptr;  ///< shared factorisations and counters
+  Band band;                        ///< the frequency band of interest (Hz)
 };
 
 /// One request for a reduced model.
@@ -61,14 +61,14 @@ inline constexpr const char* kUnstablePolesDiagnostic = "unstable_poles";
 
 /// What a reducer returns for a request.
 struct ReducerResult {
-  ReducedModel model;   ///< the reduced model (usually project(full, V, W))
-  Matrix V;             ///< N x n right basis
-  Matrix W;             ///< N x n left basis (W = V for one-sided/Galerkin methods)
+  ReducedModel model;                  ///< the reduced model (usually project(full, V, W))
+  Matrix V;                            ///< N x n right basis
+  Matrix W;                            ///< N x n left basis (W = V for one-sided/Galerkin methods)
   std::vector<ExpansionPoint> points;  ///< points actually used (for the history), may be empty
   /// Free-form numeric diagnostics for the history (e.g. "orthogonality_loss", "eigen_residual");
   /// kUnstablePolesDiagnostic is the one the strategies read.
   std::map<std::string, double> diagnostics;
-  std::string note;     ///< one line for the history, e.g. "12 modes + 1 static correction"
+  std::string note;  ///< one line for the history, e.g. "12 modes + 1 static correction"
 };
 
 class ECMOR_API Reducer {
@@ -93,8 +93,8 @@ struct ReducerInfo {
   std::string description;  ///< one line
   std::string version;      ///< the plugin's own version
   std::vector<ParameterDoc> parameters;
-  bool second_order = true;      ///< accepts second-order models
-  bool descriptor = false;       ///< accepts descriptor models
+  bool second_order = true;  ///< accepts second-order models
+  bool descriptor = false;   ///< accepts descriptor models
   bool uses_expansion_points = false;
 };
 

@@ -1,8 +1,8 @@
 #pragma once
 /// \file frequency_response.hpp
 /// Transfer matrices H(s) = (C + s Cv) (s^2 M + s D + K)^-1 B  or  H(s) = C (s E - A)^-1 B
-/// of full (sparse) and reduced (dense) models, and a thread-safe cache of the full model's response:
-/// it never changes during a run, so every frequency is factorised at most once.
+/// of full (sparse) and reduced (dense) models, and a thread-safe cache of the full model's
+/// response: it never changes during a run, so every frequency is factorised at most once.
 
 #include <functional>
 #include <map>
@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "ecmor/export.hpp"
-#include "ecmor/model/model.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor {
 
@@ -59,9 +59,9 @@ struct ECMOR_API FullSolution {
 
 /// Where a sweep of full-model responses stands, for a progress display.
 struct ECMOR_API SweepProgress {
-  Index done = 0;         ///< frequencies computed so far in this sweep
-  Index total = 0;        ///< frequencies this sweep computes
-  double seconds = 0.0;   ///< wall time since the sweep started
+  Index done = 0;        ///< frequencies computed so far in this sweep
+  Index total = 0;       ///< frequencies this sweep computes
+  double seconds = 0.0;  ///< wall time since the sweep started
 };
 
 /// Memo of the full model's response H(i 2 pi f), keyed by the exact frequency value.

@@ -40,10 +40,10 @@ class ECMOR_API ReducedResponse {
   ReducedModel m_model;  // for the fallback path
   bool m_hessenberg = false;
   bool m_transposed = false;  // H, G, L describe Hr' (fewer outputs than inputs): transpose back
-  Matrix m_minus_H;  // -(Q' F Q) (transposed: -J (Q' F Q)' J), upper Hessenberg
-  Matrix m_G;        // Q' G (transposed: J Q' L')
-  Matrix m_L;        // L Q (transposed: G' Q J)
-  double m_scale = 0.0;  // max |H_ij|, for the singularity test
+  Matrix m_minus_H;           // -(Q' F Q) (transposed: -J (Q' F Q)' J), upper Hessenberg
+  Matrix m_G;                 // Q' G (transposed: J Q' L')
+  Matrix m_L;                 // L Q (transposed: G' Q J)
+  double m_scale = 0.0;       // max |H_ij|, for the singularity test
 };
 
 }  // namespace ecmor

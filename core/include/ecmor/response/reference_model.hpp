@@ -16,8 +16,8 @@
 #include <vector>
 
 #include "ecmor/export.hpp"
-#include "ecmor/response/frequency_response.hpp"
 #include "ecmor/model/model.hpp"
+#include "ecmor/response/frequency_response.hpp"
 
 namespace ecmor {
 

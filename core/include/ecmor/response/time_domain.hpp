@@ -39,10 +39,10 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/export.hpp"
-#include "ecmor/model/model.hpp"
-#include "ecmor/linalg/shifted_solver.hpp"
 #include "ecmor/base/types.hpp"
+#include "ecmor/export.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/model/model.hpp"
 
 namespace ecmor {
 

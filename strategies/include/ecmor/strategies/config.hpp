@@ -33,10 +33,10 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/measures/band_error.hpp"
-#include "ecmor/model/model_io.hpp"
 #include "ecmor/base/parameters.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/model/model_io.hpp"
 
 namespace ecmor {
 
@@ -51,11 +51,11 @@ struct PortfolioMember {
 };
 
 struct RunConfig {
-  std::filesystem::path source;      ///< the YAML file
+  std::filesystem::path source;  ///< the YAML file
   /// model.dir (a model directory) or model.file with model.variables (a .mat file).
   ModelSource model;
   Band band;
-  double tolerance = 1e-3;           ///< on sup_f of the relative error, (0, 1e3]
+  double tolerance = 1e-3;  ///< on sup_f of the relative error, (0, 1e3]
   ErrorNorm norm = ErrorNorm::Spectral;
   std::string reducer_name;
   ParameterMap reducer_params{"reducer"};
@@ -65,8 +65,8 @@ struct RunConfig {
   /// used up the strategy is asked to stop, as for an interrupt: the run ends "interrupted" with
   /// the best model so far, and the message says that the time limit ended it.
   double time_limit_s = 0.0;
-  BandErrorOptions error;            ///< norm is copied from target.norm
-  Index verify_factor = 4;           ///< independent re-check grid is this many times denser
+  BandErrorOptions error;   ///< norm is copied from target.norm
+  Index verify_factor = 4;  ///< independent re-check grid is this many times denser
   /// The reported model's error H-infinity norm is computed by the dense level-set method (all
   /// frequencies, certified) when the full model has at most this many first-order states, else
   /// sampled on the band (YAML error.hinf_dense_states; 0: always sampled). Each level-set
@@ -77,7 +77,7 @@ struct RunConfig {
   /// else from the inertia of K and D (second order) or not at all. About 1 s at 1000.
   Index stability_dense_states = 1000;
   SolverOptions solver;
-  int threads = 0;                   ///< 0: OpenMP default
+  int threads = 0;  ///< 0: OpenMP default
   std::filesystem::path output_dir;
   OutputFormat output_format = OutputFormat::Mtx;  ///< output.format: mtx (default), mat, both
   std::vector<std::filesystem::path> plugins;
@@ -96,7 +96,8 @@ struct RunConfig {
 };
 
 /// Parses and validates a run configuration.
-/// \throws ConfigError "run.yaml:4: unknown key 'tolerence' in 'target' (did you mean 'tolerance'?)",
+/// \throws ConfigError "run.yaml:4: unknown key 'tolerence' in 'target' (did you mean
+/// 'tolerance'?)",
 ///         "run.yaml:3: band.f_min_hz = -1: must be > 0", missing required keys, YAML syntax errors
 ///         with their line.
 RunConfig load_run_config(const std::filesystem::path& path);

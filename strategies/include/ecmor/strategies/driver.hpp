@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "ecmor/measures/stability.hpp"
-#include "ecmor/strategies/config.hpp"
 #include "ecmor/plugin/registry.hpp"
+#include "ecmor/strategies/config.hpp"
 #include "ecmor/strategies/strategy.hpp"
 
 namespace ecmor {
@@ -25,13 +25,13 @@ struct PortfolioAttempt {
   std::string termination;  ///< to_string(Termination), or "pruned", "failed", "not_run"
   std::string message;
   bool has_model = false;
-  Index order = 0;             ///< of the member's best model
-  double band_error = 0.0;     ///< the member's best band error (estimator grid)
+  Index order = 0;          ///< of the member's best model
+  double band_error = 0.0;  ///< the member's best band error (estimator grid)
   bool met = false;
-  double seconds = 0.0;        ///< wall time of the member (setup and strategy)
+  double seconds = 0.0;  ///< wall time of the member (setup and strategy)
   double reducer_seconds = 0.0;
   Index iterations = 0;
-  bool selected = false;       ///< this member's model is the run's result
+  bool selected = false;  ///< this member's model is the run's result
   std::string label() const { return reducer + "/" + strategy; }
 };
 
@@ -39,10 +39,10 @@ struct PortfolioAttempt {
 struct RunSummary {
   Termination termination = Termination::Failed;
   std::string message;
-  Index full_order = 0;          ///< N of the full model
-  bool has_model = false;        ///< a reduced model was written
+  Index full_order = 0;    ///< N of the full model
+  bool has_model = false;  ///< a reduced model was written
   Index order = 0;
-  double band_error = 0.0;       ///< sup relative band error of the reported model
+  double band_error = 0.0;  ///< sup relative band error of the reported model
   double f_peak_hz = 0.0;
   double verified_band_error = 0.0;  ///< on the independent re-check (denser grid or full solves)
   /// How the error was established: "dense" or "estimate" (BandErrorEstimator::mode()), and on
@@ -52,8 +52,8 @@ struct RunSummary {
   std::string error_mode_switch;
   Index checked_frequencies = 0;
   double verified_f_peak_hz = 0.0;
-  double hinf_absolute = 0.0;    ///< band H-infinity of the error (verify grid)
-  double h2_absolute = 0.0;      ///< band H2 of the error (verify grid)
+  double hinf_absolute = 0.0;  ///< band H-infinity of the error (verify grid)
+  double h2_absolute = 0.0;    ///< band H2 of the error (verify grid)
   /// H-infinity norm of the error system H - Hr: over all frequencies by the level-set method
   /// when the full model is small enough to be dense (<= RunConfig::hinf_dense_states first-order
   /// stable; YAML error.hinf_dense_states), else the band supremum of the re-check grid.
@@ -132,7 +132,8 @@ std::vector<PortfolioMember> default_portfolio(const Model& model, const Registr
 /// failed attempt and the next one runs; every attempt is in the history and in summary.json.
 /// Errors in the input (model files, configuration, plugin
 /// parameters) throw; everything after the reducer is set up ends in a RunSummary.
-RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserver* observer = nullptr);
+RunSummary run_reduction(const RunConfig& config, Registry& registry,
+                         RunObserver* observer = nullptr);
 
 /// Peak resident memory of this process in MiB (getrusage).
 double peak_memory_mb();

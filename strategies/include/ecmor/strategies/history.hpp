@@ -9,18 +9,18 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/plugin/reducer.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/plugin/reducer.hpp"
 
 namespace ecmor {
 
 struct IterationRecord {
-  Index iteration = 0;         ///< 1-based
-  std::string phase;           ///< strategy phase, e.g. "grow", "shrink", "verify"
-  Index order = 0;             ///< reduced order n
+  Index iteration = 0;                 ///< 1-based
+  std::string phase;                   ///< strategy phase, e.g. "grow", "shrink", "verify"
+  Index order = 0;                     ///< reduced order n
   std::vector<ExpansionPoint> points;  ///< expansion points used (may be empty)
-  double band_error = 0.0;     ///< sup of the relative band error (target's norm)
-  double f_peak_hz = 0.0;      ///< where it peaks
+  double band_error = 0.0;             ///< sup of the relative band error (target's norm)
+  double f_peak_hz = 0.0;              ///< where it peaks
   bool meets_tolerance = false;
   bool stable = true;          ///< all reduced poles in the open left half plane
   double seconds = 0.0;        ///< wall time since the start of the run

@@ -11,11 +11,11 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/measures/band_error.hpp"
-#include "ecmor/strategies/history.hpp"
 #include "ecmor/base/parameters.hpp"
-#include "ecmor/plugin/reducer.hpp"
 #include "ecmor/linalg/rigid_body.hpp"
+#include "ecmor/measures/band_error.hpp"
+#include "ecmor/plugin/reducer.hpp"
+#include "ecmor/strategies/history.hpp"
 
 namespace ecmor {
 
@@ -55,7 +55,7 @@ struct StrategyContext {
 
 struct StrategyResult {
   Termination termination = Termination::Failed;
-  std::string message;   ///< with numbers: "band error 8.1e-05 <= tolerance 1e-04 at order 24"
+  std::string message;  ///< with numbers: "band error 8.1e-05 <= tolerance 1e-04 at order 24"
   std::optional<ReducerResult> best;  ///< smallest model meeting the target, else the most accurate
   BandError best_error;
   std::vector<IterationRecord> history;  ///< always complete, whatever the verbosity
