@@ -62,13 +62,7 @@ void AdaptiveQuadratureOptions::validate() const {
     throw ConfigError("AdaptiveQuadratureOptions::" + field + " = " + detail::number_text(value) +
                       ": " + rule);
   };
-  if (!(relative_tolerance > 0.0 && relative_tolerance < 1.0))
-    bad("relative_tolerance", relative_tolerance, "must be in (0, 1)");
-  if (!(absolute_tolerance >= 0.0 && std::isfinite(absolute_tolerance)))
-    bad("absolute_tolerance", absolute_tolerance, "must be finite and >= 0");
-  if (max_evaluations < kNodes)
-    bad("max_evaluations", static_cast<double>(max_evaluations),
-        "must be >= 15 (one Gauss-Kronrod rule)");
+  detail::check_adaptive_options(relative_tolerance, absolute_tolerance, max_evaluations, bad);
   if (initial_intervals < 1)
     bad("initial_intervals", static_cast<double>(initial_intervals), "must be >= 1");
 }

@@ -121,13 +121,7 @@ void H2QuadratureOptions::validate() const {
     throw ConfigError("H2QuadratureOptions::" + field + " = " + detail::number_text(value) + ": " +
                       rule);
   };
-  if (!(relative_tolerance > 0.0 && relative_tolerance < 1.0))
-    bad("relative_tolerance", relative_tolerance, "must be in (0, 1)");
-  if (!(absolute_tolerance >= 0.0 && std::isfinite(absolute_tolerance)))
-    bad("absolute_tolerance", absolute_tolerance, "must be finite and >= 0");
-  if (max_evaluations < kNodes)
-    bad("max_evaluations", static_cast<double>(max_evaluations),
-        "must be >= 15 (one Gauss-Kronrod rule)");
+  detail::check_adaptive_options(relative_tolerance, absolute_tolerance, max_evaluations, bad);
   if (!(scale_rad_s >= 0.0 && std::isfinite(scale_rad_s)))
     bad("scale_rad_s", scale_rad_s, "must be finite and >= 0 (0: automatic)");
   if (initial_intervals < 1)
