@@ -260,21 +260,20 @@ class ModalReducer final : public Reducer {
       throw InputError("modal: setup() needs a model and a shifted solver");
     }
     context.band.validate();
-    m_model = context.model;
-    m_solver = context.solver;
-    m_band = context.band;
-    m_ranking.emplace(m_band, m_options.band_margin);
-    m_n = size_of(*m_model);
+    m_context = context;
+    m_ranking.emplace(m_context.band, m_options.band_margin);
+    m_n = size_of(*m_context.model);
     if (m_n < 2) throw InputError(fmt::format("modal: the model has N = {}: needs N >= 2", m_n));
 
-    if (const auto* so = std::get_if<SecondOrderModel>(m_model)) {
-      require_spd_mass(*m_model, "modal");  // InputError naming M
+    if (const auto* so = std::get_if<SecondOrderModel>(m_context.model)) {
+      require_spd_mass(*m_context.model, "modal");  // InputError naming M
       const double asym_k = asymmetry(so->K);
       m_asymmetry = asym_k;
       if (asym_k <= kExactSymmetry) {
-        m_slicer.emplace(so->K, so->M, *m_solver, pencil_factorizer(*m_solver, true), true,
-                         slice_options(m_options), m_band.f_min_hz,
-                         rigid_body_modes(*m_model, *m_solver));
+        m_slicer.emplace(so->K, so->M, *m_context.solver,
+                         pencil_factorizer(*m_context.solver, true), true, slice_options(m_options),
+                         m_context.band.f_min_hz,
+                         rigid_body_modes(*m_context.model, *m_context.solver));
         m_path = "symmetric";
       } else if (asym_k <= m_options.symmetry_tolerance) {
         // Tiny asymmetry (rounding in the source data): the modes of the symmetric part, through a
@@ -288,35 +287,37 @@ class ModalReducer final : public Reducer {
         ShiftedSolver& solver = *m_own_solver;
         const auto& sym_model = std::get<SecondOrderModel>(*m_symmetrised);
         m_slicer.emplace(sym_model.K, sym_model.M, solver, pencil_factorizer(solver, true), true,
-                         slice_options(m_options), m_band.f_min_hz,
+                         slice_options(m_options), m_context.band.f_min_hz,
                          rigid_body_modes(*m_symmetrised, solver));
         m_path = "symmetric part";
       } else {
         // Clearly unsymmetric K: eigenvectors of the general pencil (K, M), a real basis from their
         // real and imaginary parts, Galerkin (W = V) as the model is second order.
-        const double omega_min = kTwoPi * m_band.f_min_hz;
+        const double omega_min = kTwoPi * m_context.band.f_min_hz;
         const double sigma = -std::max(omega_min * omega_min, 1e-6 * spectrum_scale(so->K, so->M));
         const Complex w[3] = {1.0, 0.0, -sigma};
-        m_general.emplace(so->M, m_solver->factorize_combination(w), sigma, true, false, m_options);
+        m_general.emplace(so->M, m_context.solver->factorize_combination(w), sigma, true, false,
+                          m_options);
         m_path = "general";
       }
     } else {
-      const auto& ds = std::get<DescriptorModel>(*m_model);
+      const auto& ds = std::get<DescriptorModel>(*m_context.model);
       const bool symmetric = asymmetry(ds.A) <= kExactSymmetry && asymmetry(ds.E) <= kExactSymmetry;
       m_negA = symmetric ? SparseMatrix(-ds.A) : SparseMatrix();
       bool spd_e = false;
       if (symmetric) {
         try {
-          require_spd_mass(*m_model, "modal");
+          require_spd_mass(*m_context.model, "modal");
           spd_e = true;
         } catch (const InputError&) {
         }
       }
       if (symmetric && spd_e) {
         // E SPD, A symmetric (e.g. the rail models): -A phi = mu E phi, poles -mu, W = V.
-        m_slicer.emplace(m_negA, ds.E, *m_solver, pencil_factorizer(*m_solver, false), false,
-                         slice_options(m_options), m_band.f_min_hz,
-                         rigid_body_modes(*m_model, *m_solver));
+        m_slicer.emplace(m_negA, ds.E, *m_context.solver,
+                         pencil_factorizer(*m_context.solver, false), false,
+                         slice_options(m_options), m_context.band.f_min_hz,
+                         rigid_body_modes(*m_context.model, *m_context.solver));
         m_path = "symmetric descriptor";
       } else {
         // Poles nearest 0 by |lambda| (= the natural frequency of a pole pair): sigma = 0 unless A
@@ -325,11 +326,11 @@ class ModalReducer final : public Reducer {
         std::shared_ptr<const Factorization> F;
         try {
           const Complex w[2] = {-1.0, 0.0};  // A - 0 E
-          F = m_solver->factorize_combination(w);
+          F = m_context.solver->factorize_combination(w);
         } catch (const NumericalError&) {
-          sigma = -kTwoPi * m_band.f_min_hz;
+          sigma = -kTwoPi * m_context.band.f_min_hz;
           const Complex w[2] = {-1.0, -sigma};  // A - sigma E
-          F = m_solver->factorize_combination(w);
+          F = m_context.solver->factorize_combination(w);
         }
         m_general.emplace(ds.E, std::move(F), sigma, false, true, m_options);
         m_path = "general descriptor";
@@ -345,7 +346,7 @@ class ModalReducer final : public Reducer {
   }
 
   ReducerResult reduce(const ReductionRequest& request) override {
-    if (m_model == nullptr) throw InputError("modal: reduce() called before setup()");
+    if (m_context.model == nullptr) throw InputError("modal: reduce() called before setup()");
     if (request.order < 1) {
       throw InputError(fmt::format("modal: requested order {}: must be >= 1", request.order));
     }
@@ -364,12 +365,12 @@ class ModalReducer final : public Reducer {
   // ---- symmetric path --------------------------------------------------------------------------
 
   const SparseMatrix& inner_product_matrix() const {
-    if (const auto* so = std::get_if<SecondOrderModel>(m_model)) return so->M;
-    return std::get<DescriptorModel>(*m_model).E;
+    if (const auto* so = std::get_if<SecondOrderModel>(m_context.model)) return so->M;
+    return std::get<DescriptorModel>(*m_context.model).E;
   }
   const Matrix& input_matrix() const {
-    if (const auto* so = std::get_if<SecondOrderModel>(m_model)) return so->B;
-    return std::get<DescriptorModel>(*m_model).B;
+    if (const auto* so = std::get_if<SecondOrderModel>(m_context.model)) return so->B;
+    return std::get<DescriptorModel>(*m_context.model).B;
   }
 
   /// Indices of the computed modes in rank order, only those whose rank is final.
@@ -398,7 +399,7 @@ class ModalReducer final : public Reducer {
   /// later lies above the margin and ranks after all of them.
   std::vector<Index> final_ranked_by_dominance() {
     const SymmetricSlicer& s = *m_slicer;
-    const bool covered = s.frontier_frequency() >= m_band.f_max_hz * m_options.band_margin;
+    const bool covered = s.frontier_frequency() >= m_context.band.f_max_hz * m_options.band_margin;
     if (covered && m_dominance.empty()) m_dominance = dominance_scores();
     const Key bound = m_ranking->bound(s.frontier_frequency());
     // (tier, -dominance, band key's distance, f, index)
@@ -435,9 +436,9 @@ class ModalReducer final : public Reducer {
     const SymmetricSlicer& s = *m_slicer;
     const Index n = s.known();
     const Matrix& Phi = s.vectors();
-    const auto* so = std::get_if<SecondOrderModel>(m_model);
+    const auto* so = std::get_if<SecondOrderModel>(m_context.model);
     const Matrix& B = input_matrix();
-    const Matrix& C = so ? so->C : std::get<DescriptorModel>(*m_model).C;
+    const Matrix& C = so ? so->C : std::get<DescriptorModel>(*m_context.model).C;
     const bool velocity = so != nullptr && so->has_velocity_output();
     const Matrix Bm = Phi.transpose() * B;  // n x m, row k = b_k'
     const ComplexMatrix Bc = Bm.cast<Complex>();
@@ -459,7 +460,8 @@ class ModalReducer final : public Reducer {
       residual = C * X - Cm * inv.asDiagonal() * Bm;
       if (velocity) residual_v = so->Cv * X - Cvm * inv.asDiagonal() * Bm;
     }
-    const double omega_lo = kTwoPi * m_band.f_min_hz, omega_hi = kTwoPi * m_band.f_max_hz;
+    const double omega_lo = kTwoPi * m_context.band.f_min_hz,
+                 omega_hi = kTwoPi * m_context.band.f_max_hz;
     std::vector<double> score(static_cast<std::size_t>(n), 0.0);
     ComplexVector alpha(n);
     for (Index j = 0; j < n; ++j) {
@@ -497,14 +499,14 @@ class ModalReducer final : public Reducer {
     Matrix X;
     if (!rigid) {
       try {
-        const bool so = std::holds_alternative<SecondOrderModel>(*m_model);
+        const bool so = std::holds_alternative<SecondOrderModel>(*m_context.model);
         std::shared_ptr<const Factorization> F;
         if (so) {
           const Complex w[3] = {1.0, 0.0, 0.0};
-          F = (m_own_solver ? m_own_solver.get() : m_solver)->factorize_combination(w);
+          F = (m_own_solver ? m_own_solver.get() : m_context.solver)->factorize_combination(w);
         } else {
           const Complex w[2] = {1.0, 0.0};
-          F = m_solver->factorize_combination(w);
+          F = m_context.solver->factorize_combination(w);
         }
         X = F->solve(input_matrix());
         m_static_shift = 0.0;
@@ -568,7 +570,7 @@ class ModalReducer final : public Reducer {
     ReducerResult result;
     result.V = V;
     result.W = V;
-    result.model = project(*m_model, V, V);
+    result.model = project(*m_context.model, V, V);
     result.diagnostics["modes"] = static_cast<double>(modes);
     result.diagnostics["rigid_modes"] = static_cast<double>(rigid);
     result.diagnostics["static_columns"] = static_cast<double>(appended);
@@ -616,8 +618,8 @@ class ModalReducer final : public Reducer {
     const SymmetricSlicer& s = *m_slicer;
     const SparseMatrix& M = inner_product_matrix();
     const SparseMatrix& K = m_symmetrised ? std::get<SecondOrderModel>(*m_symmetrised).K
-                            : std::holds_alternative<SecondOrderModel>(*m_model)
-                                ? std::get<SecondOrderModel>(*m_model).K
+                            : std::holds_alternative<SecondOrderModel>(*m_context.model)
+                                ? std::get<SecondOrderModel>(*m_context.model).K
                                 : m_negA;
     const double k_norm = K.norm();
     double worst = 0.0;
@@ -682,7 +684,7 @@ class ModalReducer final : public Reducer {
     for (Index j = 0; j < Wraw.cols(); ++j) Wraw.col(j) = wcols[static_cast<std::size_t>(j)];
 
     ReducerResult result;
-    if (const auto* so = std::get_if<SecondOrderModel>(m_model)) {
+    if (const auto* so = std::get_if<SecondOrderModel>(m_context.model)) {
       // Galerkin with an M-orthonormal basis of span{Re x, Im x}: Mr = I.
       Matrix V(m_n, 0);
       orthonormalize_append(V, Vraw, InnerProduct{&so->M});
@@ -693,7 +695,7 @@ class ModalReducer final : public Reducer {
       // Petrov-Galerkin: orthonormal bases of the right and left eigenspaces, then W scaled so that
       // W' E V = I (eigenspaces of distinct eigenvalues are E-biorthogonal, so W' E V is block
       // diagonal and invertible unless an eigenvalue is defective).
-      const auto& ds = std::get<DescriptorModel>(*m_model);
+      const auto& ds = std::get<DescriptorModel>(*m_context.model);
       Matrix V(m_n, 0), W(m_n, 0);
       orthonormalize_append(V, Vraw);
       orthonormalize_append(W, Wraw);
@@ -717,14 +719,14 @@ class ModalReducer final : public Reducer {
       result.W = W;
       result.diagnostics["biorthogonality_condition"] = cond;
     }
-    result.model = project(*m_model, result.V, result.W);
+    result.model = project(*m_context.model, result.V, result.W);
     result.diagnostics["modes"] = static_cast<double>(n - pairs);
     result.diagnostics["complex_pairs"] = static_cast<double>(pairs);
     result.diagnostics["arpack_runs"] = static_cast<double>(g.runs());
     result.diagnostics["operator_applications"] = static_cast<double>(g.operator_applications());
     std::string note = fmt::format("{} modes ({} complex pairs as Re/Im columns); {} eigenproblem",
                                    n - pairs, pairs, m_path);
-    if (m_options.static_correction && std::holds_alternative<DescriptorModel>(*m_model)) {
+    if (m_options.static_correction && std::holds_alternative<DescriptorModel>(*m_context.model)) {
       note += "; no static correction for unsymmetric descriptor models";
     } else if (m_options.static_correction) {
       note += "; no static correction on the general path";
@@ -737,9 +739,7 @@ class ModalReducer final : public Reducer {
   }
 
   Options m_options;
-  const Model* m_model = nullptr;
-  ShiftedSolver* m_solver = nullptr;
-  Band m_band;
+  ReductionContext m_context;  // the model, solver and band of setup()
   std::optional<Ranking> m_ranking;
   Index m_n = 0;
   double m_asymmetry = 0.0;

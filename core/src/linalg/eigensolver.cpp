@@ -57,12 +57,20 @@ std::string arpack_common_info(int info) {
   }
 }
 
-std::string saupd_info(int info, const int* iparam) {
+// The codes the two iteration routines (dsaupd, dnaupd) share beyond arpack_common_info.
+std::string aupd_common_info(int info, const int* iparam) {
   switch (info) {
     case 1:
       return fmt::format("maximum number of restarts reached: {} converged", iparam[4]);
     case 3:
       return "no shifts could be applied during an implicit restart (increase ncv)";
+    default:
+      return arpack_common_info(info);
+  }
+}
+
+std::string saupd_info(int info, const int* iparam) {
+  switch (info) {
     case -3:
       return "ncv must satisfy nev < ncv <= N";
     case -8:
@@ -75,7 +83,7 @@ std::string saupd_info(int info, const int* iparam) {
           "symmetric in the M inner product (M indefinite or K, M unsymmetric?)",
           iparam[4]);
     default:
-      return arpack_common_info(info);
+      return aupd_common_info(info, iparam);
   }
 }
 
@@ -101,10 +109,6 @@ std::string seupd_info(int info) {
 
 std::string naupd_info(int info, const int* iparam) {
   switch (info) {
-    case 1:
-      return fmt::format("maximum number of restarts reached: {} converged", iparam[4]);
-    case 3:
-      return "no shifts could be applied during an implicit restart (increase ncv)";
     case -3:
       return "ncv must satisfy nev + 2 <= ncv <= N";
     case -8:
@@ -112,7 +116,7 @@ std::string naupd_info(int info, const int* iparam) {
     case -9999:
       return fmt::format("could not build an Arnoldi factorization (size {} reached)", iparam[4]);
     default:
-      return arpack_common_info(info);
+      return aupd_common_info(info, iparam);
   }
 }
 

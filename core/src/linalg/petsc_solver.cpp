@@ -13,6 +13,8 @@
 
 #include <fmt/format.h>
 #include <petscksp.h>
+
+#include "linalg/term_products.hpp"
 #ifdef ECMOR_HAVE_SLEPC
 #include <slepceps.h>
 #endif
@@ -332,7 +334,9 @@ class SolverState {
   mutable std::vector<Slot> m_idle;
 };
 
-class PetscSolver final : public ShiftedSolver {
+class PetscSolver final : public detail::TermProducts<PetscSolver> {
+  friend class detail::TermProducts<PetscSolver>;
+
  public:
   explicit PetscSolver(Terms terms) : m_terms(std::move(terms)) {
     ensure_petsc();
@@ -352,15 +356,6 @@ class PetscSolver final : public ShiftedSolver {
 
   std::shared_ptr<const Factorization> factorize_combination(
       std::span<const Complex> weights) override;
-
-  ComplexMatrix apply_combination(std::span<const Complex> weights,
-                                  const ComplexMatrix& x) const override {
-    return apply(weights, x, false);
-  }
-  ComplexMatrix apply_combination_transposed(std::span<const Complex> weights,
-                                             const ComplexMatrix& x) const override {
-    return apply(weights, x, true);
-  }
 
   SolverCounters counters() const override { return m_state->counters(); }
 

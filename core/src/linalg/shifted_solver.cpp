@@ -53,6 +53,7 @@
 #include "ecmor/base/error.hpp"
 #include "linalg/mumps_ldlt.hpp"
 #include "linalg/petsc_solver.hpp"
+#include "linalg/term_products.hpp"
 
 namespace ecmor {
 
@@ -615,7 +616,9 @@ class MumpsFactorization final : public FactorizationBase {
   std::unique_ptr<detail::MumpsLdlt> m_f;
 };
 
-class SuiteSparseSolver final : public ShiftedSolver {
+class SuiteSparseSolver final : public detail::TermProducts<SuiteSparseSolver> {
+  friend class detail::TermProducts<SuiteSparseSolver>;
+
  public:
   SuiteSparseSolver(const SecondOrderModel& so, const SolverOptions& options)
       : SuiteSparseSolver({&so.K, &so.D, &so.M}, {1.0, 1.0, 1.0}, {"K", "D", "M"}, options) {}
@@ -704,16 +707,6 @@ class SuiteSparseSolver final : public ShiftedSolver {
   /// MUMPS calls are serialised (mumps_ldlt.hpp): a solver that can route a factorisation there
   /// lets MUMPS and the BLAS use the cores, not ecmor's loops over frequencies.
   bool concurrent() const override { return !(m_all_symmetric && use_ldlt()); }
-
-  ComplexMatrix apply_combination(std::span<const Complex> weights,
-                                  const ComplexMatrix& x) const override {
-    return apply(weights, x, false);
-  }
-
-  ComplexMatrix apply_combination_transposed(std::span<const Complex> weights,
-                                             const ComplexMatrix& x) const override {
-    return apply(weights, x, true);
-  }
 
   SolverCounters counters() const override {
     std::lock_guard<std::mutex> lock(m_shared->counters->mutex);
