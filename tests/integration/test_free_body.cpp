@@ -210,6 +210,38 @@ TEST(FreeBodyRefusal, KrylovRefusesAnExpansionPointAtZeroByName) {
   EXPECT_EQ(s.stability.rigid_modes, 6);
 }
 
+// A reduced model with fewer rigid-body modes than the full model (an order cap of 4 leaves the
+// krylov basis with 4 of the 6) is named, not accepted, and never called stable (issue 28).
+TEST(FreeBodySubset, FewerRigidBodyModesAreNotAcceptedNorCalledStable) {
+  test::TempDir tmp("ecmor_free_body");
+  bench::SolidOptions options = free_solid();
+  options.nx = 8;
+  write_model(tmp / "model", bench::solid(options));
+  const fs::path out = tmp / "out";
+  const RunSummary s =
+      reduce_solid(tmp,
+                   "band: {f_min_hz: 20, f_max_hz: 2000}\n"
+                   "target: {tolerance: 1.0e-3}\n"
+                   "strategy: {name: grow_order, initial_order: 4, max_order: 4}\n",
+                   "krylov", out);
+  ASSERT_TRUE(s.has_model) << s.message;
+  EXPECT_EQ(s.exit_code(), 2);
+  EXPECT_EQ(s.stability.verdict, ReducedVerdict::RigidSubset) << s.stability.reason;
+  EXPECT_FALSE(s.stable);
+  std::ifstream in(out / "summary.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_FALSE(j.at("stable").get<bool>());
+  EXPECT_FALSE(j.at("stability").at("accepted").get<bool>());
+  EXPECT_EQ(j.at("stability").at("rigid_modes"), 4);
+  EXPECT_EQ(j.at("stability").at("verdict"),
+            "not as stable as the full model: 4 of its 6 rigid-body modes");
+  const std::string warnings = j.at("warnings").dump();
+  EXPECT_NE(warnings.find("the reduced model keeps only 4 of its 6 rigid-body modes"),
+            std::string::npos)
+      << warnings;
+  EXPECT_EQ(warnings.find("the reduced model is stable"), std::string::npos) << warnings;
+}
+
 struct Shape {
   Index nx, ny, nz;
 };
