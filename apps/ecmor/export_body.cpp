@@ -33,12 +33,30 @@ fs::path run_model_dir(const fs::path& run_dir) {
   nlohmann::json j;
   try {
     in >> j;
-    fs::path dir = j.at("model").at("dir").get<std::string>();
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(fmt::format("{}: not readable as JSON ({})", path.string(), e.what()));
+  }
+  // The mass invariants need the node positions and the DOF map, which only a model directory
+  // carries (a .mat model file has the matrices alone).
+  const std::string need =
+      "export-body needs a model directory (M, D, K, B, C .mtx with nodes.csv and dofs.csv: the "
+      "node positions and the DOF map of the mass invariants; `ecmor import calculix` writes one, "
+      "docs/import-calculix.md)";
+  const nlohmann::json* model =
+      j.is_object() && j.contains("model") && j.at("model").is_object() ? &j.at("model") : nullptr;
+  if (model != nullptr && model->contains("dir") && model->at("dir").is_string()) {
+    fs::path dir = model->at("dir").get<std::string>();
     if (dir.is_relative() && !fs::exists(dir)) dir = run_dir / dir;
     return dir;
-  } catch (const nlohmann::json::exception& e) {
-    throw InputError(fmt::format("{}: needs model.dir ({})", path.string(), e.what()));
   }
+  if (model != nullptr && model->contains("file") && model->at("file").is_string()) {
+    throw InputError(
+        fmt::format("run {}: its model was read from the file {}, not from a model "
+                    "directory; {}; reduce that model directory instead",
+                    run_dir.string(), model->at("file").get<std::string>(), need));
+  }
+  throw InputError(fmt::format("run {}: {} names no model directory (model.dir); {}",
+                               run_dir.string(), path.string(), need));
 }
 
 SecondOrderModel second_order(Model model, const fs::path& dir) {

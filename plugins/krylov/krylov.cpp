@@ -15,6 +15,7 @@
 
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/options.hpp"
+#include "ecmor/linalg/rigid_body.hpp"
 #include "ecmor/model/projection.hpp"
 #include "ecmor/plugin/plugin.hpp"
 #include "ecmor/response/frequency_response.hpp"
@@ -121,10 +122,12 @@ const OptionSpecs<Options>& option_specs() {
   return specs;
 }
 
-/// A configured point and its weight (moment blocks added per round by the grow path).
+/// A configured point, its weight (moment blocks added per round by the grow path) and the key
+/// it came from (points, real_points, or point_count for the log-spaced ones).
 struct ConfiguredPoint {
   Complex s;
   Index weight = 1;
+  const char* key = "point_count";
 };
 
 std::string describe(Complex s) {
@@ -251,8 +254,12 @@ class KrylovReducer final : public Reducer {
       ++k;
       return static_cast<Index>(w);
     };
-    for (double f : m_options.points_hz) m_configured.push_back({s_from_hz(f), weight()});
-    for (double s : m_options.real_points) m_configured.push_back({Complex(s, 0.0), weight()});
+    for (double f : m_options.points_hz) {
+      m_configured.push_back({s_from_hz(f), weight(), "points"});
+    }
+    for (double s : m_options.real_points) {
+      m_configured.push_back({Complex(s, 0.0), weight(), "real_points"});
+    }
     if (m_configured.empty()) {
       const Index p = m_options.point_count;
       const double lo = std::log(m_band.f_min_hz), hi = std::log(m_band.f_max_hz);
@@ -267,7 +274,11 @@ class KrylovReducer final : public Reducer {
         m_configured.push_back({s_from_hz(f), weight()});
       }
     }
-    for (const auto& c : m_configured) validate_point(c.s, 1, "configured point");
+    setup_rigid_modes();
+    for (const auto& c : m_configured) {
+      validate_point(c.s, 1, "configured point");
+      refuse_rigid_pole(c.s, c.key);
+    }
   }
 
   ReducerResult reduce(const ReductionRequest& request) override {
@@ -376,6 +387,68 @@ class KrylovReducer final : public Reducer {
 
   /// First-order states of n second-order columns (n itself on the plain path).
   Index states(Index n) const { return m_structure ? 2 * n : n; }
+
+  // ---- rigid-body modes -----------------------------------------------------------------------
+
+  /// The rigid-body modes of the (second-order) model reduced: the null space N of K
+  /// (rigid_body_modes). Moments at s0 != 0 contain the rigid-body response only approximately
+  /// (measured on a free 3-D solid, N = 2 460: 4 of its 6 rigid-body modes at order 24), so a
+  /// reduced model would lose some of the full model's poles at s = 0; N is therefore put into V
+  /// (and W) ahead of the Krylov vectors: K V e_j = 0 for those columns, so (Kr, Mr) has exactly
+  /// the full model's zero eigenvalues (Cauchy interlacing bounds them from above). The analysis
+  /// is the core's (shared with the driver through its cache of the last model analysed); a
+  /// positive definite K ends it at one Cholesky factorisation and leaves the reducer unchanged.
+  /// Through the second-order structure the recovered model is analysed with a solver of its own
+  /// (the view factorises only K + s D + s^2 M, not the K - sigma M of the Lanczos step).
+  void setup_rigid_modes() {
+    m_rigid = RigidBodyModes{};
+    m_rigid_basis.resize(m_n, 0);
+    if (!m_second_order) return;
+    m_rigid =
+        m_structure ? rigid_body_modes(m_structure->second) : rigid_body_modes(*m_model, *m_solver);
+    if (!m_rigid.decided || m_rigid.count == 0) return;
+    // Euclidean-orthonormal like the Krylov columns appended after it (the analysis gives an
+    // M-orthonormal basis of the same space).
+    orthonormalize_append(m_rigid_basis, m_rigid.basis, {}, m_options.deflation_tolerance);
+  }
+
+  /// Columns of V (and W) taken by the rigid-body modes, ahead of the Krylov vectors.
+  Index rigid_columns() const { return m_rigid_basis.cols(); }
+
+  /// Refuses an expansion point at which P(s0) = K + s0 D + s0^2 M is K to working precision on
+  /// the rigid-body modes: there P(s0) is singular (s0 is a pole of the model), and whether its
+  /// factorisation fails is a matter of rounding (on a free 3-D solid the factorisation of K
+  /// succeeds and the run ended with order 2 and band error 1.6). On the M-orthonormal null space
+  /// N, N' P(s0) N = s0 N'DN + s0^2 I; s0 is refused when its smallest singular value is at most
+  /// the rounding level of K's zero eigenvalues (the largest computed one, at least the floor
+  /// kRigidFloor of the spectrum scale). s0 = 0 always is. `key`: the option a configured point
+  /// came from (ConfigError), nullptr for a request's point `index` (InputError).
+  void refuse_rigid_pole(Complex s, const char* key, std::size_t index = 0) const {
+    if (m_rigid.count == 0 || m_rigid_basis.cols() == 0) return;
+    const SparseMatrix& D = std::get<SecondOrderModel>(*m_model).D;
+    const Matrix& N = m_rigid.basis;
+    const ComplexMatrix R = s * Matrix(N.transpose() * (D * N)).cast<Complex>() +
+                            s * s * ComplexMatrix::Identity(N.cols(), N.cols());
+    const double sigma_min =
+        Eigen::JacobiSVD<ComplexMatrix>(R).singularValues().minCoeff();  // descending, last
+    const double rounding =
+        std::max(kRigidFloor * m_rigid.scale, m_rigid.rigid_eigenvalues.cwiseAbs().maxCoeff());
+    if (sigma_min > rounding) return;
+    const std::string where = key != nullptr ? fmt::format("{}: {}", key, describe(s))
+                                             : fmt::format("point {} {}", index, describe(s));
+    const std::string what = fmt::format(
+        "reducer 'krylov': {} is a pole of the model: it has {} rigid-body mode{} (poles at s = "
+        "0; {}), and at this point P(s0) = K + s0 D + s0^2 M is K to working precision on them "
+        "(smallest singular value {:.3g} of s0 N'DN + s0^2 I <= {:.3g}, the rounding of K's zero "
+        "eigenvalues), hence singular: Krylov cannot expand there. Use a point away from 0, e.g. "
+        "points: [{:g}] (f_min of the band, Hz) or real_points: [{:g}] (2 pi f_min, rad/s); the "
+        "rigid-body modes are kept anyway (the null space of K is the first {} column{} of V)",
+        where, m_rigid.count, m_rigid.count == 1 ? "" : "s", m_rigid.method, sigma_min, rounding,
+        m_band.f_min_hz, kTwoPi * m_band.f_min_hz, rigid_columns(),
+        rigid_columns() == 1 ? "" : "s");
+    if (key != nullptr) throw ConfigError(what);
+    throw InputError(what);
+  }
 
   // ---- points --------------------------------------------------------------------------------
 
@@ -569,8 +642,9 @@ class KrylovReducer final : public Reducer {
   ReducerResult reduce_grow(Index order) {
     GrowState& g = m_grow;
     if (g.blocks.empty()) {
-      g.V.resize(m_n, 0);
-      g.W.resize(m_options.two_sided ? m_n : 0, 0);
+      // The rigid-body modes first (setup_rigid_modes; none for a positive definite K).
+      g.V = m_rigid_basis;
+      g.W = m_options.two_sided ? m_rigid_basis : Matrix(0, 0);
       g.blocks.assign(m_configured.size(), 0);
       g.done.assign(m_configured.size(), false);
     }
@@ -616,6 +690,7 @@ class KrylovReducer final : public Reducer {
     const std::vector<ExpansionPoint>& pts = request.points;
     for (std::size_t i = 0; i < pts.size(); ++i) {
       validate_point(pts[i].s, pts[i].moments, fmt::format("point {}", i + 1));
+      refuse_rigid_pole(pts[i].s, nullptr, i + 1);
     }
     std::vector<Complex> request_points;
     for (const auto& p : pts) request_points.push_back(p.s);
@@ -635,7 +710,8 @@ class KrylovReducer final : public Reducer {
         ++keep_points;
       }
     }
-    Index v_keep = 0, w_keep = 0;
+    // The rigid-body modes lead every V (and W): kept whatever the points (setup_rigid_modes).
+    Index v_keep = rigid_columns(), w_keep = m_options.two_sided ? rigid_columns() : 0;
     std::vector<Segment> segments;
     std::vector<Index> have(pts.size(), 0);
     for (const Segment& s : b.segments) {
@@ -645,15 +721,16 @@ class KrylovReducer final : public Reducer {
       w_keep = s.w_end;
       have[s.point] = s.block + 1;
     }
-    m_reused_columns = b.valid ? v_keep : 0;
+    m_reused_columns = b.valid ? v_keep - rigid_columns() : 0;
     // The kept columns are copied bit for bit below, so their projection stays valid (one-sided, W
     // has no columns and w_keep = 0).
     m_points_projection->keep(!b.valid              ? 0
                               : m_options.two_sided ? std::min(v_keep, w_keep)
                                                     : v_keep);
-    Matrix V = b.valid ? Matrix(b.V.leftCols(v_keep)) : Matrix(m_n, 0);
-    Matrix W = b.valid && m_options.two_sided ? Matrix(b.W.leftCols(w_keep))
-                                              : Matrix(m_options.two_sided ? m_n : 0, 0);
+    Matrix V = b.valid ? Matrix(b.V.leftCols(v_keep)) : m_rigid_basis;
+    Matrix W = !m_options.two_sided ? Matrix(0, 0)
+               : b.valid            ? Matrix(b.W.leftCols(w_keep))
+                                    : m_rigid_basis;
     // Points whose segments were kept but whose Krylov space ran out earlier have fewer
     // segments than moments; continuing them appends nothing, which is right.
     for (std::size_t i = 0; i < pts.size(); ++i) {
@@ -680,17 +757,24 @@ class KrylovReducer final : public Reducer {
   /// eigenvalues of a 2n x 2n pencil); otherwise the eigenvalues (ecmor::poles, which reuses them
   /// for a model it saw recently, so the estimator's pole samples cost nothing more).
   /// `certified`: the caller has proven every pole stable (see finish(), second-order structure).
+  /// Sets m_last_zero_poles to those of them in the full model's disc of rigid-body poles (|s| <=
+  /// sqrt(zero_bound), see reduced_model_stability), 0 without rigid-body modes.
   Index unstable_poles(const ReducedModel& model, bool certified) {
     m_last_certified = false;
+    m_last_zero_poles = 0;
     if (certified) {
       m_last_certified = true;
       return 0;
     }
     const ComplexVector p = poles(model);
     ++m_pole_requests;
+    const double zero_radius = m_rigid.count > 0 ? std::sqrt(m_rigid.zero_bound) : 0.0;
     Index unstable = 0;
     for (Index i = 0; i < p.size(); ++i) {
-      if (!(p[i].real() < 0.0)) ++unstable;
+      if (!(p[i].real() < 0.0)) {
+        ++unstable;
+        if (std::abs(p[i]) <= zero_radius) ++m_last_zero_poles;
+      }
     }
     return unstable;
   }
@@ -823,13 +907,30 @@ class KrylovReducer final : public Reducer {
     }
     d["second_order_structure"] = m_structure ? 1.0 : 0.0;
     if (m_structure) note += "; second-order structure of the first-order model used (x = [q; q'])";
+    // The rigid-body modes ahead of the Krylov vectors (setup_rigid_modes); a cap below their
+    // number leaves some out, and the stability rule then names the model as keeping fewer.
+    const Index rigid_in_basis = std::min(rigid_columns(), n);
+    d["rigid_modes_in_basis"] = static_cast<double>(rigid_in_basis);
+    if (rigid_columns() > 0) {
+      note += rigid_in_basis == rigid_columns()
+                  ? fmt::format("; {} rigid-body mode{} (null space of K) first in the basis",
+                                rigid_in_basis, rigid_in_basis == 1 ? "" : "s")
+                  : fmt::format(
+                        "; only {} of the {} rigid-body modes (null space of K) in the "
+                        "basis: order {} is below their number",
+                        rigid_in_basis, rigid_columns(), states(n));
+    }
     // Stability: reported, never hidden or repaired.
     try {
       const Index unstable = unstable_poles(result.model, certified);
       d[kUnstablePolesDiagnostic] = static_cast<double>(unstable);
-      if (unstable > 0) {
-        note += fmt::format("; {} projection lost stability: {} pole{} with Re >= 0",
-                            two ? "two-sided" : "one-sided", unstable, unstable == 1 ? "" : "s");
+      // Poles at s = 0 from the rigid-body modes are the full model's (the stability rule judges
+      // them); only the others mean that the projection lost stability.
+      const Index away = unstable - m_last_zero_poles;
+      if (away > 0) {
+        note += fmt::format("; {} projection lost stability: {} pole{} with Re >= 0{}",
+                            two ? "two-sided" : "one-sided", away, away == 1 ? "" : "s",
+                            m_last_zero_poles > 0 ? " away from s = 0" : "");
       }
     } catch (const Error& e) {
       d[kUnstablePolesDiagnostic] = std::numeric_limits<double>::quiet_NaN();
@@ -868,6 +969,9 @@ class KrylovReducer final : public Reducer {
   std::optional<IncrementalProjection> m_grow_projection, m_points_projection;
   Index m_pole_requests = 0;      // models whose poles this reducer asked for (cumulative)
   bool m_last_certified = false;  // the last count came from certified_stable()
+  Index m_last_zero_poles = 0;    // of the last count, poles in the rigid-body disc around s = 0
+  RigidBodyModes m_rigid;         // of the model reduced (setup_rigid_modes)
+  Matrix m_rigid_basis;           // m_n x count, Euclidean-orthonormal basis of null(K)
 };
 
 ReducerInfo krylov_info() {

@@ -177,12 +177,21 @@ nlohmann::json report_stability(const RunConfig& config, const Model& model,
                                fs.verdict == Stability::Marginal && rigid.count > 0;
   if ((fs.verdict == Stability::Unstable || fs.verdict == Stability::Marginal) &&
       !rigid_like_full) {
-    summary.warnings.push_back(fmt::format(
-        "the full model is {} ({}){}", to_string(fs.verdict), fs.reason,
-        summary.has_model && summary.stable
-            ? "; the reduced model is stable, so it can represent the full model in the band "
-              "only, not in the time domain"
-            : ""));
+    // The reduced model is called stable only when the rule accepts it; a model with fewer
+    // rigid-body modes than the full model has undamped poles at 0 and is named as such.
+    std::string reduced_note;
+    if (summary.has_model && summary.stable) {
+      reduced_note =
+          "; the reduced model is stable, so it can represent the full model in the band only, "
+          "not in the time domain";
+    } else if (summary.has_model && summary.stability.verdict == ReducedVerdict::RigidSubset) {
+      reduced_note = fmt::format(
+          "; the reduced model keeps only {} of its {} rigid-body modes (undamped poles at s = "
+          "0): it is not as stable as the full model",
+          summary.stability.rigid_modes, summary.stability.full_rigid_modes);
+    }
+    summary.warnings.push_back(
+        fmt::format("the full model is {} ({}){}", to_string(fs.verdict), fs.reason, reduced_note));
   }
   j["full_model_stability"] = {
       {"verdict", to_string(fs.verdict)},

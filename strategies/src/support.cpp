@@ -143,11 +143,16 @@ std::string StrategyRun::shortfall() const {
     // Without rigid-body modes in the full model "as stable as the full model" means
     // asymptotically stable.
     const bool rigid = m_ctx.full_rigid != nullptr && m_ctx.full_rigid->count > 0;
+    // Fewer rigid-body modes than the full model is a shortcoming of the basis, not of the full
+    // model: say what would keep them all.
+    const bool subset = m_most_accurate->stability.verdict == ReducedVerdict::RigidSubset;
     return "band error " + sci(e) + " <= tolerance " + sci(m_ctx.tolerance) +
            ", but the model is " +
            (rigid ? "not as stable as the full model (" : "not asymptotically stable (") +
            m_most_accurate->stability.reason +
-           "; an undamped or unstable full model has no stable approximation)";
+           (subset ? "; a basis holding the null space of K keeps every rigid-body mode: modal "
+                     "and krylov put it first)"
+                   : "; an undamped or unstable full model has no stable approximation)");
   }
   return "band error " + sci(e) + " > tolerance " + sci(m_ctx.tolerance);
 }

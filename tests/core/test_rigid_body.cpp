@@ -223,12 +223,18 @@ TEST(ReducedStability, ElasticModesOnlyAreAsymptoticallyStable) {
   EXPECT_EQ(st.label, "asymptotically stable");
 }
 
-TEST(ReducedStability, SomeRigidBodyModesAreASubset) {
+// Fewer rigid-body modes than the full model: named (RigidSubset), but not accepted, and never
+// called stable (issue 28: "as stable as the full model" needs the same count).
+TEST(ReducedStability, SomeRigidBodyModesAreASubsetAndNotAccepted) {
   const FreeSolid s;
   const ReducedStability st = reduced_model_stability(s.reduced(3, 10), s.rigid);
   EXPECT_EQ(st.verdict, ReducedVerdict::RigidSubset) << st.reason;
-  EXPECT_TRUE(st.accepted());
+  EXPECT_FALSE(st.accepted());
   EXPECT_EQ(st.rigid_modes, 3);
+  EXPECT_EQ(st.full_rigid_modes, 6);
+  EXPECT_EQ(st.label, "not as stable as the full model: 3 of its 6 rigid-body modes");
+  EXPECT_EQ(st.label.find("stable with"), std::string::npos) << st.label;
+  EXPECT_NE(st.reason.find("where the full model has 6"), std::string::npos) << st.reason;
 }
 
 TEST(ReducedStability, AnExtraPoleAtZeroIsRefused) {

@@ -4,7 +4,7 @@
 // tests/core/test_flexible_body.cpp; exact for the consistent mass of affine hexahedra up to
 // rounding), the ROM's Mr and Kr as Me and Ke, and the input/output nodes as its frame. Without
 // the mass model the clamped face's mass is missing and the command says so; a changed model
-// and a model without nodes are refused by name.
+// and a model without nodes are refused by name, and so is a run of a model read from a .mat file.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -224,6 +224,34 @@ TEST_F(ExportBody, AFreeBodyHasOnlyElasticCoordinates) {
   EXPECT_NE(bare.err.find("no projection bases: neither V.mtx nor reduced_model.mat"),
             std::string::npos)
       << bare.err;
+}
+
+// A run whose model came from a .mat file has no node positions or DOF map: export-body refuses
+// it by name (the run directory, the file, and what it needs), not with a JSON library message.
+TEST_F(ExportBody, ARunOfAMatModelIsRefusedByName) {
+  const fs::path mat = m_dir / "clamped.mat";
+  {
+    test::MatTestFile f(mat, MAT_FT_MAT5);
+    f.model(load_model(m_dir / "clamped"));
+  }
+  std::ofstream(m_dir / "mat.yaml") << "model:    {file: " << mat.string() << "}\n"
+                                    << "band:     {f_min_hz: 1.0, f_max_hz: 300.0}\n"
+                                    << "target:   {tolerance: 1.0e-2}\n"
+                                    << "reducer:  {name: modal}\n"
+                                    << "strategy: {name: grow_order}\n"
+                                    << "output:   {dir: " << (m_dir / "mat_run").string() << "}\n";
+  const test::CliResult reduced = run({"reduce", (m_dir / "mat.yaml").string(), "--no-plot", "-q"});
+  ASSERT_EQ(reduced.exit_code, 0) << reduced.out << reduced.err;
+  const fs::path run_dir = m_dir / "mat_run";
+  const test::CliResult r = run({"export-body", run_dir.string()});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("run " + run_dir.string() + ": its model was read from the file " +
+                       mat.string() + ", not from a model directory"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("export-body needs a model directory"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("nodes.csv and dofs.csv"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("json.exception"), std::string::npos) << r.err;
 }
 
 }  // namespace

@@ -1034,14 +1034,25 @@ TEST(Krylov, BadPointsAreNamed) {
   EXPECT_NE(msg.find("order must be >= 1"), std::string::npos) << msg;
 }
 
-TEST(Krylov, SingularPointIsANumericalErrorWithAdvice) {
-  // s0 = 0 on a free-floating chain: P(0) = K is singular (rigid-body mode).
+TEST(Krylov, SingularPointIsNamedWithAdvice) {
+  // s0 = 0 on a free-floating chain: P(0) = K is singular (rigid-body mode). Refused by name from
+  // the rigid-body analysis, before any factorisation (whose failure is a matter of rounding).
   auto f = make(Model(chain(30, false, 0.01)), Band{1e-3, 1.0}, params());
-  std::string msg = message_of<NumericalError>([&] {
-    f->reducer->reduce({0, {{Complex(0.0, 0.0), 2}}});
+  std::string msg = message_of<InputError>([&] {
+    f->reducer->reduce({0, {point_at_hz(0.5, 1), {Complex(0.0, 0.0), 2}}});
   });
-  EXPECT_NE(msg.find("s0 = 0"), std::string::npos) << msg;
-  EXPECT_NE(msg.find("move the point"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("point 2 s0 = 0 is a pole of the model: it has 1 rigid-body mode"),
+            std::string::npos)
+      << msg;
+  EXPECT_NE(msg.find("Use a point away from 0"), std::string::npos) << msg;
+  // A point away from 0 gives a basis that holds the rigid-body mode (the constant vector) first.
+  const ReducerResult r = f->reducer->reduce({0, {point_at_hz(0.5, 2)}});
+  EXPECT_EQ(r.diagnostics.at("rigid_modes_in_basis"), 1.0);
+  const Vector ones = Vector::Ones(30) / std::sqrt(30.0);
+  EXPECT_LT((r.V.col(0).cwiseAbs() - ones).norm(), 1e-12);
+  EXPECT_NE(r.note.find("1 rigid-body mode (null space of K) first in the basis"),
+            std::string::npos)
+      << r.note;
   // An undamped chain at an eigenfrequency: P(i omega) = K - omega^2 M is singular; named in Hz.
   const SecondOrderModel m = chain(8, true, 0.0);
   const Vector lambda = Eigen::SelfAdjointEigenSolver<Matrix>(Matrix(m.K)).eigenvalues();
@@ -1118,6 +1129,8 @@ TEST(Krylov, ConfiguredPointsAndWeightsAreUsed) {
   const ReducerResult r = f->reducer->reduce({20, {}});
   ASSERT_EQ(r.V.cols(), 20);
   ASSERT_EQ(r.points.size(), 3u);
+  // K is positive definite (grounded chain): s0 = 0 is allowed and nothing precedes the moments.
+  EXPECT_EQ(r.diagnostics.at("rigid_modes_in_basis"), 0.0);
   EXPECT_EQ(r.points[0].s, point_at_hz(0.01).s);
   EXPECT_EQ(r.points[2].s, Complex(0.0, 0.0));
   // Per round: 2 blocks (4 columns) at 0.01 Hz, 1 (2 columns) at 0.2 Hz, 1 (1 column) at 0.

@@ -59,8 +59,10 @@ ECMOR_API StabilityReport full_model_stability(const Model& model, Index dense_s
 enum class ReducedVerdict {
   Asymptotic,     ///< every pole has Re < 0
   RigidLikeFull,  ///< poles at 0 from exactly the full model's rigid-body modes, the rest Re < 0
-  RigidSubset,    ///< poles at 0 from fewer rigid-body modes than the full model's, rest Re < 0
-  Unstable,       ///< a pole with Re >= 0 away from 0, or more poles at 0 than the full model
+  /// poles at 0 from fewer rigid-body modes than the full model's, rest Re < 0: not accepted
+  /// (the same count is required), kept apart from Unstable so that reports say what happened
+  RigidSubset,
+  Unstable,  ///< a pole with Re >= 0 away from 0, or more poles at 0 than the full model
 };
 
 struct ECMOR_API ReducedStability {
@@ -80,19 +82,23 @@ struct ECMOR_API ReducedStability {
   /// when the full model has no rigid-body mode (then every pole with Re >= 0 is refused).
   double zero_radius = 0.0;
   /// The verdict in words for users: "asymptotically stable", "stable with 6 rigid-body modes like
-  /// the full model", "stable with 3 of the full model's 6 rigid-body modes", "unstable".
+  /// the full model", "not as stable as the full model: 3 of its 6 rigid-body modes", "unstable".
   std::string label;
   /// Why, with numbers ("2 poles with Re >= 0 away from s = 0, the largest real part 3.1e-02").
   std::string reason;
-  /// Accepted as "as stable as the full model": every verdict but Unstable.
-  bool accepted() const { return verdict != ReducedVerdict::Unstable; }
+  /// Accepted as "as stable as the full model": Asymptotic or RigidLikeFull. RigidSubset is not:
+  /// its remaining rigid-body modes are undamped poles at 0, but not the full model's count.
+  bool accepted() const {
+    return verdict == ReducedVerdict::Asymptotic || verdict == ReducedVerdict::RigidLikeFull;
+  }
 };
 
 /// Judges `reduced` against the full model's rigid-body modes `full` (rigid_body_modes on the full
 /// model). A reduced model is as stable as the full model when
 ///  * no pole lies in the closed right half-plane outside the disc |s| <= zero_radius (every
 ///    elastic pole is damped: Re < 0; NaN counts as not damped);
-///  * its rigid-body modes are no more than the full model's: for a second-order reduced model the
+///  * its rigid-body modes are exactly the full model's (RigidLikeFull) or none (Asymptotic); fewer
+///    is RigidSubset, not accepted, more is Unstable. For a second-order reduced model they are the
 ///    eigenvalues of (Kr, Mr) with |mu| <= full.zero_bound (by Cauchy interlacing a Galerkin
 ///    projection of symmetric K, M cannot have more than full.count of them, since the full
 ///    model's next eigenvalue lies above the gap), for a descriptor one the poles in the disc,
