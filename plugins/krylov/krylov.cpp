@@ -62,7 +62,8 @@ const OptionSpecs<Options>& option_specs() {
               .unit("Hz")
               .range(Range::above(0).finite()),
           option("real_points", &Options::real_points,
-                 "real expansion points s0 (e.g. 0 for the static response); after `points`")
+                 "real expansion points s0 (e.g. 0 for the static response; refused for a model "
+                 "with rigid-body modes); after `points`")
               .unit("rad/s")
               .range(Range::at_least(0).finite()),
           option("point_moments", &Options::point_moments,
