@@ -317,6 +317,10 @@ TEST(MatrixMarketErrors, SizeLine) {
   expect_error(dir, "neg.mtx", kGeneral + "-3 3 1\n1 1 1\n", 2, "negative row count '-3'");
   expect_error(dir, "negc.mtx", kGeneral + "3 -3 1\n1 1 1\n", 2, "negative column count '-3'");
   expect_error(dir, "negn.mtx", kGeneral + "3 3 -1\n", 2, "negative entry count '-1'");
+  // A sign after '+' once parsed as a negative count (found by fuzz_matrix_market).
+  expect_error(dir, "plusneg.mtx", kGeneral + "3 3 +-1\n", 2, "bad entry count '+-1'");
+  expect_error(dir, "plusnegr.mtx", kGeneral + "+-3 3 1\n1 1 1\n", 2, "bad row count '+-3'");
+  expect_error(dir, "plusplus.mtx", kGeneral + "3 3 ++1\n1 1 1\n", 2, "bad entry count '++1'");
   expect_error(dir, "huge.mtx", kGeneral + "99999999999999999999 3 1\n1 1 1\n", 2, "too large");
   expect_error(dir, "nonsq.mtx", kSymmetric + "3 4 1\n1 1 1\n", 2, "must be square");
 }

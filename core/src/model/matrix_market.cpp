@@ -358,7 +358,10 @@ std::int64_t Parser::parse_size(std::string_view tok, const char* what) {
   }
   std::string_view t = tok;
   if (!t.empty() && t.front() == '+') t.remove_prefix(1);
+  // from_chars accepts a leading '-': after a '+' it would let "+-5" through as -5.
+  const bool signed_twice = !t.empty() && (t.front() == '-' || t.front() == '+');
   auto [p, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
+  if (signed_twice) ec = std::errc::invalid_argument;
   if (ec == std::errc::result_out_of_range)
     fail(std::string(what) + " " + quoted(tok) + " in the size line is too large");
   if (ec != std::errc() || p != t.data() + t.size() || t.empty())
