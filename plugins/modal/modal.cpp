@@ -347,21 +347,133 @@ class ModalReducer final : public Reducer {
 
   ReducerResult reduce(const ReductionRequest& request) override {
     if (m_context.model == nullptr) throw InputError("modal: reduce() called before setup()");
+    if (!request.points.empty()) return reduce_mixed(request);
     if (request.order < 1) {
       throw InputError(fmt::format("modal: requested order {}: must be >= 1", request.order));
     }
-    if (!request.points.empty()) {
-      throw ConfigError(
-          "modal: given expansion points, but modal truncation selects modes, not points; use a "
-          "strategy that grows the order (grow_order)");
-    }
-    return m_slicer ? reduce_symmetric(request.order) : reduce_general(request.order);
+    return reduce_modes(request.order);
   }
 
   Index max_order() const override { return m_n; }
   Index order_step() const override { return 1; }
 
  private:
+  ReducerResult reduce_modes(Index order) {
+    return m_slicer ? reduce_symmetric(order) : reduce_general(order);
+  }
+
+  // ---- mixed basis: modal block + Krylov columns at expansion points ---------------------------
+
+  /// The Taylor coefficients X_0..X_{moments-1} of X(s) = P(s)^-1 B at s0 (moment j is the j-th
+  /// derivative / j!): P X_0 = B, P X_j = -(P' X_{j-1} + (P''/2) X_{j-2}) with P' = 2 s0 M + D,
+  /// P''/2 = M (second order) or P' = E (descriptor). Cached per point; a point asked for more
+  /// moments than cached is solved again from its factorisation.
+  const std::vector<ComplexMatrix>& krylov_moments(Complex s0, Index moments, Index point) {
+    for (PointSolve& c : m_point_solves) {
+      if (c.s == s0 && static_cast<Index>(c.X.size()) >= moments) return c.X;
+    }
+    std::shared_ptr<const Factorization> F;
+    try {
+      F = m_context.solver->factorize(s0);
+    } catch (const NumericalError& e) {
+      throw InputError(fmt::format(
+          "modal: expansion point {} (s = {:g}{:+g}i): P(s) is singular, s lies on a pole of the "
+          "model: {}",
+          point, s0.real(), s0.imag(), e.what()));
+    }
+    const bool so = std::holds_alternative<SecondOrderModel>(*m_context.model);
+    std::vector<ComplexMatrix> X;
+    X.push_back(F->solve(ComplexMatrix(input_matrix().cast<Complex>())));
+    for (Index j = 1; j < moments; ++j) {
+      ComplexMatrix rhs;
+      if (so) {
+        const Complex d1[3] = {0.0, 1.0, 2.0 * s0};
+        rhs = m_context.solver->apply_combination(d1, X[static_cast<std::size_t>(j - 1)]);
+        if (j >= 2) {
+          const Complex d2[3] = {0.0, 0.0, 1.0};
+          rhs += m_context.solver->apply_combination(d2, X[static_cast<std::size_t>(j - 2)]);
+        }
+      } else {
+        const Complex d1[2] = {0.0, 1.0};
+        rhs = m_context.solver->apply_combination(d1, X[static_cast<std::size_t>(j - 1)]);
+      }
+      X.push_back(F->solve(ComplexMatrix(-rhs)));
+    }
+    for (PointSolve& c : m_point_solves) {
+      if (c.s == s0) {
+        c.X = std::move(X);
+        return c.X;
+      }
+    }
+    m_point_solves.push_back({s0, std::move(X)});
+    return m_point_solves.back().X;
+  }
+
+  /// ReductionRequest with points: the modal block of request.modes (the model of
+  /// reduce_modes(modes)), then for each point and moment the real and imaginary parts of its
+  /// Krylov block, M-orthonormalised against everything before (Galerkin, W = V: the reduced
+  /// model interpolates H and its first `moments` derivatives at each s0 and its conjugate).
+  /// order > 0 caps the basis, keeping the first columns.
+  ReducerResult reduce_mixed(const ReductionRequest& request) {
+    // The general descriptor path's modes need a left basis of their own (Petrov-Galerkin): no
+    // block to put Krylov columns behind; Krylov columns alone go into a Euclidean Galerkin basis.
+    const bool petrov = std::holds_alternative<DescriptorModel>(*m_context.model) && !m_slicer;
+    if (petrov && request.modes > 0) {
+      throw ConfigError(fmt::format(
+          "modal: a modal block with expansion points needs a Galerkin basis: a second-order "
+          "model, or a descriptor model with A symmetric and E SPD; this model takes the {} path",
+          m_path));
+    }
+    for (std::size_t i = 0; i < request.points.size(); ++i) {
+      const ExpansionPoint& p = request.points[i];
+      if (!std::isfinite(p.s.real()) || !std::isfinite(p.s.imag()) || p.moments < 1) {
+        throw InputError(fmt::format(
+            "modal: expansion point {} (s = {:g}{:+g}i, {} moments): needs a finite s and "
+            "moments >= 1",
+            i + 1, p.s.real(), p.s.imag(), p.moments));
+      }
+    }
+    ReducerResult result;
+    Matrix V(m_n, 0);
+    std::string note;
+    if (request.modes > 0) {
+      result = reduce_modes(request.modes);
+      V = result.V;
+      note = result.note;
+    }
+    const Index block = V.cols();
+    const InnerProduct ip{petrov ? nullptr : &inner_product_matrix()};
+    const SolverCounters before = m_context.solver->counters();
+    for (std::size_t i = 0; i < request.points.size(); ++i) {
+      const ExpansionPoint& p = request.points[i];
+      const std::vector<ComplexMatrix>& X =
+          krylov_moments(p.s, p.moments, static_cast<Index>(i + 1));
+      for (Index j = 0; j < p.moments; ++j) {
+        const ComplexMatrix& Xj = X[static_cast<std::size_t>(j)];
+        orthonormalize_append(V, Xj.real(), ip);
+        if (p.s.imag() != 0.0) orthonormalize_append(V, Xj.imag(), ip);
+      }
+    }
+    const Index krylov = V.cols() - block;
+    if (request.order > 0 && V.cols() > request.order) V.conservativeResize(m_n, request.order);
+    result.V = V;
+    result.W = V;
+    result.model = project(*m_context.model, V, V);
+    result.points = request.points;
+    result.diagnostics["block_columns"] = static_cast<double>(block);
+    result.diagnostics["krylov_columns"] = static_cast<double>(krylov);
+    result.diagnostics["point_factorizations"] =
+        static_cast<double>((m_context.solver->counters() - before).factorizations);
+    result.diagnostics["orthogonality_loss"] = orthogonality_loss(V, ip);
+    const std::string points =
+        fmt::format("{} Krylov column{} at {} point{}", krylov, krylov == 1 ? "" : "s",
+                    request.points.size(), request.points.size() == 1 ? "" : "s");
+    result.note = note.empty() ? points : note + " + " + points;
+    if (V.cols() < block + krylov)
+      result.note += fmt::format("; capped at order {}", request.order);
+    return result;
+  }
+
   // ---- symmetric path --------------------------------------------------------------------------
 
   const SparseMatrix& inner_product_matrix() const {
@@ -755,14 +867,25 @@ class ModalReducer final : public Reducer {
   std::vector<double> m_dominance;
   Index m_static_rank = 0;
   double m_static_shift = 0.0;
+  /// Krylov blocks of the expansion points asked for so far (reduce_mixed).
+  struct PointSolve {
+    Complex s;
+    std::vector<ComplexMatrix> X;
+  };
+  std::vector<PointSolve> m_point_solves;
 };
 
 ReducerInfo modal_info() {
   return reducer_info(
       kName,
       "modal truncation: eigenmodes nearest the band by shift-invert ARPACK in slices, rigid-body "
-      "modes first, optional static correction",
-      "0.1.0", option_specs(), {});
+      "modes first, optional static correction; with expansion points, a mixed basis of a modal "
+      "block and Krylov columns",
+      "0.2.0", option_specs(),
+      {.second_order = true,
+       .descriptor = true,
+       .uses_expansion_points = true,
+       .modal_block = true});
 }
 
 std::unique_ptr<Reducer> create_modal(const ParameterMap& params) {

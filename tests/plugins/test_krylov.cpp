@@ -1486,6 +1486,20 @@ TEST(Krylov, InfoDocumentsParametersAndCapabilities) {
   EXPECT_TRUE(it->info.second_order);
   EXPECT_TRUE(it->info.descriptor);
   EXPECT_TRUE(it->info.uses_expansion_points);
+  EXPECT_FALSE(it->info.modal_block);
+}
+
+// A modal block (ReductionRequest::modes) goes only to reducers that compute modes: the plugin
+// boundary refuses it for krylov before krylov sees it.
+TEST(Krylov, AModalBlockIsRefusedByName) {
+  auto f = make(shared_model("triplechain_cmess_n301"), band_rad(1e-4, 1e2), params());
+  try {
+    f->reducer->reduce({0, {point_at_hz(1e-2)}, 4});
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("does not compute modes"), std::string::npos) << e.what();
+  }
+  EXPECT_GE(f->reducer->reduce({0, {point_at_hz(1e-2)}}).V.cols(), 1);
 }
 
 }  // namespace

@@ -327,6 +327,91 @@ TEST(Modal, StaticCorrectionReproducesTheStaticResponse) {
   EXPECT_NE(r1.note.find("static correction omitted"), std::string::npos) << r1.note;
 }
 
+// ---- mixed basis: a modal block and Krylov columns at expansion points -------------------------
+
+// H(s) = C P(s)^-1 B and H'(s) = -C P^-1 (2 s M + D) P^-1 B of a SISO second-order model of
+// either size, by dense LU (independent of the shifted solver).
+std::pair<Complex, Complex> dense_h_and_derivative(const Matrix& M, const Matrix& D,
+                                                   const Matrix& K, const Matrix& B,
+                                                   const Matrix& C, Complex s) {
+  const ComplexMatrix P = (s * s) * M.cast<Complex>() + s * D.cast<Complex>() + K.cast<Complex>();
+  const auto lu = P.partialPivLu();
+  const ComplexMatrix x = lu.solve(B.cast<Complex>());
+  const ComplexMatrix dx =
+      lu.solve(ComplexMatrix(-((2.0 * s) * M.cast<Complex>() + D.cast<Complex>()) * x));
+  return {(C.cast<Complex>() * x)(0, 0), (C.cast<Complex>() * dx)(0, 0)};
+}
+
+TEST(Modal, MixedBasisLeadsWithTheModalBlockAndInterpolatesAtItsPoints) {
+  // 60 unit masses, Rayleigh damping: modes up to 2 sqrt(k) / 2 pi = 10 Hz, all in the band.
+  const SecondOrderModel chain = test::spring_chain(60, 1e3, 0.05, 1e-4);
+  const Band band{0.1, 10.0};
+  auto f = make(Model(chain), band, params(true));
+  const ReducerResult block = f->reducer->reduce({12, {}});
+  const ExpansionPoint p1{Complex(0.0, kTwoPi * 2.0), 2}, p2{Complex(0.0, kTwoPi * 5.5), 1};
+  const ReducerResult mixed = f->reducer->reduce({0, {p1, p2}, 12});
+  // SISO: each moment of a complex point gives its real and imaginary part.
+  ASSERT_EQ(mixed.V.cols(), 12 + 2 * 2 + 2);
+  EXPECT_EQ(mixed.diagnostics.at("block_columns"), 12.0);
+  EXPECT_EQ(mixed.diagnostics.at("krylov_columns"), 6.0);
+  EXPECT_LT(largest_angle_sin(block.V, mixed.V.leftCols(12)), 1e-12);
+  const auto& red = std::get<ReducedSecondOrderModel>(mixed.model);
+  EXPECT_LT((red.M - Matrix::Identity(18, 18)).cwiseAbs().maxCoeff(), 1e-10);  // M-orthonormal
+  // One-sided projection: H_r matches H at each point and its conjugate, and H' where 2 moments.
+  const Matrix M(chain.M), D(chain.D), K(chain.K);
+  for (const ExpansionPoint& p : {p1, p2}) {
+    for (const Complex s : {p.s, std::conj(p.s)}) {
+      const auto [h, dh] = dense_h_and_derivative(M, D, K, chain.B, chain.C, s);
+      const auto [hr, dhr] = dense_h_and_derivative(red.M, red.D, red.K, red.B, red.C, s);
+      EXPECT_LT(std::abs(hr - h), 1e-8 * std::abs(h)) << "at s = " << s;
+      if (p.moments >= 2) {
+        EXPECT_LT(std::abs(dhr - dh), 1e-6 * std::abs(dh)) << "H' at " << s;
+      }
+    }
+  }
+  // order caps the basis and keeps its first columns.
+  const ReducerResult capped = f->reducer->reduce({14, {p1, p2}, 12});
+  ASSERT_EQ(capped.V.cols(), 14);
+  EXPECT_LT(largest_angle_sin(mixed.V.leftCols(14), capped.V), 1e-10);
+  // Without a block: Krylov columns only, still interpolating (the conformance suite's case).
+  const ReducerResult krylov = f->reducer->reduce({0, {p2}});
+  EXPECT_EQ(krylov.V.cols(), 2);
+}
+
+TEST(Modal, MixedBasisBadRequestsAreRefusedByName) {
+  const SecondOrderModel chain = test::spring_chain(20, 1e3, 0.05, 1e-4);
+  auto f = make(Model(chain), Band{0.1, 10.0}, params(true));
+  const ExpansionPoint p{Complex(0.0, kTwoPi * 2.0), 1};
+  // A modal block without points: the order asks for modes (reducer_guard.cpp).
+  try {
+    f->reducer->reduce({4, {}, 3});
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("a modal block needs expansion points"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(f->reducer->reduce({0, {p}, -1}), ConfigError);
+  try {
+    f->reducer->reduce({0, {ExpansionPoint{Complex(0.0, kTwoPi), 0}}, 2});
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("moments >= 1"), std::string::npos) << e.what();
+  }
+  // The general descriptor path's modes are Petrov-Galerkin: no block to put points behind
+  // (points alone are taken, in the conformance suite).
+  auto g = make(shared_model("build"), band_rad(1e-1, 1e3), params(false));
+  try {
+    g->reducer->reduce({0, {p}, 2});
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("a modal block with expansion points needs a Galerkin "
+                                         "basis"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(g->reducer->reduce({0, {p}}).V.cols(), 2);
+}
+
 // ---- general and descriptor paths --------------------------------------------------------------
 
 // Dense finite eigenvalues of the pencil (A, E).
@@ -647,6 +732,8 @@ TEST(Modal, InfoDocumentsParametersAndCapabilities) {
   EXPECT_NE(batch->description.find("in [1, 100000]"), std::string::npos) << batch->description;
   EXPECT_TRUE(it->info.second_order);
   EXPECT_TRUE(it->info.descriptor);
+  EXPECT_TRUE(it->info.uses_expansion_points);
+  EXPECT_TRUE(it->info.modal_block);
 }
 
 }  // namespace

@@ -90,10 +90,11 @@ namespace {
 
 class GuardedReducer final : public Reducer {
  public:
-  GuardedReducer(std::unique_ptr<Reducer> inner, std::string name,
+  GuardedReducer(std::unique_ptr<Reducer> inner, const ReducerInfo& info,
                  const std::filesystem::path& library)
       : m_inner(std::move(inner)),
-        m_name(std::move(name)),
+        m_name(info.name),
+        m_modal_block(info.modal_block),
         m_who(library.empty() ? fmt::format("reducer '{}'", m_name)
                               : fmt::format("reducer '{}' ({})", m_name, library.string())) {}
 
@@ -112,6 +113,18 @@ class GuardedReducer final : public Reducer {
       throw ConfigError(fmt::format(
           "{}: {}: the order must be >= 1 (or 0 together with expansion points: all they imply)",
           m_who, what));
+    }
+    if (request.modes < 0 || (request.modes > 0 && request.points.empty())) {
+      throw ConfigError(fmt::format(
+          "{}: {}: modes = {}: a modal block needs expansion points and modes >= 0 (without "
+          "points the order alone asks for modes)",
+          m_who, what, request.modes));
+    }
+    if (request.modes > 0 && !m_modal_block) {
+      throw ConfigError(fmt::format(
+          "{}: {}: a modal block of {} modes was requested, but this reducer does not compute "
+          "modes (ReducerInfo::modal_block is false); use reducer modal",
+          m_who, what, request.modes));
     }
     ReducerResult result;
     call(what, [&] { result = m_inner->reduce(request); });
@@ -161,15 +174,16 @@ class GuardedReducer final : public Reducer {
 
   std::unique_ptr<Reducer> m_inner;
   std::string m_name;
+  bool m_modal_block = false;
   std::string m_who;
   const Model* m_model = nullptr;
 };
 
 }  // namespace
 
-std::unique_ptr<Reducer> guard_reducer(std::unique_ptr<Reducer> inner, const std::string& name,
+std::unique_ptr<Reducer> guard_reducer(std::unique_ptr<Reducer> inner, const ReducerInfo& info,
                                        const std::filesystem::path& library) {
-  return std::make_unique<GuardedReducer>(std::move(inner), name, library);
+  return std::make_unique<GuardedReducer>(std::move(inner), info, library);
 }
 
 }  // namespace detail

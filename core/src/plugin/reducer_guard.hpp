@@ -11,8 +11,9 @@
 
 namespace ecmor::detail {
 
-/// Wraps `inner` (created by the factory of reducer `name` from `library`; empty: added directly).
-std::unique_ptr<Reducer> guard_reducer(std::unique_ptr<Reducer> inner, const std::string& name,
+/// Wraps `inner` (created by the factory of reducer `info.name` from `library`; empty: added
+/// directly). Requests with a modal block go only to reducers whose info says they take one.
+std::unique_ptr<Reducer> guard_reducer(std::unique_ptr<Reducer> inner, const ReducerInfo& info,
                                        const std::filesystem::path& library);
 
 }  // namespace ecmor::detail

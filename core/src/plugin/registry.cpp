@@ -234,7 +234,7 @@ std::shared_ptr<Reducer> Registry::create(const std::string& name,
                                   describe_library(item.path)));
   params.check_unused();
   // Every call into the plugin goes through the boundary checks (reducer_guard.hpp).
-  reducer = detail::guard_reducer(std::move(reducer), name, item.path);
+  reducer = detail::guard_reducer(std::move(reducer), item.factory.info, item.path);
   // The deleter runs the plugin's destructor, then releases its copy of the library handle: the
   // code stays mapped for as long as the reducer lives, even after the Registry is gone.
   Library library = item.library;

@@ -23,7 +23,7 @@
 /// Bumped whenever a type that crosses the plugin boundary changes layout or meaning
 /// (model/model.hpp, model/band.hpp, plugin/reducer.hpp, plugin/registry.hpp, base/parameters.hpp,
 /// linalg/shifted_solver.hpp), a public header moves, or the entry points change.
-#define ECMOR_PLUGIN_ABI_VERSION 4
+#define ECMOR_PLUGIN_ABI_VERSION 5
 
 #define ECMOR_PLUGIN_STRINGIFY2(x) #x
 #define ECMOR_PLUGIN_STRINGIFY(x) ECMOR_PLUGIN_STRINGIFY2(x)
@@ -61,6 +61,7 @@ struct ReducerKinds {
   bool second_order = true;
   bool descriptor = true;
   bool uses_expansion_points = false;
+  bool modal_block = false;  ///< accepts ReductionRequest::modes (ReducerInfo::modal_block)
 };
 
 /// The ReducerInfo of a reducer whose options are stated once in `specs`: its parameters are
@@ -75,6 +76,7 @@ ReducerInfo reducer_info(std::string name, std::string description, std::string 
   info.second_order = kinds.second_order;
   info.descriptor = kinds.descriptor;
   info.uses_expansion_points = kinds.uses_expansion_points;
+  info.modal_block = kinds.modal_block;
   info.parameters = specs.docs();
   return info;
 }

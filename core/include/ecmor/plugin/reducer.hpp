@@ -50,9 +50,15 @@ struct ReductionContext {
 ///    subspace of exactly these points and moments; order > 0 then caps the number of columns
 ///    (keeping the first ones built), order = 0 means "all that the points imply". Reducers that
 ///    do not use points throw ConfigError when given some.
+///  * modes > 0 (only with points, and only for reducers with ReducerInfo::modal_block): a mixed
+///    basis. Its first columns are the reducer's modal block, the model it returns for
+///    ReductionRequest{modes, {}} (the `modes` modes it ranks first for the band, with its static
+///    correction when configured); the points' columns follow. order > 0 caps the whole basis as
+///    above. The driver's guard refuses modes > 0 for other reducers and without points.
 struct ReductionRequest {
   Index order = 1;
   std::vector<ExpansionPoint> points;
+  Index modes = 0;
 };
 
 /// The diagnostic key under which a reducer reports the number of reduced poles with Re >= 0
@@ -96,6 +102,8 @@ struct ReducerInfo {
   bool second_order = true;  ///< accepts second-order models
   bool descriptor = false;   ///< accepts descriptor models
   bool uses_expansion_points = false;
+  /// Accepts ReductionRequest::modes: a modal block in front of the points' columns (modal).
+  bool modal_block = false;
 };
 
 /// A named constructor of reducers. create() reads (and so marks as known) its parameters and
