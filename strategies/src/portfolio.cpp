@@ -117,6 +117,14 @@ std::vector<PreparedMember> prepare_members(const RunConfig& config, Registry& r
                         "' moves expansion points, but reducer '" + p.member.reducer_name +
                         "' does not use them; use strategy grow_order with it" + where);
     }
+    if (p.strategy->needs_modal_block() && !p.info.modal_block) {
+      const std::string where =
+          portfolio ? fmt::format(" (strategy.members[{}])", k + 1) : std::string();
+      throw ConfigError(config.source.string() + ": strategy '" + p.member.strategy_name +
+                        "' unites a modal block with expansion points, but reducer '" +
+                        p.member.reducer_name + "' does not compute modes; use reducer modal" +
+                        where);
+    }
     out.push_back(std::move(p));
   }
   return out;

@@ -5,6 +5,7 @@
 #include "greedy_points.hpp"
 #include "grow_order.hpp"
 #include "minimax_points.hpp"
+#include "mixed_basis.hpp"
 #include "optimize_points.hpp"
 
 namespace ecmor {
@@ -32,7 +33,8 @@ std::string to_string(Termination t) {
 }
 
 std::vector<std::string> strategy_names() {
-  return {"grow_order", "greedy_points", "optimize_points", "minimax_points", "portfolio"};
+  return {"grow_order",     "greedy_points", "optimize_points",
+          "minimax_points", "mixed_basis",   "portfolio"};
 }
 
 std::vector<ParameterDoc> strategy_parameters(const std::string& name) {
@@ -40,6 +42,7 @@ std::vector<ParameterDoc> strategy_parameters(const std::string& name) {
   if (name == "greedy_points") return GreedyPointsOptions::specs().docs();
   if (name == "optimize_points") return OptimizePointsOptions::specs().docs();
   if (name == "minimax_points") return MinimaxPointsOptions::specs().docs();
+  if (name == "mixed_basis") return MixedBasisOptions::specs().docs();
   if (name == "portfolio") return portfolio_options();
   throw ConfigError("unknown strategy '" + name + "'" + suggestion(name, strategy_names()));
 }
@@ -54,6 +57,8 @@ std::unique_ptr<Strategy> make_strategy(const std::string& name, const Parameter
     s = std::make_unique<OptimizePoints>(OptimizePointsOptions::from(params));
   } else if (name == "minimax_points") {
     s = std::make_unique<MinimaxPoints>(MinimaxPointsOptions::from(params));
+  } else if (name == "mixed_basis") {
+    s = std::make_unique<MixedBasis>(MixedBasisOptions::from(params));
   } else if (name == "portfolio") {
     // The driver runs a portfolio (portfolio.hpp); each of its members has a strategy of its own.
     throw ConfigError(

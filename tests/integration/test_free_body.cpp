@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "../../bench/solid.hpp"
+#include "common/builders.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
@@ -47,12 +48,7 @@ bench::SolidOptions free_solid() {
 }
 
 void write_model(const fs::path& dir, const SecondOrderModel& m) {
-  fs::create_directories(dir);
-  write_matrix_market(dir / "M.mtx", m.M, "free solid");
-  write_matrix_market(dir / "D.mtx", m.D, "free solid");
-  write_matrix_market(dir / "K.mtx", m.K, "free solid");
-  write_matrix_market(dir / "B.mtx", Matrix(m.B), "free solid");
-  write_matrix_market(dir / "C.mtx", Matrix(m.C), "free solid");
+  test::write_model_dir(dir, m, "free solid");
 }
 
 // Runs the driver on the model in `tmp / "model"` with `sections` (YAML after the model line) and

@@ -18,6 +18,7 @@
 #include "greedy_points.hpp"
 #include "grow_order.hpp"
 #include "minimax_points.hpp"
+#include "mixed_basis.hpp"
 #include "optimize_points.hpp"
 #include "point_objective.hpp"
 
@@ -126,6 +127,7 @@ TEST(OptionDocs, StrategyGuidePrintsTheSpecs) {
   const std::string file = "docs/strategies.md";
   expect_table(file, "grow_order", GrowOrderOptions::specs().docs());
   expect_table(file, "greedy_points", GreedyPointsOptions::specs().docs());
+  expect_table(file, "mixed_basis", MixedBasisOptions::specs().docs());
   const auto shared = point_search::PointSearchOptions::specs().docs();
   expect_table(file, "point_search", shared);
   // The point searches' own options; the shared ones have their table above.

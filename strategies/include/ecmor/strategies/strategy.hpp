@@ -69,6 +69,9 @@ class Strategy {
   /// True for strategies that move expansion points: they need a reducer with
   /// ReducerInfo::uses_expansion_points (the driver checks this before any heavy work).
   virtual bool moves_points() const { return false; }
+  /// True for strategies that ask for a modal block in front of the points
+  /// (ReductionRequest::modes): they need a reducer with ReducerInfo::modal_block.
+  virtual bool needs_modal_block() const { return false; }
   /// True for strategies whose order never decreases from one model to the next (grow_order):
   /// a portfolio stops such a member once its order reaches the smallest that met the target.
   virtual bool order_only_grows() const { return false; }
