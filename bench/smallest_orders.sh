@@ -8,7 +8,8 @@
 #
 # Usage: bench/smallest_orders.sh OUT_DIR [MODEL...]   (run from the project root, after a build)
 # Environment: ECMOR (default build/bin/ecmor), CPU_LIMIT per run in CPU seconds (default 300),
-# TOLERANCES (default "1e-2 1e-3").
+# TOLERANCES (default "1e-2 1e-3"), METHODS (reducer:strategy pairs, default the four above, e.g.
+# "modal:grow_order modal:mixed_basis"), REDUCER_OPTIONS (", key: value" pairs for every reducer).
 set -euo pipefail
 out=${1:?usage: bench/smallest_orders.sh OUT_DIR [MODEL...]}
 shift
@@ -17,7 +18,7 @@ models_dir=../shared/models
 if [ $# -eq 0 ]; then
   set -- $(cd "$models_dir" && for d in */; do [ -f "$d/info.json" ] && echo "${d%/}"; done)
 fi
-methods="modal:grow_order krylov:greedy_points balanced:grow_order irka:grow_order"
+methods=${METHODS:-"modal:grow_order krylov:greedy_points balanced:grow_order irka:grow_order"}
 mkdir -p "$out/configs" "$out/logs"
 for model in "$@"; do
   band=$(python3 -c "
@@ -29,12 +30,12 @@ print(r['omega_min'] / (2 * math.pi), r['omega_max'] / (2 * math.pi))")
     for method in $methods; do
       reducer=${method%%:*}
       strategy=${method##*:}
-      name="${model}_${reducer}_${tol}"
+      name="${model}_${reducer}_${strategy}_${tol}"
       cat > "$out/configs/$name.yaml" <<EOF
 model:    {dir: $models_dir/$model}
 band:     {f_min_hz: $f_min, f_max_hz: $f_max}
 target:   {tolerance: $tol}
-reducer:  {name: $reducer}
+reducer:  {name: $reducer${REDUCER_OPTIONS:-}}
 strategy: {name: $strategy}
 output:   {dir: $out/runs/$name}
 EOF
@@ -51,10 +52,10 @@ done
 python3 - "$out" "${TOLERANCES:-1e-2 1e-3}" "$methods" "$@" > "$out/smallest_orders.md" <<'PY'
 import json, sys
 out, tols, methods, models = sys.argv[1], sys.argv[2].split(), sys.argv[3].split(), sys.argv[4:]
-reducers = [m.split(":")[0] for m in methods]
+reducers = [m.replace(":", "/") for m in methods]
 
 def run(model, reducer, tol):
-    name = f"{model}_{reducer}_{tol}"
+    name = f"{model}_{reducer.replace('/', '_')}_{tol}"
     try:
         with open(f"{out}/runs/{name}/summary.json") as f:
             return json.load(f)

@@ -415,15 +415,9 @@ class ModalReducer final : public Reducer {
   /// model interpolates H and its first `moments` derivatives at each s0 and its conjugate).
   /// order > 0 caps the basis, keeping the first columns.
   ReducerResult reduce_mixed(const ReductionRequest& request) {
-    // The general descriptor path's modes need a left basis of their own (Petrov-Galerkin): no
-    // block to put Krylov columns behind; Krylov columns alone go into a Euclidean Galerkin basis.
+    // The general descriptor path's block is Petrov-Galerkin (W spans the left eigenvectors): the
+    // Krylov columns, orthonormal in the Euclidean product, join V and W alike.
     const bool petrov = std::holds_alternative<DescriptorModel>(*m_context.model) && !m_slicer;
-    if (petrov && request.modes > 0) {
-      throw ConfigError(fmt::format(
-          "modal: a modal block with expansion points needs a Galerkin basis: a second-order "
-          "model, or a descriptor model with A symmetric and E SPD; this model takes the {} path",
-          m_path));
-    }
     for (std::size_t i = 0; i < request.points.size(); ++i) {
       const ExpansionPoint& p = request.points[i];
       if (!std::isfinite(p.s.real()) || !std::isfinite(p.s.imag()) || p.moments < 1) {
@@ -434,11 +428,12 @@ class ModalReducer final : public Reducer {
       }
     }
     ReducerResult result;
-    Matrix V(m_n, 0);
+    Matrix V(m_n, 0), W(m_n, 0);
     std::string note;
     if (request.modes > 0) {
       result = reduce_modes(request.modes);
       V = result.V;
+      W = result.W;
       note = result.note;
     }
     const Index block = V.cols();
@@ -456,9 +451,30 @@ class ModalReducer final : public Reducer {
     }
     const Index krylov = V.cols() - block;
     if (request.order > 0 && V.cols() > request.order) V.conservativeResize(m_n, request.order);
+    if (petrov) {
+      // W = [W_block, the Krylov columns]: H_r still interpolates H at the points (they lie in
+      // span V) while W' E V is invertible, checked here.
+      const Index extra = V.cols() - W.cols();
+      W.conservativeResize(m_n, V.cols());
+      if (extra > 0) W.rightCols(extra) = V.rightCols(extra);
+      const Matrix G = W.transpose() * (std::get<DescriptorModel>(*m_context.model).E * V);
+      const Eigen::JacobiSVD<Matrix> svd(G);
+      const Eigen::Index last = svd.singularValues().size() - 1;
+      const double cond = last < 0 ? 1.0 : svd.singularValues()(0) / svd.singularValues()(last);
+      if (!(cond < 1e12)) {
+        throw NumericalError(fmt::format(
+            "modal: W' E V of the modal block and the Krylov columns at {} points is singular "
+            "(condition {:g}): the points' columns are (nearly) E-orthogonal to the left "
+            "eigenvectors",
+            request.points.size(), cond));
+      }
+      result.diagnostics["biorthogonality_condition"] = cond;
+    } else {
+      W = V;
+    }
     result.V = V;
-    result.W = V;
-    result.model = project(*m_context.model, V, V);
+    result.W = W;
+    result.model = project(*m_context.model, V, W);
     result.points = request.points;
     result.diagnostics["block_columns"] = static_cast<double>(block);
     result.diagnostics["krylov_columns"] = static_cast<double>(krylov);

@@ -102,18 +102,17 @@ class Run {
     const Candidate& best = *m_run.smallest_pass();
     return m_run.finish(Termination::Converged,
                         "band error " + sci(best.error.sup_relative) + " <= tolerance " +
-                            sci(tolerance()) + " at order " + std::to_string(best.order()) +
-                            " (" + std::to_string(m_block) + "-column modal block, " +
+                            sci(tolerance()) + " at order " + std::to_string(best.order()) + " (" +
+                            std::to_string(m_block) + "-column modal block, " +
                             std::to_string(best.result.points.size()) + " points)" +
                             m_run.verified_phrase());
   }
 
   End stopped() {
     if (!m_run.stopped()) return std::nullopt;
-    return m_run.finish(Termination::Interrupted, "stopped by request at order " +
-                                                      std::to_string(m_current.order()) +
-                                                      "; best band error " +
-                                                      sci(m_run.best_error()));
+    return m_run.finish(Termination::Interrupted,
+                        "stopped by request at order " + std::to_string(m_current.order()) +
+                            "; best band error " + sci(m_run.best_error()));
   }
 
   End iteration_budget() {
@@ -150,12 +149,25 @@ class Run {
       if (!new_columns || delivered < order || strikes >= m_o.patience || order >= cap) break;
     }
     m_current = std::move(*best_c);
+    if (!(best < 1.0)) return without_block();
     if (m_block >= m_max_order) {
       return m_run.finish(Termination::MaxOrderReached,
                           "order budget max_order = " + std::to_string(m_max_order) +
                               " reached by the modal block alone; " + m_run.shortfall());
     }
     return std::nullopt;
+  }
+
+  // No block did better than no model at all (band error >= 1: modes far from what the band
+  // needs, e.g. a model whose response is not modal): the points start from an empty block, with
+  // one point at the band centre, as greedy_points does.
+  End without_block() {
+    m_block = 0;
+    m_points = {point_at_hz(strategy_support::band_centre_hz(m_run.context().estimator->band()),
+                            m_o.moments)};
+    m_current = m_run.assess(m_reducer.reduce(request(m_points, 0)), "initial");
+    if (m_current.passed) return converged();
+    return stopped();
   }
 
   // One point step: the best of the candidate peaks, or more modes when none lowers the error.
@@ -243,8 +255,7 @@ const OptionSpecs<MixedBasisOptions>& MixedBasisOptions::specs() {
       option("min_gain", &O::min_gain,
              "a block step gains when it lowers the best band error by at least this fraction")
           .range(Range::closed_open(0, 1)),
-      option("patience", &O::patience,
-             "block steps in a row without gain that end the block phase")
+      option("patience", &O::patience, "block steps in a row without gain that end the block phase")
           .range(Range::at_least(1)),
       option("block_fraction", &O::block_fraction,
              "the block phase ends at this fraction of max_order, leaving room for points")
@@ -260,10 +271,10 @@ const OptionSpecs<MixedBasisOptions>& MixedBasisOptions::specs() {
       option("fallback_modes", &O::fallback_modes,
              "modes added to the block when no candidate point lowers the error")
           .range(Range::at_least(1)),
-      option("max_order", &O::max_order, "reduced order budget (the reducer's maximum also applies)")
+      option("max_order", &O::max_order,
+             "reduced order budget (the reducer's maximum also applies)")
           .range(Range::at_least(1)),
-      option("max_iterations", &O::max_iterations,
-             "history-row budget; every tried point is a row")
+      option("max_iterations", &O::max_iterations, "history-row budget; every tried point is a row")
           .range(Range::at_least(1)),
       option("stagnation_window", &O::stagnation_window,
              "point steps over which the best error must fall; 0: never stagnates")
@@ -288,7 +299,8 @@ StrategyResult MixedBasis::run(StrategyContext& ctx) {
                       " does not compute modes; use reducer modal");
   }
   strategy_support::StrategyRun run(ctx);
-  return strategy_support::guarded(run, [&]() -> StrategyResult { return Run(m_options, run).go(); });
+  return strategy_support::guarded(run,
+                                   [&]() -> StrategyResult { return Run(m_options, run).go(); });
 }
 
 }  // namespace ecmor

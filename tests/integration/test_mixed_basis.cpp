@@ -7,8 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <nlohmann/json.hpp>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "../../bench/triple_chain.hpp"
@@ -36,26 +36,24 @@ void write_model(const fs::path& dir, const SecondOrderModel& m) {
 
 // `reducer`: the bundled plugin's name; `options`: ", key: value" pairs for it.
 RunSummary reduce(const fs::path& model, const std::string& reducer, const std::string& strategy,
-                  const fs::path& out, const std::string& options = "") {
-  const std::string yaml = "model: {dir: " + model.string() +
-                           "}\nband: {f_min_hz: " + std::to_string(kBand.f_min_hz) +
-                           ", f_max_hz: " + std::to_string(kBand.f_max_hz) +
-                           "}\ntarget: {tolerance: 1.0e-2, norm: spectral}\n"
-                           "error: {verify: dense}\nreducer: {name: " +
-                           reducer + options + "}\nstrategy: {" + strategy + "}\noutput: {dir: " +
-                           out.string() + "}\n";
+                  const fs::path& out, const std::string& options = "", const Band& band = kBand) {
+  const std::string yaml =
+      "model: {dir: " + model.string() + "}\nband: {f_min_hz: " + std::to_string(band.f_min_hz) +
+      ", f_max_hz: " + std::to_string(band.f_max_hz) +
+      "}\ntarget: {tolerance: 1.0e-2, norm: spectral}\n"
+      "error: {verify: dense}\nreducer: {name: " +
+      reducer + options + "}\nstrategy: {" + strategy + "}\noutput: {dir: " + out.string() + "}\n";
   Registry registry;
   registry.load_plugin(fs::path(ECMOR_TEST_PLUGIN_DIR) / ("libecmor_" + reducer + ".so"));
   return run_reduction(parse_run_config(yaml, "mixed.yaml"), registry);
 }
 
 // max over 2 000 log-spaced frequencies of ||H - Hr||_2 / ||H||_2, the full model solved at each.
-double full_band_error(const SecondOrderModel& full, const ReducedModel& reduced) {
-  const Model model = full;
+double full_band_error(const Model& model, const ReducedModel& reduced, const Band& band = kBand) {
   const std::unique_ptr<ShiftedSolver> solver = make_shifted_solver(model);
   double sup = 0.0;
   for (int i = 0; i < 2000; ++i) {
-    const double f = kBand.f_min_hz * std::pow(kBand.f_max_hz / kBand.f_min_hz, i / 1999.0);
+    const double f = band.f_min_hz * std::pow(band.f_max_hz / band.f_min_hz, i / 1999.0);
     const Complex s(0.0, kTwoPi * f);
     const ComplexMatrix H = transfer_function(model, *solver, s);
     sup = std::max(sup, matrix_norm(H - transfer_function(reduced, s), ErrorNorm::Spectral) /
@@ -87,12 +85,39 @@ TEST(MixedBasis, TripleChainMeetsWhatModesAloneMissWithinTheSameOrder) {
   EXPECT_LE(mixed.order, 100);
   EXPECT_TRUE(mixed.stable);
   const ReducedModel reduced = read_reduced_model(out);
-  EXPECT_LE(full_band_error(chain, reduced), 1e-2);
+  EXPECT_LE(full_band_error(Model(chain), reduced), 1e-2);
   // The history shows both parts: block rows, then tried points.
   std::ifstream in(out / "summary.json");
   const nlohmann::json j = nlohmann::json::parse(in);
   EXPECT_EQ(j.at("strategy").get<std::string>(), "mixed_basis");
   EXPECT_FALSE(j.at("points").empty());
+}
+
+// fom (shared, N = 1 006, unsymmetric descriptor): the modes of its pencil miss the band's
+// response (every block's band error is about 1, no better than no model), so the block is
+// dropped and the points start at the band centre, as greedy_points would.
+TEST(MixedBasis, WithoutAUsefulBlockThePointsStartAtTheBandCentre) {
+  test::TempDir tmp("ecmor_mixed_basis_fom");
+  const Band band{1.0 / kTwoPi, 1e4 / kTwoPi};
+  const fs::path out = tmp / "out";
+  const RunSummary s =
+      reduce(fs::absolute("../shared/models/fom"), "modal", "name: mixed_basis", out, "", band);
+  SCOPED_TRACE(s.message);
+  EXPECT_EQ(s.termination, Termination::Converged);
+  ASSERT_TRUE(s.has_model);
+  EXPECT_LE(s.order, 30);
+  EXPECT_LE(full_band_error(test::shared_model("fom"), read_reduced_model(out), band), 1e-2);
+  std::ifstream in(out / "history.jsonl");
+  std::string line;
+  bool initial = false;
+  while (std::getline(in, line)) {
+    const nlohmann::json row = nlohmann::json::parse(line);
+    if (row.at("phase") == "initial") {
+      initial = true;
+      EXPECT_EQ(row.at("points").size(), 1u);
+    }
+  }
+  EXPECT_TRUE(initial) << "no 'initial' row: the block was not dropped";
 }
 
 TEST(MixedBasis, AReducerWithoutModesIsRefusedByName) {
