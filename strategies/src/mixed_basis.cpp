@@ -128,6 +128,7 @@ class Run {
     double best = std::numeric_limits<double>::infinity();
     Index strikes = 0;
     std::optional<Candidate> best_c;
+    Index steps = 0, best_step = 0;
     const Index cap = std::max<Index>(
         1, static_cast<Index>(m_o.block_fraction * static_cast<double>(m_max_order)));
     for (Index order = std::min(m_o.block_step, cap);; order += m_o.block_step) {
@@ -141,7 +142,9 @@ class Run {
       if (End end = stopped()) return end;
       const double e = m_current.error.sup_relative;
       strikes = e < (1.0 - m_o.min_gain) * best ? 0 : strikes + 1;
+      ++steps;
       if (e < best || !best_c) {
+        best_step = steps;
         best = e;
         best_c = m_current;
         m_block = delivered;
@@ -149,7 +152,8 @@ class Run {
       if (!new_columns || delivered < order || strikes >= m_o.patience || order >= cap) break;
     }
     m_current = std::move(*best_c);
-    if (!(best < 1.0)) return without_block();
+    // Modes that never helped: the first block was the best, and no better than no model.
+    if (!(best < 1.0) && best_step == 1 && steps > 1) return without_block();
     if (m_block >= m_max_order) {
       return m_run.finish(Termination::MaxOrderReached,
                           "order budget max_order = " + std::to_string(m_max_order) +
@@ -158,9 +162,10 @@ class Run {
     return std::nullopt;
   }
 
-  // No block did better than no model at all (band error >= 1: modes far from what the band
-  // needs, e.g. a model whose response is not modal): the points start from an empty block, with
-  // one point at the band centre, as greedy_points does.
+  // More modes only made it worse, and the smallest block did no better than no model at all
+  // (band error >= 1: modes far from what the band needs, e.g. a model whose response is not
+  // modal): the points start from an empty block, with one point at the band centre, as
+  // greedy_points does. (A block whose error falls, even from above 1, is kept: beam.)
   End without_block() {
     m_block = 0;
     m_points = {point_at_hz(strategy_support::band_centre_hz(m_run.context().estimator->band()),

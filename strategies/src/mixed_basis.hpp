@@ -12,8 +12,9 @@
 ///    lowers the best error so far by at least the fraction `min_gain`. The phase ends after
 ///    `patience` steps in a row without gain, when the reducer has no more modes, or at
 ///    block_fraction x max_order (room for points); the block is the smallest order that reached
-///    the phase's best error. When no block beat the error of no model at all (1), the block is
-///    empty and the points start with one at the band centre (row "initial").
+///    the phase's best error. When more modes only made it worse and the first block did no
+///    better than no model at all (error >= 1), the block is empty and the points start with one
+///    at the band centre (row "initial").
 ///  * Point phase: each step tries the `candidates` largest local maxima of the current model's
 ///    relative error (ReductionRequest{0, points', block}; rows "try_point") and keeps the trial
 ///    with the lowest error. A peak within min_separation x ln(f_max / f_min) in ln f of a point
