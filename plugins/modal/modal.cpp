@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <memory>
 #include <numeric>
@@ -369,8 +370,12 @@ class ModalReducer final : public Reducer {
   /// P''/2 = M (second order) or P' = E (descriptor). Cached per point; a point asked for more
   /// moments than cached is solved again from its factorisation.
   const std::vector<ComplexMatrix>& krylov_moments(Complex s0, Index moments, Index point) {
+    ++m_tick;
     for (PointSolve& c : m_point_solves) {
-      if (c.s == s0 && static_cast<Index>(c.X.size()) >= moments) return c.X;
+      if (c.s == s0 && static_cast<Index>(c.X.size()) >= moments) {
+        c.last_use = m_tick;
+        return c.X;
+      }
     }
     std::shared_ptr<const Factorization> F;
     try {
@@ -402,11 +407,31 @@ class ModalReducer final : public Reducer {
     for (PointSolve& c : m_point_solves) {
       if (c.s == s0) {
         c.X = std::move(X);
+        c.last_use = m_tick;
         return c.X;
       }
     }
-    m_point_solves.push_back({s0, std::move(X)});
+    m_point_solves.push_back({s0, std::move(X), m_tick});
     return m_point_solves.back().X;
+  }
+
+  /// Bounds the cache of Krylov blocks (N x m complex per moment each): the points of `keep` (the
+  /// last request) stay, and of the others the kSpareSolves used last (a strategy's rejected
+  /// candidates would otherwise pile up; a dropped point costs one factorisation if asked again).
+  void trim_point_solves(const std::vector<ExpansionPoint>& keep) {
+    constexpr std::size_t kSpareSolves = 16;
+    auto requested = [&](const PointSolve& c) {
+      return std::any_of(keep.begin(), keep.end(),
+                         [&](const ExpansionPoint& p) { return p.s == c.s; });
+    };
+    std::stable_sort(m_point_solves.begin(), m_point_solves.end(),
+                     [&](const PointSolve& a, const PointSolve& b) {
+                       const bool ka = requested(a), kb = requested(b);
+                       return ka != kb ? ka : a.last_use > b.last_use;
+                     });
+    std::size_t kept = 0;
+    while (kept < m_point_solves.size() && requested(m_point_solves[kept])) ++kept;
+    m_point_solves.resize(std::min(m_point_solves.size(), kept + kSpareSolves));
   }
 
   /// ReductionRequest with points: the modal block of request.modes (the model of
@@ -449,6 +474,7 @@ class ModalReducer final : public Reducer {
         if (p.s.imag() != 0.0) orthonormalize_append(V, Xj.imag(), ip);
       }
     }
+    trim_point_solves(request.points);
     const Index krylov = V.cols() - block;
     if (request.order > 0 && V.cols() > request.order) V.conservativeResize(m_n, request.order);
     if (petrov) {
@@ -887,8 +913,10 @@ class ModalReducer final : public Reducer {
   struct PointSolve {
     Complex s;
     std::vector<ComplexMatrix> X;
+    std::uint64_t last_use = 0;
   };
   std::vector<PointSolve> m_point_solves;
+  std::uint64_t m_tick = 0;
 };
 
 ReducerInfo modal_info() {
