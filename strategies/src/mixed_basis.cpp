@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numeric>
 #include <optional>
 
 #include "ecmor/base/error.hpp"
@@ -20,32 +19,13 @@ using strategy_support::sci;
 
 double hz_of(const ExpansionPoint& p) { return p.s.imag() / kTwoPi; }
 
-// The frequencies of the `count` largest local maxima of the relative error (a sample at least as
-// large as both neighbours; inf counts as large), largest first, no two within `separation` in
-// |ln f|.
+// The frequencies of the `count` largest local maxima of the relative error, largest first, no
+// two within `separation` in |ln f|.
 std::vector<double> error_peaks(const BandError& e, double separation, Index count) {
-  const std::size_t n = std::min(e.f_hz.size(), e.relative.size());
-  std::vector<std::size_t> by_f(n);
-  std::iota(by_f.begin(), by_f.end(), 0);
-  std::sort(by_f.begin(), by_f.end(),
-            [&](std::size_t a, std::size_t b) { return e.f_hz[a] < e.f_hz[b]; });
-  auto value = [&](std::size_t k) {
-    const double v = e.relative[by_f[k]];
-    return std::isnan(v) ? -1.0 : v;
-  };
-  std::vector<std::pair<double, double>> maxima;  // (error, f)
-  for (std::size_t k = 0; k < n; ++k) {
-    const double v = value(k);
-    if (v <= 0.0 || !(e.f_hz[by_f[k]] > 0.0)) continue;
-    if (k > 0 && value(k - 1) > v) continue;
-    if (k + 1 < n && value(k + 1) > v) continue;
-    maxima.emplace_back(v, e.f_hz[by_f[k]]);
-  }
-  std::stable_sort(maxima.begin(), maxima.end(),
-                   [](const auto& a, const auto& b) { return a.first > b.first; });
   std::vector<double> out;
-  for (const auto& [v, f] : maxima) {
+  for (double f : largest_local_maxima_hz(e, static_cast<Index>(e.f_hz.size()))) {
     if (static_cast<Index>(out.size()) >= count) break;
+    if (!(f > 0.0)) continue;
     if (std::none_of(out.begin(), out.end(),
                      [&](double g) { return std::abs(std::log(f / g)) <= separation; }))
       out.push_back(f);

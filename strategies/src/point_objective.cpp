@@ -277,30 +277,11 @@ Index PointObjective::add_samples(const std::vector<double>& f_hz, Index cap) {
   return added;
 }
 
-std::vector<double> error_peaks_hz(const BandError& error, Index count, double above) {
-  const std::vector<double>& r = error.relative;
-  std::vector<std::size_t> peaks;
-  auto val = [&](std::size_t i) { return std::isnan(r[i]) ? -1.0 : r[i]; };
-  for (std::size_t i = 0; i < r.size(); ++i) {
-    if (val(i) < 0.0 || !(val(i) > above)) continue;
-    const bool left = i == 0 || val(i - 1) <= val(i);
-    const bool right = i + 1 == r.size() || val(i + 1) < val(i);
-    if (left && right) peaks.push_back(i);
-  }
-  std::sort(peaks.begin(), peaks.end(),
-            [&](std::size_t a, std::size_t b) { return val(a) > val(b); });
-  std::vector<double> f;
-  for (std::size_t j = 0; j < peaks.size() && static_cast<Index>(j) < count; ++j) {
-    f.push_back(error.f_hz[peaks[j]]);
-  }
-  return f;
-}
-
 Index PointObjective::add_peaks(const BandError& error, Index count, Index cap) {
   // Local maxima of the assessed model's relative error, largest first: where the refined
   // evaluation found error the grid alone would not see.
   std::vector<double> f{error.f_peak_hz};
-  const std::vector<double> peaks = error_peaks_hz(error, count, -1.0);
+  const std::vector<double> peaks = largest_local_maxima_hz(error, count);
   f.insert(f.end(), peaks.begin(), peaks.end());
   return add_samples(f, cap);
 }
@@ -325,7 +306,8 @@ std::vector<double> growth_points(const BandError& error, const std::vector<doub
   out.push_back(std::log10(std::clamp(error.f_peak_hz, band.f_min_hz, band.f_max_hz)));
   taken.push_back(out.back());
   // All local maxima above the tolerance (more than `count`: some fall near existing points).
-  for (double f : error_peaks_hz(error, static_cast<Index>(error.f_hz.size()), tolerance)) take(f);
+  for (double f : largest_local_maxima_hz(error, static_cast<Index>(error.f_hz.size()), tolerance))
+    take(f);
   return out;
 }
 

@@ -167,10 +167,6 @@ struct Optimisation {
 using Optimiser =
     std::function<Optimisation(PointObjective& objective, const std::vector<double>& x0)>;
 
-/// Frequencies (Hz) of the local maxima of error.relative above `above`, largest first, at most
-/// `count` (undefined samples, NaN, are skipped).
-std::vector<double> error_peaks_hz(const BandError& error, Index count, double above);
-
 /// Where to add up to `count` points (as log10 f, clamped to the band) when a model with points
 /// at x misses the tolerance: always the error's supremum (error.f_peak_hz), then the other local
 /// maxima above `tolerance`, largest first, each farther than `separation` (decades) from every

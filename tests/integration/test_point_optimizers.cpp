@@ -599,8 +599,9 @@ TEST(PointObjective, GrowthPointsTakeThePeakThenSeparatedMaximaAboveTheTolerance
   // A separation of 0.2 decades: 9 Hz is 0.65 decades from 2 Hz (kept), 4 Hz is 0.30 from 2 Hz
   // (kept), 6 Hz is 0.18 from 4 Hz (dropped).
   EXPECT_TRUE(near(hz(point_search::growth_points(e, {}, 10, tol, 0.2, band)), {2, 9, 4}));
-  // error_peaks_hz itself: the undefined sample is neither a maximum nor a neighbour's blocker.
-  EXPECT_TRUE(near(point_search::error_peaks_hz(e, 10, -1.0), {2, 9, 4, 6}));
+  // largest_local_maxima_hz itself: the undefined sample is neither a maximum nor a neighbour's
+  // blocker.
+  EXPECT_TRUE(near(largest_local_maxima_hz(e, 10), {2, 9, 4, 6}));
 }
 
 // points_per_growth adds up to k points per growth (each at a local error maximum), and pruning

@@ -256,6 +256,24 @@ double relative_of(const Sample& s, ErrorNorm norm, double zero_level2, double z
 
 }  // namespace
 
+std::vector<double> largest_local_maxima_hz(const BandError& error, Index count, double above) {
+  const std::vector<double>& r = error.relative;
+  auto val = [&](std::size_t i) { return std::isnan(r[i]) ? -1.0 : r[i]; };
+  std::vector<std::size_t> peaks;
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    if (val(i) < 0.0 || !(val(i) > above)) continue;
+    const bool left = i == 0 || val(i - 1) <= val(i);
+    const bool right = i + 1 == r.size() || val(i + 1) < val(i);
+    if (left && right) peaks.push_back(i);
+  }
+  std::stable_sort(peaks.begin(), peaks.end(),
+                   [&](std::size_t a, std::size_t b) { return val(a) > val(b); });
+  std::vector<double> f;
+  for (std::size_t j = 0; j < peaks.size() && static_cast<Index>(j) < count; ++j)
+    f.push_back(error.f_hz[peaks[j]]);
+  return f;
+}
+
 namespace detail {
 
 std::vector<std::pair<double, double>> pole_frequencies(const ComplexVector& p, const Band& band,

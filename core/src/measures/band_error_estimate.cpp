@@ -33,25 +33,6 @@ std::ptrdiff_t index_of(const BandError& e, double f) {
 
 double value_or_minus_one(double r) { return std::isnan(r) ? -1.0 : r; }
 
-// The `count` largest local maxima of e.relative (frequencies), largest first.
-std::vector<double> largest_local_maxima(const BandError& e, Index count) {
-  std::vector<std::size_t> peaks;
-  const std::size_t n = e.f_hz.size();
-  for (std::size_t i = 0; i < n; ++i) {
-    const double r = value_or_minus_one(e.relative[i]);
-    if (r < 0.0) continue;
-    const bool left = i == 0 || value_or_minus_one(e.relative[i - 1]) <= r;
-    const bool right = i + 1 == n || value_or_minus_one(e.relative[i + 1]) < r;
-    if (left && right) peaks.push_back(i);
-  }
-  std::sort(peaks.begin(), peaks.end(),
-            [&](std::size_t a, std::size_t b) { return e.relative[a] > e.relative[b]; });
-  if (static_cast<Index>(peaks.size()) > count) peaks.resize(static_cast<std::size_t>(count));
-  std::vector<double> f;
-  for (std::size_t i : peaks) f.push_back(e.f_hz[i]);
-  return f;
-}
-
 // The band edges and, between them, points of the golden-ratio sequence in log f: spread over the
 // band, but off the "round" positions (log-uniform grids, the band centre) where reducers put
 // their own expansion points. A reference seeded exactly where the candidate interpolates adds
@@ -415,7 +396,7 @@ BandError EstimateEngine::verify(const ReducedModel& model) {
       if (e.exact[k]) measured = std::max(measured, value_or_minus_one(e.relative[k]));
     if (round == 0)
       for (double fc : random) consider(fc);
-    for (double fc : largest_local_maxima(e, m_options.check_peaks)) {
+    for (double fc : largest_local_maxima_hz(e, m_options.check_peaks)) {
       const std::ptrdiff_t i = index_of(e, fc);
       if (round == 0 || (i >= 0 && e.relative[static_cast<std::size_t>(i)] > measured))
         consider(fc);

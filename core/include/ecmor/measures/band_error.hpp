@@ -143,6 +143,13 @@ struct ECMOR_API BandError {
   std::string sampling() const;
 };
 
+/// The frequencies of the `count` largest local maxima of error.relative, largest first: samples
+/// at least as large as their left neighbour and larger than their right one (the last of a
+/// plateau), above `above`. An undefined (NaN) sample is neither a maximum nor a neighbour that
+/// blocks one. Where strategies place points and the estimator checks.
+ECMOR_API std::vector<double> largest_local_maxima_hz(const BandError& error, Index count,
+                                                      double above = -1.0);
+
 namespace detail {
 class EstimateEngine;
 struct ReferenceValues;
