@@ -23,7 +23,7 @@ std::string number(double v) {
   return os.str();
 }
 
-double hz_of(const ExpansionPoint& p) { return p.s.imag() / kTwoPi; }
+using strategy_support::hz_of;
 
 std::string hz_text(double f) { return strategy_support::sci(f) + " Hz"; }
 
@@ -93,7 +93,7 @@ std::vector<ExpansionPoint> start_points(const GreedyPointsOptions& o, const Ban
   return points;
 }
 
-// One growth step: the point set with a moment or a point more.
+// One growth step with what the history says about it.
 struct Step {
   std::vector<ExpansionPoint> points;
   bool adds_point = false;
@@ -102,35 +102,19 @@ struct Step {
   std::map<std::string, double> extra;
 };
 
-// The step toward the frequency f: a moment more at the nearest point when f lies within
-// `separation` of it, else a new point at f with `moments` moments.
 Step step_toward(const std::vector<ExpansionPoint>& points, double f, double separation,
                  Index moments) {
-  std::size_t nearest = 0;
-  double distance = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const double d = std::abs(std::log(f / hz_of(points[i])));
-    if (d < distance) {
-      distance = d;
-      nearest = i;
-    }
-  }
-  Step step;
-  step.points = points;
-  if (distance <= separation) {
-    // The peak sits on an existing point: interpolating there again would add nothing, a higher
-    // moment improves the match around it.
-    ExpansionPoint& p = step.points[nearest];
-    p.moments += 1;
-    step.phase = "add_moment";
-    step.what = "a moment at " + hz_text(hz_of(p)) + " (now " + std::to_string(p.moments) + ")";
-    step.extra["added_moment_hz"] = hz_of(p);
-  } else {
-    step.points.push_back(point_at_hz(f, moments));
-    step.adds_point = true;
+  strategy_support::PointStep s = strategy_support::step_toward(points, f, separation, moments);
+  Step step{std::move(s.points), s.adds_point, {}, {}, {}};
+  if (s.adds_point) {
     step.phase = "add_point";
-    step.what = "a point at " + hz_text(f);
-    step.extra["added_point_hz"] = f;
+    step.what = "a point at " + hz_text(s.at_hz);
+    step.extra["added_point_hz"] = s.at_hz;
+  } else {
+    step.phase = "add_moment";
+    step.what =
+        "a moment at " + hz_text(s.at_hz) + " (now " + std::to_string(s.moments_there) + ")";
+    step.extra["added_moment_hz"] = s.at_hz;
   }
   return step;
 }

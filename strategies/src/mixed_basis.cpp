@@ -17,7 +17,7 @@ constexpr const char* kStrategy = "mixed_basis";
 using strategy_support::Candidate;
 using strategy_support::sci;
 
-double hz_of(const ExpansionPoint& p) { return p.s.imag() / kTwoPi; }
+using strategy_support::hz_of;
 
 // The frequencies of the `count` largest local maxima of the relative error, largest first, no
 // two within `separation` in |ln f|.
@@ -31,21 +31,6 @@ std::vector<double> error_peaks(const BandError& e, double separation, Index cou
       out.push_back(f);
   }
   return out;
-}
-
-// The point set with a step toward f: one moment more at the nearest point when f lies within
-// `separation` of it (interpolating there again adds nothing; a higher moment fits the resonance
-// around it), else a new point at f with `moments` moments.
-std::vector<ExpansionPoint> step_toward(std::vector<ExpansionPoint> points, double f,
-                                        double separation, Index moments) {
-  for (ExpansionPoint& p : points) {
-    if (std::abs(std::log(f / hz_of(p))) <= separation) {
-      p.moments += 1;
-      return points;
-    }
-  }
-  points.push_back(point_at_hz(f, moments));
-  return points;
 }
 
 using End = std::optional<StrategyResult>;
@@ -172,7 +157,8 @@ class Run {
     bool over_budget = false;
     for (double f : peaks) {
       if (End end = iteration_budget()) return end;
-      std::vector<ExpansionPoint> points = step_toward(m_points, f, m_separation, m_o.moments);
+      std::vector<ExpansionPoint> points =
+          strategy_support::step_toward(m_points, f, m_separation, m_o.moments).points;
       ReducerResult r = m_reducer.reduce(request(points, m_block));
       if (r.V.cols() <= m_current.order()) continue;  // deflated: nothing new there
       if (r.V.cols() > m_max_order) {

@@ -15,8 +15,6 @@ namespace ecmor::strategy_support {
 
 namespace {
 
-double hz_of(const ExpansionPoint& p) { return p.s.imag() / kTwoPi; }
-
 Index total_moments(const std::vector<ExpansionPoint>& points) {
   Index k = 0;
   for (const auto& p : points) k += p.moments;

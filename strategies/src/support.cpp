@@ -210,6 +210,34 @@ std::string StrategyRun::verified_phrase() const {
 
 double band_centre_hz(const Band& band) { return std::sqrt(band.f_min_hz * band.f_max_hz); }
 
+double hz_of(const ExpansionPoint& p) { return p.s.imag() / kTwoPi; }
+
+PointStep step_toward(const std::vector<ExpansionPoint>& points, double f_hz, double separation,
+                      Index moments) {
+  std::size_t nearest = 0;
+  double distance = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const double d = std::abs(std::log(f_hz / hz_of(points[i])));
+    if (d < distance) {
+      distance = d;
+      nearest = i;
+    }
+  }
+  PointStep step{points};
+  if (distance <= separation) {
+    ExpansionPoint& p = step.points[nearest];
+    p.moments += 1;
+    step.at_hz = hz_of(p);
+    step.moments_there = p.moments;
+  } else {
+    step.points.push_back(point_at_hz(f_hz, moments));
+    step.adds_point = true;
+    step.at_hz = f_hz;
+    step.moments_there = moments;
+  }
+  return step;
+}
+
 void require_point_reducer(const StrategyContext& context, const std::string& strategy) {
   if (!context.reducer_info.uses_expansion_points) {
     const std::string name =

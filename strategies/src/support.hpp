@@ -154,6 +154,23 @@ StrategyResult guarded(StrategyRun& run, Body&& body) {
 /// Geometric centre of the band, sqrt(f_min f_max).
 double band_centre_hz(const Band& band);
 
+/// The frequency of an expansion point, Im(s) / 2 pi.
+double hz_of(const ExpansionPoint& p);
+
+/// One growth step of a point set toward a frequency of large error.
+struct PointStep {
+  std::vector<ExpansionPoint> points;  ///< the set after the step
+  bool adds_point = false;             ///< a new point (else a moment more at an existing one)
+  double at_hz = 0.0;                  ///< the new point, or the point given the moment
+  Index moments_there = 0;             ///< that point's moments after the step
+};
+
+/// The step toward `f_hz`: one moment more at the nearest point when f lies within `separation`
+/// of it in |ln f| (interpolating there again adds nothing; a higher moment fits the resonance
+/// around it), else a new point at f with `moments` moments.
+PointStep step_toward(const std::vector<ExpansionPoint>& points, double f_hz, double separation,
+                      Index moments);
+
 /// Throws ConfigError unless the reducer uses expansion points (for point-moving strategies).
 void require_point_reducer(const StrategyContext& context, const std::string& strategy);
 
