@@ -1,7 +1,9 @@
 // Tests of transfer functions, band responses, poles and the response cache: closed-form small
 // systems, full-order "reductions", and the shared models' independent reference responses.
 #include <gtest/gtest.h>
+#include <omp.h>
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -18,6 +20,7 @@
 #include "ecmor/linalg/shifted_solver.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/response/frequency_response.hpp"
+#include "ecmor/response/reduced_response.hpp"
 
 namespace {
 
@@ -427,6 +430,43 @@ TEST(Poles, RepeatedModelsShareTheirPolesChangedOnesDoNot) {
   if (!threw) {
     EXPECT_FALSE(pb.allFinite());
   }
+}
+
+// The poles come from LAPACK on the calling thread alone (dense_lapack.hpp): on a model large
+// enough for the blocked code paths (first-order size 300), they agree with Eigen's unblocked QR,
+// an independent implementation, and the caller's OpenMP thread count is restored afterwards.
+TEST(Poles, AgreeWithAnIndependentEigensolverAndRestoreTheThreadCount) {
+  const Index n = 150;
+  const Matrix R = test::random_matrix(n, n, 7), S = test::random_matrix(n, n, 8);
+  ReducedSecondOrderModel r;
+  r.M = Matrix::Identity(n, n) + 0.01 * R * R.transpose();
+  r.K = S * S.transpose() + Matrix::Identity(n, n);
+  r.D = 0.02 * r.M + 0.001 * r.K;
+  r.B = test::random_matrix(n, 2, 9);
+  r.C = test::random_matrix(3, n, 10);
+  const int threads_before = 2;
+  omp_set_num_threads(threads_before);
+  const ComplexVector p = poles(ReducedModel(r));
+  EXPECT_EQ(omp_get_max_threads(), threads_before);
+  Matrix F = Matrix::Zero(2 * n, 2 * n);
+  F.topRightCorner(n, n).setIdentity();
+  F.bottomLeftCorner(n, n) = -r.M.lu().solve(r.K);
+  F.bottomRightCorner(n, n) = -r.M.lu().solve(r.D);
+  const Eigen::EigenSolver<Matrix> es(F, false);
+  ASSERT_EQ(es.info(), Eigen::Success);
+  const ComplexVector q = es.eigenvalues();
+  ASSERT_EQ(p.size(), q.size());
+  double worst = 0.0;
+  for (Index i = 0; i < q.size(); ++i) {
+    double nearest = std::numeric_limits<double>::infinity();
+    for (Index j = 0; j < p.size(); ++j) nearest = std::min(nearest, std::abs(q(i) - p(j)));
+    worst = std::max(worst, nearest / std::abs(q(i)));
+  }
+  EXPECT_LT(worst, 1e-9);
+  // The response set-up (LAPACK's Hessenberg form) restores the count too.
+  const ReducedResponse response{ReducedModel(r)};
+  EXPECT_TRUE(response.hessenberg());
+  EXPECT_EQ(omp_get_max_threads(), threads_before);
 }
 
 TEST(ResponseCache, ComputesOnlyMissingFrequencies) {

@@ -99,7 +99,8 @@ class BruteForce {
   /// sup_w sigma(w): a log grid of `grid` points over [min |p| / 100, max |p| * 100] plus 0 and
   /// Im(p) of every pole, then golden-section search on [w_{i-1}, w_{i+1}] around the `peaks`
   /// largest local maxima of the samples, down to a bracket of 1e-13 relative.
-  /// Accuracy: every value is a true sigma_max (to ~1e-13 from the backward-stable solves), so the
+  /// Accuracy: every value is a true sigma_max (to the rounding of the backward-stable solves:
+  /// ~1e-13, 4e-12 at beam's sharp peak), so the
   /// result is a lower bound of the norm; it equals the norm once the global peak's bracket is
   /// among those refined. Resonance peaks sit at Im(p) within about zeta |p| (a grid point
   /// each, whatever the damping), the log grid resolves broad peaks (relative spacing 2e-3 at
@@ -326,16 +327,21 @@ TEST(HinfAnalytic, IterationBudgetExhaustedIsAResultWithALowerBound) {
 // Shared models against the brute-force sweep (the requirement: 1e-6 relative)
 
 /// Checks hinf_norm(model) against the sweep: the sweep is a lower bound of the true norm (see
-/// BruteForce::supremum), so value >= sweep (1 - 1e-12) must hold whatever the sweep missed, and
+/// BruteForce::supremum), so value >= sweep (1 - 1e-10) must hold whatever the sweep missed, and
 /// value <= sweep (1 + 1e-6) is the agreement required. Also sigma at the reported peak frequency,
 /// evaluated independently, must equal the value (it is attained there).
+/// The 1e-10 is the rounding of a double evaluation at a sharp peak, measured: at beam's peak
+/// (0.1046 rad/s, sigma 4 555) the library's Hessenberg path (with Eigen's or LAPACK's reduction
+/// alike) and a dense LU of P(s) in double differ from a full-pivoting LU in long double by
+/// 1.5e-11 to 2.5e-11 relative, and the sweep's Schur form by 4e-12; 1e-12 held only while the
+/// two double roundings happened to fall on the same side.
 void expect_agrees(const HinfResult& r, const BruteForce& ref, const std::string& name) {
   const auto t0 = std::chrono::steady_clock::now();
   double w_ref = 0.0;
   const double sweep = ref.supremum(8000, 12, &w_ref);
   const double sweep_seconds = seconds_since(t0);
   EXPECT_TRUE(r.converged) << name << ": " << r.message;
-  EXPECT_GE(r.value, sweep * (1.0 - 1e-12)) << name << ": the sweep found a larger value";
+  EXPECT_GE(r.value, sweep * (1.0 - 1e-10)) << name << ": the sweep found a larger value";
   EXPECT_LE(r.value, sweep * (1.0 + 1e-6)) << name;
   EXPECT_LT(rel(ref.sigma(r.omega_peak_rad_s), r.value), 1e-9) << name;
   std::printf(

@@ -1,6 +1,8 @@
 // dense_lapack.cpp: see dense_lapack.hpp.
 #include "linalg/dense_lapack.hpp"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <complex>
@@ -24,6 +26,14 @@ void dggev_(const char* jobvl, const char* jobvr, const int* n, double* a, const
             double* b, const int* ldb, double* alphar, double* alphai, double* beta, double* vl,
             const int* ldvl, double* vr, const int* ldvr, double* work, const int* lwork, int* info,
             std::size_t, std::size_t);
+void dgeev_(const char* jobvl, const char* jobvr, const int* n, double* a, const int* lda,
+            double* wr, double* wi, double* vl, const int* ldvl, double* vr, const int* ldvr,
+            double* work, const int* lwork, int* info, std::size_t, std::size_t);
+void dgehrd_(const int* n, const int* ilo, const int* ihi, double* a, const int* lda, double* tau,
+             double* work, const int* lwork, int* info);
+void dormhr_(const char* side, const char* trans, const int* m, const int* n, const int* ilo,
+             const int* ihi, const double* a, const int* lda, const double* tau, double* c,
+             const int* ldc, double* work, const int* lwork, int* info, std::size_t, std::size_t);
 void dgemm_(const char* transa, const char* transb, const int* m, const int* n, const int* k,
             const double* alpha, const double* a, const int* lda, const double* b, const int* ldb,
             const double* beta, double* c, const int* ldc, std::size_t, std::size_t);
@@ -137,6 +147,81 @@ bool real_schur(const Matrix& F, Matrix& T, Matrix& U) {
   // dgees leaves rounding-level entries below the blocks' subdiagonals: T is quasi-triangular.
   for (int j = 0; j < n; ++j)
     for (int i = j + 2; i < n; ++i) T(i, j) = 0.0;
+  return true;
+}
+
+namespace {
+
+// The calling thread's OpenMP thread count set to 1 for the lifetime of the guard: OpenBLAS's
+// OpenMP build then runs its BLAS calls on this thread alone (dense_lapack.hpp, eigenvalues).
+class OneBlasThread {
+ public:
+  OneBlasThread() : m_threads(omp_get_max_threads()) { omp_set_num_threads(1); }
+  ~OneBlasThread() { omp_set_num_threads(m_threads); }
+  OneBlasThread(const OneBlasThread&) = delete;
+  OneBlasThread& operator=(const OneBlasThread&) = delete;
+
+ private:
+  int m_threads;
+};
+
+}  // namespace
+
+bool eigenvalues(const Matrix& A, ComplexVector& lambda) {
+  const int n = static_cast<int>(A.rows());
+  lambda.resize(n);
+  if (n == 0) return true;
+  const OneBlasThread one_thread;
+  Matrix a = A;
+  std::vector<double> wr(static_cast<std::size_t>(n)), wi(static_cast<std::size_t>(n));
+  int info = 0, lwork = -1, one = 1;
+  double query = 0.0, unused = 0.0;
+  dgeev_("N", "N", &n, a.data(), &n, wr.data(), wi.data(), &unused, &one, &unused, &one, &query,
+         &lwork, &info, 1, 1);
+  if (info != 0) return false;
+  lwork = std::max(static_cast<int>(query), 3 * n);
+  std::vector<double> work(static_cast<std::size_t>(lwork));
+  dgeev_("N", "N", &n, a.data(), &n, wr.data(), wi.data(), &unused, &one, &unused, &one,
+         work.data(), &lwork, &info, 1, 1);
+  if (info != 0) return false;
+  for (int i = 0; i < n; ++i)
+    lambda(i) = Complex(wr[static_cast<std::size_t>(i)], wi[static_cast<std::size_t>(i)]);
+  return true;
+}
+
+bool hessenberg_form(Matrix& F, Matrix& G, Matrix& L) {
+  const int n = static_cast<int>(F.rows());
+  if (n == 0) return true;
+  const OneBlasThread one_thread;
+  const int one = 1;
+  std::vector<double> tau(static_cast<std::size_t>(std::max(n - 1, 1)));
+  int info = 0, lwork = -1;
+  double query = 0.0;
+  dgehrd_(&n, &one, &n, F.data(), &n, tau.data(), &query, &lwork, &info);
+  if (info != 0) return false;
+  std::vector<double> work(static_cast<std::size_t>(std::max(static_cast<int>(query), n)));
+  lwork = static_cast<int>(work.size());
+  dgehrd_(&n, &one, &n, F.data(), &n, tau.data(), work.data(), &lwork, &info);
+  if (info != 0) return false;
+  // Q' G and L Q; the reflectors are below the subdiagonal of F until they are cleared.
+  auto apply = [&](const char* side, const char* trans, Matrix& C) {
+    const int m = static_cast<int>(C.rows()), k = static_cast<int>(C.cols());
+    if (m == 0 || k == 0) return true;
+    const int ldc = std::max(m, 1);
+    int lw = -1;
+    double q = 0.0;
+    dormhr_(side, trans, &m, &k, &one, &n, F.data(), &n, tau.data(), C.data(), &ldc, &q, &lw, &info,
+            1, 1);
+    if (info != 0) return false;
+    std::vector<double> w(static_cast<std::size_t>(std::max(static_cast<int>(q), 1)));
+    lw = static_cast<int>(w.size());
+    dormhr_(side, trans, &m, &k, &one, &n, F.data(), &n, tau.data(), C.data(), &ldc, w.data(), &lw,
+            &info, 1, 1);
+    return info == 0;
+  };
+  if (!apply("L", "T", G) || !apply("R", "N", L)) return false;
+  for (int j = 0; j < n; ++j)
+    for (int i = j + 2; i < n; ++i) F(i, j) = 0.0;
   return true;
 }
 

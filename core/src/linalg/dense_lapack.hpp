@@ -1,7 +1,8 @@
 #pragma once
 // dense_lapack.hpp: dense steps that Eigen does with unblocked code, by LAPACK: the real Schur
-// form F = U T U' (dgees), the eigenvalues of a pencil (dggev) and the column-pivoted QR
-// (dgeqp3 / zgeqp3). Private to core (lyapunov.cpp, lyapunov_factor.cpp, hinf_norm.cpp).
+// form F = U T U' (dgees), the Hessenberg form (dgehrd), the eigenvalues of a matrix (dgeev) or a
+// pencil (dggev) and the column-pivoted QR (dgeqp3 / zgeqp3). Private to core (lyapunov.cpp,
+// lyapunov_factor.cpp, hinf_norm.cpp, frequency_response.cpp).
 //
 // Why not Eigen::RealSchur: Eigen's Hessenberg reduction and double-shift QR are unblocked and
 // single-threaded; at n = 3 002 (the first-order form of triplechain_mess_n1501) they took most of
@@ -24,6 +25,24 @@ bool real_schur(const Matrix& F, Matrix& T, Matrix& U);
 /// a 172 x 172 Hamiltonian error pencil of build_so that dggev solves). alpha complex, beta real
 /// and >= 0 (beta = 0: an infinite eigenvalue). False when the QZ iteration failed.
 bool generalized_eigenvalues(const Matrix& A, const Matrix& B, ComplexVector& alpha, Vector& beta);
+
+/// The eigenvalues of the square matrix A by LAPACK's dgeev (no eigenvectors), computed on the
+/// calling thread alone. False when the QR iteration did not converge.
+/// Why here and not Eigen::EigenSolver: the poles of every candidate and reference model are
+/// computed this way, serially, and at n = 674 (a second-order model of order 337) Eigen's
+/// unblocked QR took 0.69 s where dgeev took 0.19 s; in triplechain_mess_n1501_krylov the poles
+/// were a quarter of the run. Why one thread: the QR sweeps make thousands of short BLAS calls,
+/// and with OpenBLAS's OpenMP build each became a parallel region; on a loaded 2-core machine the
+/// same dgeev took 6.4 s with two threads (the threads spin in libgomp against the other load).
+/// OpenBLAS's OpenMP build takes its thread count from omp_get_max_threads() of the calling
+/// thread, which is set to 1 for the call and restored after it.
+bool eigenvalues(const Matrix& A, ComplexVector& lambda);
+
+/// The Hessenberg form of F = Q H Q' by LAPACK's dgehrd (blocked reflectors), applied to G and L
+/// by dormhr, on the calling thread alone as eigenvalues() above: on return F holds H (zeros below
+/// the subdiagonal), G holds Q' G and L holds L Q. Eigen's HessenbergDecomposition is unblocked:
+/// at n = 674 it was 15 % of triplechain_mess_n1501_krylov. False when LAPACK refused an argument.
+bool hessenberg_form(Matrix& F, Matrix& G, Matrix& L);
 
 /// Rotates each 2 x 2 block of a real Schur form F = U T U' to upper triangular form (complex T
 /// and U, F = U T U^H): the first row of the rotation is the normalised eigenvector

@@ -24,6 +24,7 @@
 #include "base/parallel_for.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/interrupt.hpp"
+#include "linalg/dense_lapack.hpp"
 #include "linalg/power_of_two_scaling.hpp"
 #include "linalg/qz_solver.hpp"
 
@@ -121,10 +122,10 @@ ComplexVector pencil_eigenvalues(const Matrix& A, const Matrix& E) {
   if (safe_rcond(lu) >= 1e-8) {
     Matrix EA = lu.solve(A);
     if (EA.allFinite()) {
-      Eigen::EigenSolver<Matrix> es(EA, /*computeEigenvectors=*/false);
-      if (es.info() != Eigen::Success)
+      ComplexVector lambda;
+      if (!detail::eigenvalues(EA, lambda))
         throw NumericalError("poles: eigenvalue iteration (QR) did not converge");
-      return es.eigenvalues();
+      return lambda;
     }
   }
   detail::QzSolver ges(A, E, /*computeEigenvectors=*/false);

@@ -9,6 +9,7 @@
 
 #include "ecmor/base/error.hpp"
 #include "ecmor/response/frequency_response.hpp"
+#include "linalg/dense_lapack.hpp"
 #include "model/first_order_realisation.hpp"
 
 namespace ecmor {
@@ -118,12 +119,12 @@ ReducedResponse::ReducedResponse(const ReducedModel& model) : m_model(model) {
   if (!realisation || realisation->F.rows() == 0) return;
   Matrix F = std::move(realisation->F), G = std::move(realisation->G),
          L = std::move(realisation->L);
-  Eigen::HessenbergDecomposition<Matrix> hess(F);
-  Matrix H = hess.matrixH();
   // Q applied as its Householder reflectors, never formed: forming it cost a quarter of the
   // setup at n = 328 (7 ms of 28), applying it to the few columns of G and rows of L 0.5 ms.
-  Matrix QG = hess.matrixQ().transpose() * G;
-  Matrix LQ = L * hess.matrixQ();
+  if (!detail::hessenberg_form(F, G, L)) return;
+  Matrix H = std::move(F);
+  Matrix QG = std::move(G);
+  Matrix LQ = std::move(L);
   if (LQ.rows() < QG.cols()) {
     // Fewer outputs than inputs: evaluate Hr' = G' Q (s I - H')^-1 Q' L' instead, p right-hand
     // sides instead of m. H' is lower Hessenberg; reversing the order of the states (J H' J, J
