@@ -504,10 +504,19 @@ void Parser::parse_portfolio(const YAML::Node& strategy, RunConfig& config) {
 PortfolioMember Parser::parse_member(const YAML::Node& item, const std::string& where) {
   if (!item.IsMap())
     fail(at(item), fmt::format("{} must be a mapping with 'reducer' (and optionally "
-                               "'strategy'), found {}",
+                               "'strategy' and 'fallback'), found {}",
                                where, node_kind(item)));
-  check_keys(item, where, {"reducer", "strategy"});
+  check_keys(item, where, {"reducer", "strategy", "fallback"});
   PortfolioMember member;
+  if (const YAML::Node fallback = item["fallback"]; fallback.IsDefined()) {
+    const bool is_bool =
+        fallback.IsScalar() && std::holds_alternative<bool>(classify_scalar(fallback));
+    if (!is_bool)
+      fail(fallback.IsNull() ? key_location(item, "fallback") : at(fallback),
+           fmt::format("{}.fallback must be true or false, found {}", where,
+                       fallback.IsScalar() ? "'" + fallback.Scalar() + "'" : node_kind(fallback)));
+    member.fallback = std::get<bool>(classify_scalar(fallback));
+  }
   const YAML::Node reducer = item["reducer"];
   if (!reducer.IsDefined()) fail(at(item), fmt::format("missing required key '{}.reducer'", where));
   if (!reducer.IsMap())

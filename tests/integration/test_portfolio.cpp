@@ -180,16 +180,18 @@ TEST(Portfolio, ReportsTheSmallestModelOfItsMembersAndSharesTheFullResponses) {
 }
 
 // Without members, the bundled reducers that suit the model: all three for a second-order model,
-// no modal for an unsymmetric descriptor model (cdplayer). Each member's result is checked
-// against the same member run alone; the portfolio reports the smallest passing order.
+// no modal truncation for an unsymmetric descriptor model (cdplayer), and modal / mixed_basis last
+// as the fallback, not run here because an earlier member met the target. Each member's result is
+// checked against the same member run alone; the portfolio reports the smallest passing order.
 TEST(Portfolio, WithoutMembersTriesTheBundledReducersThatSuitTheModel) {
   struct Case {
     const char* model;
     std::vector<std::string> labels;
   };
   const Case cases[] = {
-      {"build_so", {"krylov/greedy_points", "balanced/grow_order", "modal/grow_order"}},
-      {"cdplayer", {"krylov/greedy_points", "balanced/grow_order"}}};
+      {"build_so",
+       {"krylov/greedy_points", "balanced/grow_order", "modal/grow_order", "modal/mixed_basis"}},
+      {"cdplayer", {"krylov/greedy_points", "balanced/grow_order", "modal/mixed_basis"}}};
   for (const Case& c : cases) {
     SCOPED_TRACE(c.model);
     test::TempDir dir;
@@ -206,6 +208,11 @@ TEST(Portfolio, WithoutMembersTriesTheBundledReducersThatSuitTheModel) {
     for (std::size_t k = 0; k < c.labels.size(); ++k) {
       const PortfolioAttempt& a = s.attempts[k];
       EXPECT_EQ(a.label(), c.labels[k]);
+      if (k + 1 == c.labels.size()) {
+        EXPECT_EQ(a.termination, "not_needed") << a.message;
+        EXPECT_FALSE(a.has_model);
+        continue;
+      }
       // The member alone, as a plain run, ends the same way.
       const std::string reducer = c.labels[k].substr(0, c.labels[k].find('/'));
       const std::string strategy = c.labels[k].substr(c.labels[k].find('/') + 1);
@@ -225,6 +232,42 @@ TEST(Portfolio, WithoutMembersTriesTheBundledReducersThatSuitTheModel) {
     EXPECT_EQ(s.order, smallest);
     EXPECT_LE(s.verified_band_error, 1e-2);
   }
+}
+
+// A fallback member runs only when no member before it met the target: after a member that
+// misses (krylov capped at order 4) it runs and its model is reported; after one that meets the
+// target it is "not_needed", without a model, in the attempts and in summary.json.
+TEST(Portfolio, AFallbackMemberRunsOnlyWhenNoMemberBeforeItMetTheTarget) {
+  test::TempDir dir;
+  Registry registry;
+  fill_registry(registry);
+  const std::string misses =
+      "    - reducer: {name: krylov}\n      strategy: {name: grow_order, max_order: 4}\n";
+  const std::string modal_fallback = "    - reducer: {name: modal}\n      fallback: true\n";
+  const RunSummary rescued = run_yaml(portfolio_yaml(misses + modal_fallback, dir / "a"), registry);
+  ASSERT_EQ(rescued.attempts.size(), 2u);
+  EXPECT_FALSE(rescued.attempts[0].met) << rescued.attempts[0].message;
+  EXPECT_TRUE(rescued.attempts[1].met) << rescued.attempts[1].message;
+  EXPECT_EQ(rescued.termination, Termination::Converged) << rescued.message;
+  EXPECT_EQ(rescued.reducer, "modal");
+  EXPECT_LE(rescued.verified_band_error, 1e-2);
+
+  const std::string balanced_fallback = kBalanced + "      fallback: true\n";
+  const RunSummary s = run_yaml(portfolio_yaml(kModal + balanced_fallback, dir / "b"), registry);
+  ASSERT_EQ(s.attempts.size(), 2u);
+  EXPECT_TRUE(s.attempts[0].met) << s.attempts[0].message;
+  EXPECT_EQ(s.attempts[1].termination, "not_needed");
+  EXPECT_FALSE(s.attempts[1].has_model);
+  EXPECT_NE(s.attempts[1].message.find("met the target at order " + std::to_string(s.order)),
+            std::string::npos)
+      << s.attempts[1].message;
+  EXPECT_EQ(s.reducer, "modal");
+  const nlohmann::json j = read_json(dir / "b" / "summary.json");
+  EXPECT_EQ(j["portfolio"]["members"][1]["termination"], "not_needed");
+
+  expect_config_error(
+      portfolio_yaml(kModal + "      fallback: maybe\n", "o"),
+      {"portfolio.yaml:9", "strategy.members[1].fallback must be true or false", "'maybe'"});
 }
 
 TEST(Portfolio, WithoutMembersAndWithoutTheBundledReducersIsNamed) {

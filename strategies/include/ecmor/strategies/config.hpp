@@ -25,6 +25,9 @@
 ///       - reducer:  {name: modal}
 ///       - reducer:  {name: krylov, points: [0.0]}
 ///         strategy: {name: greedy_points, max_order: 80}  # default: grow_order
+///       - reducer:  {name: modal}
+///         strategy: {name: mixed_basis}
+///         fallback: true                                 # only if no member before met it
 ///
 /// Relative paths (model.dir, model.file, output.dir, plugins) are resolved against the current
 /// working directory, like paths given on a command line.
@@ -46,6 +49,9 @@ struct PortfolioMember {
   ParameterMap reducer_params{"reducer"};
   std::string strategy_name = "grow_order";
   ParameterMap strategy_params{"strategy"};
+  /// Runs only when no member before it met the target (YAML `fallback: true`): a slower method
+  /// kept for the models the others cannot reduce. Otherwise its attempt is "not_needed".
+  bool fallback = false;
   /// "reducer/strategy", for tables and messages.
   std::string label() const { return reducer_name + "/" + strategy_name; }
 };

@@ -120,8 +120,10 @@ class RunObserver {
 /// The members of `strategy: {name: portfolio}` without `members`: the bundled reducers loaded in
 /// `registry` that suit the model, in this order: krylov / greedy_points (2 moments, any model),
 /// balanced / grow_order (any model; it refuses an unstable one by name), modal / grow_order
-/// (second-order models, and descriptor models with symmetric E and A). Point strategies first:
-/// they are never pruned, and the order they reach prunes the grow_order members after them.
+/// (second-order models, and descriptor models with symmetric E and A), and last modal /
+/// mixed_basis as a fallback member (any model; run only when none of the others met the
+/// target). Point strategies first: they are never pruned, and the order they reach prunes the
+/// grow_order members after them.
 /// \throws ConfigError when none of them is loaded.
 std::vector<PortfolioMember> default_portfolio(const Model& model, const Registry& registry);
 
