@@ -151,7 +151,8 @@ class EpigraphProgram final : public Ipopt::TNLP {
     const Levels* at = levels(xv);
     if (at == nullptr) return false;
     if (!m_jacobian || m_jacobian_x != xv) {
-      m_jacobian = m_objective.jacobian(xv, *at, m_options.fd_step, m_options.central);
+      m_jacobian = m_objective.jacobian(xv, *at, m_options.fd_step, m_options.central,
+                                        m_options.fd_rows_within);
       m_jacobian_x = xv;
     }
     if (!m_jacobian) return false;
@@ -239,6 +240,13 @@ const OptionSpecs<MinimaxPointsOptions>& MinimaxPointsOptions::specs() {
                 .range(Range::open_closed(0, 0.1)),
             choice("fd_scheme", &O::central, {{"central", true}, {"forward", false}},
                    "finite-difference scheme"),
+            option("fd_rows_within", &O::fd_rows_within,
+                   "after an optimisation's first Jacobian, difference only the samples whose "
+                   "level is within this many decades of the largest (the near-active "
+                   "constraints); the other rows keep their last values; 0 = every row every "
+                   "time")
+                .unit("decades")
+                .range(Range::closed(0, 100)),
             choice("presearch", &O::presearch,
                    {{"none", std::nullopt},
                     {"bobyqa", PointAlgorithm::Bobyqa},
@@ -301,6 +309,11 @@ point_search::Optimisation minimax_optimise(const MinimaxPointsOptions& o,
                 std::to_string(program->iterations()) + " iterations";
   out.diagnostics["ipopt_status"] = static_cast<double>(status);
   out.diagnostics["ipopt_iterations"] = static_cast<double>(program->iterations());
+  if (objective.jacobian_rows_total() > 0) {
+    out.diagnostics["jacobian_rows_differenced"] =
+        static_cast<double>(objective.jacobian_rows()) /
+        static_cast<double>(objective.jacobian_rows_total());
+  }
   return out;
 }
 

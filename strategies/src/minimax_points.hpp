@@ -42,9 +42,17 @@
 /// Parameters: MinimaxPointsOptions::specs() (keys, defaults, ranges; docs/strategies.md prints
 /// them), the shared ones from PointSearchOptions.
 ///
+/// Near-active rows (fd_rows_within, default 0.3 decades): after the first Jacobian of an Ipopt
+/// run, only the rows whose level is within fd_rows_within of the largest are differenced, on
+/// evaluations that solve the reduced model at those samples only; the other rows (constraints
+/// with a large slack, multipliers ~ 0) keep their last values, while their exact values still
+/// enter every constraint evaluation and so the line search. About a tenth of the rows on the
+/// shipped configurations; PointObjective::jacobian.
+///
 /// Cost. Per Ipopt iteration: one evaluation for the constraints plus 2p (central) or p (forward)
 /// for the Jacobian, plus line-search trials; each evaluation is a reduction at p points and S
-/// reduced solves. An S x (p + 1) dense Jacobian (S ~ a few hundred) is cheap next to that.
+/// reduced solves (the Jacobian's: the near-active samples only). An S x (p + 1) dense Jacobian
+/// (S ~ a few hundred) is cheap next to that.
 
 #include <optional>
 #include <string>
@@ -64,6 +72,8 @@ struct MinimaxPointsOptions {
   Index max_evaluations = 0;     ///< evaluations per optimisation, 0: unlimited
   double fd_step = 1e-5;         ///< finite-difference step in decades
   bool central = true;           ///< fd_scheme: central (true) or forward
+  /// Jacobian rows differenced: samples within this many decades of the largest level (0: all).
+  double fd_rows_within = 0.3;
   /// NLopt algorithm of the derivative-free presearch before Ipopt; none: no presearch.
   std::optional<PointAlgorithm> presearch = PointAlgorithm::Bobyqa;
   Index presearch_evaluations = 0;  ///< its evaluations; 0: 20 p

@@ -140,14 +140,31 @@ ReducerResult PointObjective::reduce(const std::vector<double>& x) const {
 }
 
 PointObjective::Levels PointObjective::evaluate(const std::vector<double>& x) {
+  return evaluate_at(x, nullptr);
+}
+
+PointObjective::Levels PointObjective::evaluate_rows(const std::vector<double>& x,
+                                                     const std::vector<Index>& rows) {
+  return evaluate_at(x, &rows);
+}
+
+PointObjective::Levels PointObjective::evaluate_at(const std::vector<double>& x,
+                                                   const std::vector<Index>* rows) {
   Levels out;
   ++m_evaluations;
   ++m_round_evaluations;
+  // The frequencies evaluated: every sample, or the rows asked for.
+  std::vector<double> partial;
+  if (rows != nullptr) {
+    partial.reserve(rows->size());
+    for (Index k : *rows) partial.push_back(m_samples[static_cast<std::size_t>(k)]);
+  }
+  const std::vector<double>& f = rows != nullptr ? partial : m_samples;
   std::optional<ReducerResult> reduced;
   BandError error;
   try {
     reduced = reduce(x);
-    error = m_run.context().estimator->evaluate_on(reduced->model, m_samples);
+    error = m_run.context().estimator->evaluate_on(reduced->model, f);
   } catch (const Error& e) {
     // A point on an eigenvalue, a singular shifted matrix, a breakdown of the reducer: this x is
     // unusable, the search is not. (Interrupted too: inside an optimiser's callback it cannot
@@ -165,19 +182,21 @@ PointObjective::Levels PointObjective::evaluate(const std::vector<double>& x) {
   }
   if (out.failure.empty()) {
     if (error.reduced_singular) out.failure = "the reduced model has a pole at a sample frequency";
-    // evaluate_on samples exactly m_samples (sorted, unique), so index k is samples()[k].
-    if (error.relative.size() != m_samples.size()) {
+    // evaluate_on samples exactly f (sorted, unique), so its index j is f[j].
+    if (error.relative.size() != f.size()) {
       out.failure = "evaluate_on returned " + std::to_string(error.relative.size()) +
-                    " samples for " + std::to_string(m_samples.size()) + " frequencies";
+                    " samples for " + std::to_string(f.size()) + " frequencies";
     }
   }
   if (out.failure.empty()) {
-    out.level.resize(m_samples.size());
+    // Rows not evaluated stay NaN.
+    out.level.assign(m_samples.size(), std::numeric_limits<double>::quiet_NaN());
     double worst = -std::numeric_limits<double>::infinity();
-    for (std::size_t k = 0; k < m_samples.size(); ++k) {
-      const double e = error.relative[k];
+    for (std::size_t j = 0; j < f.size(); ++j) {
+      const std::size_t k = rows != nullptr ? static_cast<std::size_t>((*rows)[j]) : j;
+      const double e = error.relative[j];
       if (std::isinf(e) || (!std::isnan(e) && e < 0.0)) {
-        out.failure = "non-finite relative error at " + sci(m_samples[k]) + " Hz";
+        out.failure = "non-finite relative error at " + sci(f[j]) + " Hz";
         break;
       }
       // NaN: H vanishes there, the relative error is undefined and cannot be the maximum.
@@ -195,6 +214,8 @@ PointObjective::Levels PointObjective::evaluate(const std::vector<double>& x) {
   }
   out.ok = true;
   m_worst_finite = std::max(m_worst_finite, out.value);
+  // A partial evaluation's value is only a lower bound on F(x): it cannot be the round's best.
+  if (rows != nullptr) return out;
   const bool first = m_best_x.empty();
   if (first) m_start_value = out.value;
   if (first || out.value < m_best_value) {
@@ -221,10 +242,24 @@ double PointObjective::penalty() const {
 }
 
 std::optional<Matrix> PointObjective::jacobian(const std::vector<double>& x, const Levels& at,
-                                               double h, bool central) {
+                                               double h, bool central, double active_decades) {
   const std::size_t p = x.size();
   const std::size_t S = m_samples.size();
-  Matrix J(static_cast<Index>(S), static_cast<Index>(p));
+  // The rows differenced: all of them, or those within active_decades of the largest level when
+  // an earlier Jacobian of this round (same samples, same p) supplies the others.
+  const bool reuse = active_decades > 0.0 && at.ok && m_last_jacobian &&
+                     m_last_jacobian->rows() == static_cast<Index>(S) &&
+                     m_last_jacobian->cols() == static_cast<Index>(p);
+  std::vector<Index> rows;
+  if (reuse) {
+    for (std::size_t k = 0; k < S; ++k) {
+      if (at.level[k] >= at.value - active_decades) rows.push_back(static_cast<Index>(k));
+    }
+  } else {
+    rows.resize(S);
+    for (std::size_t k = 0; k < S; ++k) rows[k] = static_cast<Index>(k);
+  }
+  Matrix J = reuse ? *m_last_jacobian : Matrix(static_cast<Index>(S), static_cast<Index>(p));
   for (std::size_t i = 0; i < p; ++i) {
     // Which sides fit in the band: a step across a bound would evaluate a clamped (unchanged)
     // point and report a zero derivative.
@@ -234,7 +269,7 @@ std::optional<Matrix> PointObjective::jacobian(const std::vector<double>& x, con
     auto at_offset = [&](double d) {
       std::vector<double> y = x;
       y[i] += d;
-      return evaluate(y);
+      return reuse ? evaluate_rows(y, rows) : evaluate(y);
     };
     if (central) {
       if (up_ok) plus = at_offset(h);
@@ -244,7 +279,8 @@ std::optional<Matrix> PointObjective::jacobian(const std::vector<double>& x, con
       if (up_ok) plus = at_offset(h);
       if (!plus.ok && down_ok) minus = at_offset(-h);
     }
-    for (std::size_t k = 0; k < S; ++k) {
+    for (Index r : rows) {
+      const std::size_t k = static_cast<std::size_t>(r);
       double d;
       if (plus.ok && minus.ok) {
         d = (plus.level[k] - minus.level[k]) / (2.0 * h);
@@ -255,9 +291,12 @@ std::optional<Matrix> PointObjective::jacobian(const std::vector<double>& x, con
       } else {
         return std::nullopt;
       }
-      J(static_cast<Index>(k), static_cast<Index>(i)) = d;
+      J(r, static_cast<Index>(i)) = d;
     }
   }
+  m_jacobian_rows += static_cast<Index>(rows.size());
+  m_jacobian_rows_total += static_cast<Index>(S);
+  m_last_jacobian = J;
   return J;
 }
 
@@ -312,6 +351,9 @@ std::vector<double> growth_points(const BandError& error, const std::vector<doub
 }
 
 void PointObjective::begin_round() {
+  m_last_jacobian.reset();
+  m_jacobian_rows = 0;
+  m_jacobian_rows_total = 0;
   m_round_evaluations = 0;
   m_round_failures = 0;
   m_best_x.clear();

@@ -104,13 +104,30 @@ class PointObjective {
   /// log10(1 + floor) + 1, i.e. an error of 10).
   double penalty() const;
 
+  /// One counted evaluation at x on the samples `rows` only (indices into samples(), ascending):
+  /// level[k] is NaN for the other rows and value is the largest evaluated level. It costs one
+  /// reduction and rows.size() reduced solves. Its value is only a lower bound on F(x), so it
+  /// never becomes the round's best and is never recorded.
+  Levels evaluate_rows(const std::vector<double>& x, const std::vector<Index>& rows);
+
   /// Finite-difference Jacobian dL_k/dx_i (S x p) at x with step h (decades of f). Central:
   /// (L(x + h e_i) - L(x - h e_i)) / 2h; forward: (L(x + h e_i) - L(x)) / h using `at` (the levels
   /// at x). A coordinate whose +-h leaves the band, or whose perturbed evaluation fails, falls back
   /// to the one-sided difference on the other side. nullopt if both sides of a coordinate fail.
   /// Costs 2p (central) or p (forward) counted evaluations.
+  ///
+  /// Near-active rows. With active_decades > 0, once a Jacobian of this round exists (same
+  /// samples, same p), only the rows whose level at x is within active_decades of the largest are
+  /// differenced (the perturbed evaluations solve the reduced model at those samples only); the
+  /// other rows keep their values from the last Jacobian. Those are the constraints of the
+  /// epigraph program with a large slack, whose multipliers vanish; their values (always exact
+  /// in `at`) still enter the line search, so a row that rises is differenced again once it
+  /// comes within active_decades.
   std::optional<Matrix> jacobian(const std::vector<double>& x, const Levels& at, double h,
-                                 bool central);
+                                 bool central, double active_decades = 0.0);
+  /// Jacobian rows differenced in this round, and rows in all its Jacobians.
+  Index jacobian_rows() const { return m_jacobian_rows; }
+  Index jacobian_rows_total() const { return m_jacobian_rows_total; }
 
   /// Adds frequencies (Hz, clamped to the band) to the sample set, up to the cap; duplicates are
   /// ignored. Returns how many were added.
@@ -153,6 +170,10 @@ class PointObjective {
   double m_recorded_value = 0.0;  // F of the last trial written to the history in this round
   double m_worst_finite = -1e300;
   std::string m_last_failure;
+  std::optional<Matrix> m_last_jacobian;  // of this round (jacobian with active_decades)
+  Index m_jacobian_rows = 0, m_jacobian_rows_total = 0;
+
+  Levels evaluate_at(const std::vector<double>& x, const std::vector<Index>* rows);
 };
 
 /// What one optimisation at fixed p reports to the outer loop.

@@ -324,6 +324,53 @@ TEST(PointObjective, FiniteDifferenceJacobianAgreesWithASmallerStep) {
   EXPECT_EQ(objective.evaluations() - before, 2);
 }
 
+// With active_decades > 0 the second Jacobian of a round differences only the rows whose level
+// is within active_decades of the largest: those rows equal a full Jacobian's at the same x (the
+// reduced model is solved at each sample independently, so to rounding), and the other rows keep
+// the first Jacobian's values. The partial evaluations never become the round's best.
+TEST(PointObjective, NearActiveJacobianDifferencesOnlyTheRowsNearTheLargestLevel) {
+  Fixture fx;
+  test::InterpolationReducer reducer;
+  StrategyContext ctx = fx.context(reducer, 1e-4);
+  strategy_support::StrategyRun run(ctx);
+  point_search::PointObjective objective(run, 2, 1e-3);
+  point_search::PointObjective full(run, 2, 1e-3);
+  const double h = MinimaxPointsOptions{}.fd_step;
+  const double within = 0.3;
+  const std::vector<double> x1{std::log10(0.0123), std::log10(0.0456)};
+  const std::vector<double> x2{std::log10(0.0125), std::log10(0.0450)};
+  objective.begin_round();
+  const auto at1 = objective.evaluate(x1);
+  ASSERT_TRUE(at1.ok);
+  const auto J1 = objective.jacobian(x1, at1, h, true, within);
+  ASSERT_TRUE(J1);
+  const Index S = static_cast<Index>(objective.samples().size());
+  EXPECT_EQ(objective.jacobian_rows(), S);  // the round's first Jacobian: every row
+  const auto at2 = objective.evaluate(x2);
+  ASSERT_TRUE(at2.ok);
+  const double best = objective.best_value();
+  const auto J2 = objective.jacobian(x2, at2, h, true, within);
+  ASSERT_TRUE(J2);
+  EXPECT_EQ(objective.best_value(), best);
+  const auto reference = full.jacobian(x2, full.evaluate(x2), h, true);
+  ASSERT_TRUE(reference);
+  const double scale = reference->cwiseAbs().maxCoeff();
+  Index near = 0;
+  for (Index k = 0; k < S; ++k) {
+    if (at2.level[static_cast<std::size_t>(k)] >= at2.value - within) {
+      ++near;
+      EXPECT_LE((J2->row(k) - reference->row(k)).cwiseAbs().maxCoeff(), 1e-9 * scale) << k;
+    } else {
+      EXPECT_EQ(J2->row(k), J1->row(k)) << k;
+    }
+  }
+  // Both kinds of row occur, and only the near ones were differenced the second time.
+  EXPECT_GT(near, 0);
+  EXPECT_LT(near, S);
+  EXPECT_EQ(objective.jacobian_rows(), S + near);
+  EXPECT_EQ(objective.jacobian_rows_total(), 2 * S);
+}
+
 // A reducer that refuses points in an interval does not stop the optimisation: the refused
 // evaluations are counted and the optimum lies outside the interval.
 TEST(OptimizePoints, ReducerFailureAtSomePointsDoesNotAbort) {
