@@ -289,6 +289,16 @@ TEST(PointStrategies, PolledStopRequestEndsAnOptimisationPromptly) {
   }
 }
 
+// The objective of the point searches on the chain with the interpolation reducer: 2 moments per
+// point, tolerance 1e-4, floor 1e-3 of it.
+struct ObjectiveFixture {
+  Fixture fx;
+  test::InterpolationReducer reducer;
+  StrategyContext ctx = fx.context(reducer, 1e-4);
+  strategy_support::StrategyRun run{ctx};
+  point_search::PointObjective objective{run, 2, 1e-3};
+};
+
 // The finite-difference Jacobian of the levels L_k = log10(eps_k + floor) at the default step
 // agrees with a central difference at a ten times smaller step. Tolerance: the narrowest
 // resonance here (zeta = 1.4e-3) is ~6e-4 decades wide, so the central difference's truncation
@@ -297,11 +307,8 @@ TEST(PointStrategies, PolledStopRequestEndsAnOptimisationPromptly) {
 // 1e-3 of the largest entry leaves a margin of 20 over both, while a wrong step, sign or
 // coordinate gives O(1) differences.
 TEST(PointObjective, FiniteDifferenceJacobianAgreesWithASmallerStep) {
-  Fixture fx;
-  test::InterpolationReducer reducer;
-  StrategyContext ctx = fx.context(reducer, 1e-4);
-  strategy_support::StrategyRun run(ctx);
-  point_search::PointObjective objective(run, 2, 1e-3);
+  ObjectiveFixture o;
+  point_search::PointObjective& objective = o.objective;
   // Two points (8 columns for 8 resonances: a well-conditioned basis) at generic frequencies.
   const std::vector<double> x{std::log10(0.0123), std::log10(0.0456)};
   const auto at = objective.evaluate(x);
@@ -329,12 +336,9 @@ TEST(PointObjective, FiniteDifferenceJacobianAgreesWithASmallerStep) {
 // reduced model is solved at each sample independently, so to rounding), and the other rows keep
 // the first Jacobian's values. The partial evaluations never become the round's best.
 TEST(PointObjective, NearActiveJacobianDifferencesOnlyTheRowsNearTheLargestLevel) {
-  Fixture fx;
-  test::InterpolationReducer reducer;
-  StrategyContext ctx = fx.context(reducer, 1e-4);
-  strategy_support::StrategyRun run(ctx);
-  point_search::PointObjective objective(run, 2, 1e-3);
-  point_search::PointObjective full(run, 2, 1e-3);
+  ObjectiveFixture o;
+  point_search::PointObjective& objective = o.objective;
+  point_search::PointObjective full(o.run, 2, 1e-3);
   const double h = MinimaxPointsOptions{}.fd_step;
   const double within = 0.3;
   const std::vector<double> x1{std::log10(0.0123), std::log10(0.0456)};
