@@ -2,8 +2,7 @@
 /// \file run_ecmor.hpp
 /// Runs the built `ecmor` executable for the end-to-end tests: arguments quoted for the shell,
 /// ECMOR_PLUGIN_PATH unset (only the build tree's plugins load), stdout and stderr captured in
-/// files of a scratch directory. (test_cli, test_simulate_cli and test_plots carry their own copy
-/// of this; new tests use this one.)
+/// files of a scratch directory.
 
 #include <sys/wait.h>
 
@@ -32,11 +31,14 @@ inline std::string shell_quote(const std::string& s) {
   return q + "'";
 }
 
-/// `ecmor ARGS...` with its output in SCRATCH/stdout.txt and SCRATCH/stderr.txt.
+/// `ecmor ARGS...` from the working directory with its output in SCRATCH/stdout.txt and
+/// SCRATCH/stderr.txt; `env`, when given, is put before the executable (e.g. "PATH=/nonexistent").
+/// Built with append: GCC 12 gives a false -Wrestrict on `" " + std::string`.
 inline CliResult run_ecmor(const std::vector<std::string>& args,
-                           const std::filesystem::path& scratch) {
+                           const std::filesystem::path& scratch, const std::string& env = "") {
   const std::filesystem::path out = scratch / "stdout.txt", err = scratch / "stderr.txt";
   std::string cmd = "env -u ECMOR_PLUGIN_PATH ";
+  if (!env.empty()) cmd.append(env).append(" ");
   cmd.append(shell_quote(std::string(ECMOR_TEST_BINARY_DIR) + "/bin/ecmor"));
   for (const std::string& a : args) cmd.append(" ").append(shell_quote(a));
   cmd.append(" </dev/null >").append(shell_quote(out.string()));

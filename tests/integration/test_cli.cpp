@@ -24,6 +24,7 @@
 #include <thread>
 #include <vector>
 
+#include "common/run_ecmor.hpp"
 #include "ecmor/model/matrix_market.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/response/frequency_response.hpp"
@@ -35,16 +36,8 @@ namespace {
 
 const fs::path kLf10 = "../shared/models/lf10";
 
-struct Result {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), {});
-}
+using Result = test::CliResult;
+using test::read_text;
 
 void write_text(const fs::path& path, const std::string& text) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
@@ -63,18 +56,6 @@ void write_lines(const fs::path& path, const std::vector<std::string>& lines) {
   std::string text;
   for (const std::string& l : lines) text += l + "\n";
   write_text(path, text);
-}
-
-// Single quotes keep every path literal for /bin/sh.
-std::string quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) {
-    if (c == '\'')
-      q += "'\\''";
-    else
-      q += c;
-  }
-  return q + "'";
 }
 
 // Index (0-based) of the first data line of a coordinate file: the size line is the first line
@@ -154,22 +135,7 @@ class Cli : public ::testing::Test {
 
   /// Runs `ecmor ARGS...` from the project root (the test's working directory) with only the
   /// build tree's plugin directory as default plugin location.
-  Result run(const std::vector<std::string>& args) {
-    const fs::path out = m_dir / "stdout.txt";
-    const fs::path err = m_dir / "stderr.txt";
-    // Built with append: GCC 12 gives a false -Wrestrict on `" " + std::string`.
-    std::string cmd = "env -u ECMOR_PLUGIN_PATH ";
-    cmd.append(quote(std::string(ECMOR_TEST_BINARY_DIR) + "/bin/ecmor"));
-    for (const std::string& a : args) cmd.append(" ").append(quote(a));
-    cmd.append(" </dev/null >").append(quote(out.string()));
-    cmd.append(" 2>").append(quote(err.string()));
-    const int status = std::system(cmd.c_str());
-    Result r;
-    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = read_text(out);
-    r.err = read_text(err);
-    return r;
-  }
+  Result run(const std::vector<std::string>& args) { return test::run_ecmor(args, m_dir); }
 
   /// Writes `yaml` as run.yaml in the case directory and runs `ecmor reduce` on it.
   Result reduce(const std::string& yaml, const std::vector<std::string>& extra = {}) {

@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "common/run_ecmor.hpp"
 #include "ecmor/base/types.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "pareto.hpp"
@@ -35,28 +36,13 @@ namespace {
 const fs::path kLf10Config = "configs/lf10.yaml";
 const fs::path kLf10 = "../shared/models/lf10";
 
-struct Result {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), {});
-}
+using Result = test::CliResult;
+using test::read_text;
 
 void write_text(const fs::path& path, const std::string& text) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   out << text;
   ASSERT_TRUE(out.good()) << "cannot write " << path;
-}
-
-// Single quotes keep every path literal for /bin/sh (the test's own shell, not ecmor's).
-std::string quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
 }
 
 // Splits one CSV line; fields in double quotes may contain commas (RFC 4180).
@@ -139,20 +125,7 @@ std::pair<std::uint32_t, std::uint32_t> png_size(const fs::path& path) {
 // Runs `ecmor ARGS...` from the project root; `env` is prepended (e.g. "PATH=/nonexistent").
 Result run_ecmor(const fs::path& scratch, const std::vector<std::string>& args,
                  const std::string& env = "") {
-  const fs::path out = scratch / "stdout.txt";
-  const fs::path err = scratch / "stderr.txt";
-  std::string cmd = "env -u ECMOR_PLUGIN_PATH ";
-  if (!env.empty()) cmd.append(env).append(" ");
-  cmd.append(quote(std::string(ECMOR_TEST_BINARY_DIR) + "/bin/ecmor"));
-  for (const std::string& a : args) cmd.append(" ").append(quote(a));
-  cmd.append(" </dev/null >").append(quote(out.string()));
-  cmd.append(" 2>").append(quote(err.string()));
-  const int status = std::system(cmd.c_str());
-  Result r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = read_text(out);
-  r.err = read_text(err);
-  return r;
+  return test::run_ecmor(args, scratch, env);
 }
 
 // One `ecmor reduce configs/lf10.yaml` for the whole suite (its outputs are only read).

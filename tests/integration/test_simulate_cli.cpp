@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "common/run_ecmor.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/model/projection.hpp"
 #include "ecmor/response/frequency_response.hpp"
@@ -28,22 +29,8 @@ namespace {
 
 const fs::path kBuildSo = "../shared/models/build_so";
 
-struct Result {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), {});
-}
-
-std::string quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
+using Result = test::CliResult;
+using test::read_text;
 
 class SimulateCli : public ::testing::Test {
  protected:
@@ -58,21 +45,7 @@ class SimulateCli : public ::testing::Test {
     if (!HasFailure()) fs::remove_all(m_dir);
   }
 
-  Result run(const std::vector<std::string>& args) {
-    const fs::path out = m_dir / "stdout.txt";
-    const fs::path err = m_dir / "stderr.txt";
-    std::string cmd = "env -u ECMOR_PLUGIN_PATH ";
-    cmd.append(quote(std::string(ECMOR_TEST_BINARY_DIR) + "/bin/ecmor"));
-    for (const std::string& a : args) cmd.append(" ").append(quote(a));
-    cmd.append(" </dev/null >").append(quote(out.string()));
-    cmd.append(" 2>").append(quote(err.string()));
-    const int status = std::system(cmd.c_str());
-    Result r;
-    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = read_text(out);
-    r.err = read_text(err);
-    return r;
-  }
+  Result run(const std::vector<std::string>& args) { return test::run_ecmor(args, m_dir); }
 
   // A run directory for build_so with the band [0.1, 2] Hz and the model projected on the first
   // `order` unit vectors (order = N: the full-order "reduction").
