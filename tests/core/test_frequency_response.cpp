@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "common/builders.hpp"
+#include "common/reference_response.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
 #include "ecmor/model/model_io.hpp"
@@ -39,47 +40,8 @@ bool has_model(const std::string& name) {
 
 Model read_model(const std::string& name) { return load_model(models_dir() + name); }
 
-struct Reference {
-  std::vector<double> omega;
-  std::vector<ComplexMatrix> H;
-};
-
-Reference read_reference(const std::string& name, Index p, Index m) {
-  std::ifstream in(models_dir() + name + "/ref_freq_response.csv");
-  Reference ref;
-  std::string line;
-  std::vector<std::string> header;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::vector<std::string> fields;
-    std::stringstream ss(line);
-    std::string f;
-    while (std::getline(ss, f, ',')) fields.push_back(f);
-    if (header.empty()) {
-      header = fields;
-      continue;
-    }
-    ComplexMatrix H = ComplexMatrix::Zero(p, m);
-    for (std::size_t c = 0; c < header.size() && c < fields.size(); ++c) {
-      const std::string& h = header[c];
-      const double v = std::stod(fields[c]);
-      if (h == "omega") {
-        ref.omega.push_back(v);
-      } else if (h.rfind("re_H_", 0) == 0 || h.rfind("im_H_", 0) == 0) {
-        int i = -1, j = -1;
-        std::sscanf(h.c_str() + 5, "%d_%d", &i, &j);
-        if (i < 0 || j < 0 || i >= p || j >= m)
-          throw std::runtime_error("reference column " + h + " outside " + std::to_string(p) +
-                                   " x " + std::to_string(m));
-        if (h[0] == 'r')
-          H(i, j).real(v);
-        else
-          H(i, j).imag(v);
-      }
-    }
-    ref.H.push_back(H);
-  }
-  return ref;
+test::ReferenceResponse read_reference(const std::string& name, Index p, Index m) {
+  return test::read_reference_response(models_dir() + name + "/ref_freq_response.csv", p, m);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -327,7 +289,8 @@ TEST(FrequencyResponse, ReducedFullOrderReductionReproducesFull) {
     auto solver = make_shifted_solver(model);
     const Index p = std::visit([](const auto& sys) { return sys.C.rows(); }, model);
     const Index m = std::visit([](const auto& sys) { return sys.B.cols(); }, model);
-    const Reference ref = read_reference(name, p, m);  // only the omegas are used here
+    const test::ReferenceResponse ref =
+        read_reference(name, p, m);  // only the omegas are used here
     std::vector<double> f;
     for (std::size_t i = 0; i < ref.omega.size(); i += 7) f.push_back(ref.omega[i] / kTwoPi);
     const auto Hfull = frequency_response(model, *solver, f);
@@ -504,7 +467,7 @@ TEST_P(SharedReference, MatchesIndependentResponse) {
   Model model = read_model(name);
   const Index p = std::visit([](const auto& s) { return s.C.rows(); }, model);
   const Index m = std::visit([](const auto& s) { return s.B.cols(); }, model);
-  const Reference ref = read_reference(name, p, m);
+  const test::ReferenceResponse ref = read_reference(name, p, m);
   ASSERT_EQ(ref.omega.size(), 200u);
   std::vector<double> f;
   for (double w : ref.omega) f.push_back(w / kTwoPi);

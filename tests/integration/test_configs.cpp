@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "common/reference_response.hpp"
 #include "ecmor/measures/band_error.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/response/frequency_response.hpp"
@@ -43,37 +44,6 @@ std::vector<std::string> config_files() {
   }
   std::sort(out.begin(), out.end());
   return out;
-}
-
-struct Reference {
-  std::vector<double> f_hz;
-  std::vector<ComplexMatrix> H;
-};
-
-// ref_freq_response.csv: omega, sigma_max, re_H_i_j, im_H_i_j, ... (output i, input j).
-Reference read_reference(const fs::path& path, Index p, Index m) {
-  Reference ref;
-  std::ifstream in(path);
-  std::string line;
-  while (std::getline(in, line)) {
-    // '#' comment lines and the column header.
-    if (line.empty() || line[0] == '#' || line.rfind("omega", 0) == 0) continue;
-    std::stringstream ss(line);
-    std::string cell;
-    std::vector<double> v;
-    while (std::getline(ss, cell, ',')) v.push_back(std::stod(cell));
-    if (v.size() != static_cast<std::size_t>(2 + 2 * p * m)) {
-      throw std::runtime_error("unexpected column count in " + path.string());
-    }
-    ComplexMatrix H(p, m);
-    std::size_t k = 2;
-    for (Index i = 0; i < p; ++i) {
-      for (Index j = 0; j < m; ++j, k += 2) H(i, j) = Complex(v[k], v[k + 1]);
-    }
-    ref.f_hz.push_back(v[0] / kTwoPi);
-    ref.H.push_back(H);
-  }
-  return ref;
 }
 
 class ConfigTarget : public ::testing::TestWithParam<std::string> {};
@@ -114,9 +84,10 @@ TEST_P(ConfigTarget, MeetsItsToleranceAndTheIndependentRecheckAgrees) {
   const fs::path ref_path = config.model.path / "ref_freq_response.csv";
   Index checked = 0;
   if (fs::exists(ref_path)) {
-    const Reference ref = read_reference(ref_path, outputs_of(full), inputs_of(full));
-    for (std::size_t k = 0; k < ref.f_hz.size(); ++k) {
-      const double f = ref.f_hz[k];
+    const test::ReferenceResponse ref =
+        test::read_reference_response(ref_path, outputs_of(full), inputs_of(full));
+    for (std::size_t k = 0; k < ref.omega.size(); ++k) {
+      const double f = ref.omega[k] / kTwoPi;
       if (f < config.band.f_min_hz || f > config.band.f_max_hz) continue;
       const ComplexMatrix Hr = transfer_function(reduced, s_from_hz(f));
       // The reference itself is accurate to ~1e-12 relative; allow that much on top.

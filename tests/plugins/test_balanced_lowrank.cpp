@@ -20,6 +20,7 @@
 #include "balanced/gramian_factors.hpp"
 #include "balanced/lowrank_factors.hpp"
 #include "common/plugin_registry.hpp"
+#include "common/reference_response.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
@@ -110,34 +111,6 @@ TEST(BalancedLowRank, FactorsReproduceTheDenseHankelSingularValues) {
   }
 }
 
-// ref_freq_response.csv: omega (rad/s), sigma_max, re_H_0_0, im_H_0_0 (SISO models).
-struct SisoReference {
-  std::vector<double> omega;
-  std::vector<Complex> H;
-};
-
-SisoReference read_siso_reference(const std::string& name) {
-  std::ifstream in(shared(name) / "ref_freq_response.csv");
-  SisoReference ref;
-  std::string line;
-  bool header = true;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    if (header) {
-      EXPECT_EQ(line, "omega,sigma_max,re_H_0_0,im_H_0_0");
-      header = false;
-      continue;
-    }
-    std::stringstream ss(line);
-    std::string field;
-    std::vector<double> v;
-    while (std::getline(ss, field, ',')) v.push_back(std::stod(field));
-    ref.omega.push_back(v.at(0));
-    ref.H.emplace_back(v.at(2), v.at(3));
-  }
-  return ref;
-}
-
 /// The comparison: second-order BT at r = 20 on triplechain_mess_n1501, where pyMOR,
 /// M-M.E.S.S. and C-M.E.S.S. reach a maximum relative band error of about 0.20 with their best
 /// variants. 3002 first-order states: gramians: auto takes the low-rank route; ADI stops at its
@@ -150,7 +123,8 @@ SisoReference read_siso_reference(const std::string& name) {
 /// why the figure must be compared on a grid like the peers'.
 TEST(BalancedLowRank, TripleChainSecondOrderVariantsReachThePeersError) {
   const std::string name = "triplechain_mess_n1501";
-  const SisoReference ref = read_siso_reference(name);
+  const test::ReferenceResponse ref =
+      test::read_reference_response(shared(name) / "ref_freq_response.csv", 1, 1);
   ASSERT_EQ(ref.omega.size(), 200u);
   const Band band = band_of(1.6e-5, 1.6);
   double best = 1e300;
@@ -168,7 +142,7 @@ TEST(BalancedLowRank, TripleChainSecondOrderVariantsReachThePeersError) {
     double worst = 0.0;
     for (std::size_t k = 0; k < ref.omega.size(); ++k) {
       const Complex Hr = response(Complex(0.0, ref.omega[k]))(0, 0);
-      worst = std::max(worst, std::abs(ref.H[k] - Hr) / std::abs(ref.H[k]));
+      worst = std::max(worst, std::abs(ref.H[k](0, 0) - Hr) / std::abs(ref.H[k](0, 0)));
     }
     std::cout << fmt::format(
         "  {} r = 20: max relative error {:.3f} on the reference grid, "
@@ -322,54 +296,14 @@ TEST(BalancedLowRank, BandLimitedLowRankAgreesWithTheDenseBandRoute) {
 }
 
 // ref_freq_response.csv of a MIMO model: omega, sigma_max, then re_H_i_j, im_H_i_j.
-struct MimoReference {
-  std::vector<double> omega;
-  std::vector<ComplexMatrix> H;
-};
-
-MimoReference read_mimo_reference(const std::string& name, Index p, Index m) {
-  std::ifstream in(shared(name) / "ref_freq_response.csv");
-  MimoReference ref;
-  std::string line;
-  std::vector<std::string> header;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::vector<std::string> fields;
-    std::stringstream ss(line);
-    std::string f;
-    while (std::getline(ss, f, ',')) fields.push_back(f);
-    if (header.empty()) {
-      header = fields;
-      continue;
-    }
-    ComplexMatrix H = ComplexMatrix::Zero(p, m);
-    for (std::size_t c = 0; c < header.size() && c < fields.size(); ++c) {
-      const std::string& h = header[c];
-      const double v = std::stod(fields[c]);
-      if (h == "omega") {
-        ref.omega.push_back(v);
-      } else if (h.rfind("re_H_", 0) == 0 || h.rfind("im_H_", 0) == 0) {
-        int i = -1, j = -1;
-        std::sscanf(h.c_str() + 5, "%d_%d", &i, &j);
-        EXPECT_TRUE(i >= 0 && j >= 0 && i < p && j < m) << h;
-        if (h[0] == 'r')
-          H(i, j).real(v);
-        else
-          H(i, j).imag(v);
-      }
-    }
-    ref.H.push_back(H);
-  }
-  return ref;
-}
-
 /// On a large model (rail_5177, 5177 states: the low-rank route) frequency-limited BT balances the
 /// band and beats plain BT there at the same order, measured against the shared reference response
 /// at its frequencies inside the band (relative spectral error).
 TEST(BalancedLowRank, BandLimitedBeatsPlainOnALargeModelAgainstTheReference) {
   const std::string name = "rail_5177";
   const Band band = band_of(1e-3, 1e-1);
-  const MimoReference ref = read_mimo_reference(name, 6, 7);
+  const test::ReferenceResponse ref =
+      test::read_reference_response(shared(name) / "ref_freq_response.csv", 6, 7);
   auto band_error = [&](const ReducedModel& model) {
     const ReducedResponse response(model);
     double worst = 0.0;

@@ -23,6 +23,7 @@
 
 #include "common/builders.hpp"
 #include "common/plugin_registry.hpp"
+#include "common/reference_response.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
@@ -924,47 +925,13 @@ TEST(Krylov, OrthogonalityAtOrder100OnTriplechain1501) {
   std::cout << "order 100 on N = 1501: " << seconds << " s, orthogonality loss " << loss << "\n";
 }
 
-struct RefResponse {
-  std::vector<double> omega;
-  std::vector<ComplexMatrix> H;
-};
-
-// ref_freq_response.csv: omega, sigma_max, re_H_i_j, im_H_i_j (row-major over i, j).
-RefResponse read_reference(const std::string& model, Index p, Index m) {
-  std::ifstream in("../shared/models/" + model + "/ref_freq_response.csv");
-  EXPECT_TRUE(in.good()) << model;
-  RefResponse ref;
-  std::string line;
-  bool header = false;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    if (!header) {
-      header = true;
-      continue;
-    }
-    std::stringstream ss(line);
-    std::string cell;
-    std::vector<double> v;
-    while (std::getline(ss, cell, ',')) v.push_back(std::stod(cell));
-    ref.omega.push_back(v[0]);
-    ComplexMatrix H(p, m);
-    for (Index i = 0; i < p; ++i) {
-      for (Index j = 0; j < m; ++j) {
-        const std::size_t c = 2 + 2 * static_cast<std::size_t>(i * m + j);
-        H(i, j) = Complex(v[c], v[c + 1]);
-      }
-    }
-    ref.H.push_back(H);
-  }
-  return ref;
-}
-
 TEST(Krylov, ResponseMatchesTheIndependentReferenceOnTriplechain451) {
   // The relative error of this lightly damped chain is hardest among its dense resonances
   // (0.2 .. 4 rad/s): 12 points log-spaced there plus s0 = 0 (static response), 8 moments each,
   // order 200. Measured: 4.6e-3 at 4.7 rad/s (5 moments each, order 125: 3.2e-2). Tolerance 1e-2
   // on the relative error at every one of the 200 reference frequencies (6 decades).
-  const auto ref = read_reference("triplechain_saak09_n451", 1, 1);
+  const auto ref = test::read_reference_response(
+      "../shared/models/triplechain_saak09_n451/ref_freq_response.csv", 1, 1);
   ASSERT_EQ(ref.omega.size(), 200u);
   std::vector<ExpansionPoint> pts;
   for (int i = 0; i < 12; ++i) {
