@@ -46,8 +46,9 @@
 /// run, only the rows whose level is within fd_rows_within of the largest are differenced, on
 /// evaluations that solve the reduced model at those samples only; the other rows (constraints
 /// with a large slack, multipliers ~ 0) keep their last values, while their exact values still
-/// enter every constraint evaluation and so the line search. About a tenth of the rows on the
-/// shipped configurations; PointObjective::jacobian.
+/// enter every constraint evaluation and so the line search. 4-16 % of the rows on the shipped
+/// triplechain_saak09_n451 and iss minimax runs, 35-51 % with dozens of points on
+/// triplechain_mess_n1501; PointObjective::jacobian.
 ///
 /// Cost. Per Ipopt iteration: one evaluation for the constraints plus 2p (central) or p (forward)
 /// for the Jacobian, plus line-search trials; each evaluation is a reduction at p points and S
