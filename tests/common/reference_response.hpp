@@ -19,8 +19,8 @@
 namespace ecmor::test {
 
 struct ReferenceResponse {
-  std::vector<double> omega;      ///< rad/s, in file order
-  std::vector<ComplexMatrix> H;   ///< p x m, one per omega
+  std::vector<double> omega;     ///< rad/s, in file order
+  std::vector<ComplexMatrix> H;  ///< p x m, one per omega
   std::vector<double> f_hz() const {
     std::vector<double> f;
     for (double w : omega) f.push_back(w / kTwoPi);
