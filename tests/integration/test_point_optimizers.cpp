@@ -721,6 +721,7 @@ TEST(PointStrategies, BadOptionsAreNamed) {
       {"minimax_points", params({{"fd_step", 0.0}}), "fd_step"},
       {"minimax_points", params({{"fd_step", 0.5}}), "fd_step"},
       {"minimax_points", params({{"fd_scheme", std::string("backward")}}), "fd_scheme"},
+      {"minimax_points", params({{"fd_rows_within", -0.1}}), "fd_rows_within"},
       {"minimax_points", params({{"tol", 1e-3}, {"acceptable_tol", 1e-4}}), "acceptable_tol"},
       {"minimax_points", params({{"max_iter", 0LL}}), "max_iter"},
       {"minimax_points", params({{"max_order", 0LL}}), "max_order"},
