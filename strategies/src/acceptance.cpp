@@ -278,7 +278,9 @@ nlohmann::json summary_json(const RunSummary& summary, const RunConfig& config, 
   j["seconds"] = {{"total", summary.seconds},
                   {"load", summary.load_seconds},
                   {"reducer", summary.reducer_seconds},
-                  {"full_response", summary.full_response_seconds}};
+                  {"full_response", summary.full_response_seconds},
+                  {"band_error", summary.band_error_seconds},
+                  {"reference_model", summary.reference_seconds}};
   j["reducer_calls"] = summary.reducer_calls;
   j["reducer_counters"] = counters_json(summary.reducer_counters);
   j["reducer_reused_factorizations"] = summary.reducer_reused_factorizations;

@@ -158,6 +158,8 @@ RunSummary run_reduction(const RunConfig& given, Registry& registry, RunObserver
   summary.reducer_counters = runs.reducer_counters;
   summary.reducer_reused_factorizations = runs.reducer_reuses;
   summary.full_response_seconds = cache.seconds();
+  summary.band_error_seconds = estimator->seconds();
+  summary.reference_seconds = estimator->reference_seconds();
   summary.full_evaluations = cache.size();
   summary.seconds = seconds_since(start);
   summary.peak_memory_mb = peak_memory_mb();

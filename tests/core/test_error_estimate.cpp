@@ -110,6 +110,53 @@ TEST(ReferenceModel, InterpolatesTheFullModelWhereItWasSolved) {
   }
 }
 
+// A column offered again, bit for bit, is skipped (it is in the span already): offering a
+// candidate's whole basis after its first blocks gives the same reference, bit for bit, as
+// offering only its new columns, and offering the same basis twice changes nothing.
+TEST(ReferenceModel, AColumnOfferedAgainIsSkippedAndTheNewOnesAreAdded) {
+  const Model model = chain();
+  auto solver = make_shifted_solver(model);
+  const Matrix& B = std::get<SecondOrderModel>(model).B;
+  auto parts_at = [&](double f) {
+    const ComplexMatrix X =
+        solver->factorize(s_from_hz(f))->solve(ComplexMatrix(B.cast<Complex>()));
+    Matrix parts(X.rows(), 2 * X.cols());
+    parts << X.real(), X.imag();
+    return parts;
+  };
+  const Matrix X1 = parts_at(0.01), X2 = parts_at(0.2);
+  Matrix X12(X1.rows(), X1.cols() + X2.cols());
+  X12 << X1, X2;
+  Matrix X21(X1.rows(), X1.cols() + X2.cols());  // the old columns after the new ones
+  X21 << X2, X1;
+
+  ReferenceModel whole(model), fresh(model), reordered(model);
+  ASSERT_EQ(whole.add(X1), 2);
+  ASSERT_EQ(fresh.add(X1), 2);
+  ASSERT_EQ(reordered.add(X1), 2);
+  EXPECT_EQ(whole.add(X1), 0);  // the same basis again: nothing added, same version
+  EXPECT_EQ(whole.version(), 1);
+  EXPECT_EQ(whole.add(X12), 2);
+  EXPECT_EQ(fresh.add(X2), 2);
+  EXPECT_EQ(reordered.add(X21), 2);
+  for (const ReferenceModel* r : {&whole, &reordered}) {
+    EXPECT_EQ(r->version(), fresh.version());
+    ASSERT_EQ(r->order(), fresh.order());
+    const auto& a = std::get<ReducedSecondOrderModel>(r->reduced());
+    const auto& b = std::get<ReducedSecondOrderModel>(fresh.reduced());
+    EXPECT_TRUE((a.K.array() == b.K.array()).all());
+    EXPECT_TRUE((a.M.array() == b.M.array()).all());
+    EXPECT_TRUE((a.D.array() == b.D.array()).all());
+    EXPECT_TRUE((a.B.array() == b.B.array()).all());
+    EXPECT_TRUE((a.C.array() == b.C.array()).all());
+  }
+  // A column that differs from an offered one in a single bit is new: orthogonalised, deflated.
+  Matrix nudged = X1.col(0);
+  nudged(0, 0) = std::nextafter(nudged(0, 0), 1e300);
+  EXPECT_EQ(whole.add(nudged), 0);
+  EXPECT_EQ(whole.order(), fresh.order());
+}
+
 TEST(ReferenceModel, RefusesABasisOfTheWrongSize) {
   const Model model = chain();
   ReferenceModel reference(model);
@@ -239,6 +286,37 @@ TEST(EstimateMode, AfterASwitchTheErrorsAreTheDenseModes) {
   for (std::size_t k = 0; k < f.size(); ++k)
     EXPECT_NEAR(after.relative[k], truth.relative[k], 1e-12 * truth.relative[k]) << f[k];
   EXPECT_TRUE(std::all_of(after.exact.begin(), after.exact.end(), [](char e) { return e != 0; }));
+}
+
+// The estimator accounts for its time: the dense mode has no reference model; the estimate mode's
+// reference work is part of the estimator's time, and is kept after a switch to the dense mode.
+TEST(EstimateMode, AccountsForItsTimeAndTheReferenceModelsShare) {
+  const Model model = chain();
+  const Band band{1e-3, 0.4};
+  auto solver = make_shifted_solver(model);
+  const ReducedModel candidate = krylov_candidate(model, *solver, band, 6);
+
+  auto dense_solver = make_shifted_solver(model);
+  ResponseCache dense_cache(model, *dense_solver);
+  BandErrorEstimator dense(dense_cache, band, options(ErrorVerify::Dense));
+  (void)dense.evaluate(candidate);
+  EXPECT_GT(dense.seconds(), 0.0);
+  EXPECT_EQ(dense.reference_seconds(), 0.0);
+
+  auto estimate_solver = make_shifted_solver(model);
+  ResponseCache cache(model, *estimate_solver);
+  BandErrorEstimator estimate(cache, band, options(ErrorVerify::Estimate));
+  const double seeded = estimate.seconds();
+  EXPECT_GT(seeded, 0.0);  // the seed solves and the reference built from them
+  (void)estimate.evaluate(candidate);
+  const double reference = estimate.reference_seconds();
+  EXPECT_GT(reference, 0.0);
+  EXPECT_GT(estimate.seconds(), seeded);
+  EXPECT_LE(reference, estimate.seconds());
+  // The full solves are the estimator's too, but not the reference model's.
+  EXPECT_LE(reference + cache.seconds(), estimate.seconds() * (1.0 + 1e-9));
+  estimate.use_dense("forced by the test");
+  EXPECT_EQ(estimate.reference_seconds(), reference);
 }
 
 // A stop request ends a sweep of full-model responses within a round (two frequencies per

@@ -762,6 +762,15 @@ TEST_F(Cli, MetTargetWritesEveryOutput) {
   EXPECT_TRUE(s["has_model"].get<bool>());
   EXPECT_EQ(s["termination"].get<std::string>(), "converged");
   EXPECT_LE(s["verified_band_error"].get<double>(), tolerance);
+  // Where the time went: in the band error estimator, and of it in the estimate mode's reference
+  // model (none in the dense mode).
+  const nlohmann::json& t = s["seconds"];
+  EXPECT_GT(t["band_error"].get<double>(), 0.0);
+  EXPECT_LE(t["band_error"].get<double>(), t["total"].get<double>());
+  EXPECT_LE(t["reference_model"].get<double>(), t["band_error"].get<double>());
+  if (s["error_control"]["mode"].get<std::string>() == "estimate") {
+    EXPECT_GT(t["reference_model"].get<double>(), 0.0);
+  }
   const Index order = s["final_order"].get<Index>();
   EXPECT_GE(order, 1);
   EXPECT_LE(order, 18);

@@ -9,6 +9,7 @@
 #include <numeric>
 #include <sstream>
 
+#include "base/wall_timer.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/parameters.hpp"
 #include "ecmor/linalg/parallel.hpp"
@@ -489,6 +490,7 @@ BandError assemble_band_error(CandidateResponse& candidate, std::vector<double> 
 
 BandErrorEstimator::BandErrorEstimator(ResponseCache& full, Band band, BandErrorOptions options)
     : m_full(full), m_band(band), m_options(options) {
+  const detail::WallTimer timer(m_seconds, m_timing);
   m_band.validate();
   m_options.validate();
   m_grid = log_grid(m_band.f_min_hz, m_band.f_max_hz, m_options.grid_points);
@@ -558,7 +560,9 @@ void BandErrorEstimator::consider_switch(Index verify_factor) {
 
 void BandErrorEstimator::use_dense(std::string reason) {
   if (!m_engine) return;
+  const detail::WallTimer timer(m_seconds, m_timing);
   m_switch_note = std::move(reason);
+  m_reference_seconds_before = m_engine->reference_seconds();
   m_full.keep_solutions(false);
   (void)m_full.take_solutions();  // the reference model's food; without it, memory
   m_engine.reset();
@@ -575,6 +579,10 @@ BandErrorEstimator::~BandErrorEstimator() = default;
 
 void BandErrorEstimator::offer_basis(const Matrix& basis) {
   if (m_engine) m_engine->offer_basis(basis);
+}
+
+double BandErrorEstimator::reference_seconds() const {
+  return m_reference_seconds_before + (m_engine ? m_engine->reference_seconds() : 0.0);
 }
 
 Index BandErrorEstimator::reference_order() const {
@@ -605,6 +613,7 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
 }
 
 BandError BandErrorEstimator::evaluate(const ReducedModel& reduced) {
+  const detail::WallTimer timer(m_seconds, m_timing);
   consider_switch(4);
   if (m_engine) {
     const double overhead = m_engine->overhead_flops();
@@ -642,6 +651,7 @@ BandError BandErrorEstimator::evaluate(const ReducedModel& reduced) {
 
 BandError BandErrorEstimator::evaluate_on(const ReducedModel& reduced,
                                           const std::vector<double>& f_hz) {
+  const detail::WallTimer timer(m_seconds, m_timing);
   consider_switch(4);
   if (m_engine) {
     const double overhead = m_engine->overhead_flops();
@@ -652,6 +662,7 @@ BandError BandErrorEstimator::evaluate_on(const ReducedModel& reduced,
 
 BandError BandErrorEstimator::verify(const ReducedModel& reduced, Index factor) {
   if (factor < 1) throw ConfigError("verify factor = " + std::to_string(factor) + ": must be >= 1");
+  const detail::WallTimer timer(m_seconds, m_timing);
   consider_switch(factor);
   if (m_engine) {
     const double overhead = m_engine->overhead_flops();

@@ -17,6 +17,7 @@
 #include <numeric>
 
 #include "base/parallel_for.hpp"
+#include "base/wall_timer.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/response/frequency_response.hpp"
 
@@ -132,6 +133,7 @@ Index EstimateEngine::solve_full(const std::vector<double>& f_hz) {
 }
 
 void EstimateEngine::refresh() {
+  const WallTimer timer(m_reference_seconds, m_reference_timing);
   // Every full solve made through the cache, by anyone, enriches the reference.
   m_reference.add(m_full.take_solutions());
   if (m_reference.version() == m_version) return;
@@ -206,6 +208,7 @@ void EstimateEngine::choose_evaluation() {
 
 void EstimateEngine::offer_basis(const Matrix& basis) {
   if (basis.rows() != m_reference.full_size() || basis.cols() == 0) return;
+  const WallTimer timer(m_reference_seconds, m_reference_timing);
   m_reference.add(basis);
 }
 
@@ -237,6 +240,7 @@ ReferenceValues EstimateEngine::values(const std::vector<double>& f_hz) {
   m_overhead_flops +=
       static_cast<double>(missing_at.size()) *
       ReferenceCost(m_reference.reduced()).per_frequency(!m_dense_lu && m_response->hessenberg());
+  const WallTimer timer(m_reference_seconds, m_reference_timing);
   const ReducedResponse& response = *m_response;
   const ReducedModel& reference = m_reference.reduced();
   // Serial for a few frequencies (the refinement's rounds): see sample() in band_error.cpp.

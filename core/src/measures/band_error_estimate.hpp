@@ -33,6 +33,10 @@ class EstimateEngine {
   /// values), modelled from its order: the work the dense mode does not do. Full solves are not
   /// included.
   double overhead_flops() const { return m_overhead_flops; }
+  /// Wall time spent building and evaluating the reference model (its basis, projections,
+  /// Hessenberg form, poles and values): the work the dense mode does not do. Full solves are not
+  /// included.
+  double reference_seconds() const { return m_reference_seconds; }
 
  private:
   ReferenceValues values(const std::vector<double>& f_hz);
@@ -66,6 +70,8 @@ class EstimateEngine {
   std::mt19937_64 m_rng{20261126};
   double m_scale2 = 0.0, m_scaleF = 0.0;
   double m_overhead_flops = 0.0;
+  double m_reference_seconds = 0.0;
+  int m_reference_timing = 0;  // depth of the WallTimers on m_reference_seconds
 };
 
 }  // namespace ecmor::detail

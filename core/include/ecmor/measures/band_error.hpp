@@ -188,6 +188,14 @@ class ECMOR_API BandErrorEstimator {
   void use_dense(std::string reason);
   /// Order of the reference model (0 in dense mode).
   Index reference_order() const;
+  /// Wall time spent in this estimator so far: its construction (the dense grid or the reference's
+  /// seed solves), evaluate, evaluate_on, verify and a switch to the dense mode, the full solves
+  /// they make included. What a run spends on judging its candidates.
+  double seconds() const { return m_seconds; }
+  /// Of seconds(), the estimate mode's reference model: taking bases and solves into it, its
+  /// Hessenberg form, poles and values (0 in dense mode). The work the dense mode does not do;
+  /// with the full solves (ResponseCache::seconds()) it is what error control itself costs.
+  double reference_seconds() const;
 
   const Band& band() const { return m_band; }
   const BandErrorOptions& options() const { return m_options; }
@@ -216,6 +224,9 @@ class ECMOR_API BandErrorEstimator {
   Index m_evaluations = 0;                           // evaluate/evaluate_on/verify calls so far
   double m_rent_flops = 0.0;  // auto mode: the estimate's cost over the dense mode's so far
   std::string m_switch_note;
+  double m_seconds = 0.0;                   // see seconds()
+  int m_timing = 0;                         // depth of the WallTimers on m_seconds
+  double m_reference_seconds_before = 0.0;  // the reference's, before a switch to dense
 };
 
 }  // namespace ecmor

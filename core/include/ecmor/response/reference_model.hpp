@@ -13,6 +13,8 @@
 /// and, between those points, a rational Krylov approximation that only gets richer during a run.
 /// Adding k columns costs O(nnz k + N r k) (the projected matrices are extended, not recomputed).
 
+#include <cstdint>
+#include <unordered_set>
 #include <vector>
 
 #include "ecmor/export.hpp"
@@ -32,7 +34,8 @@ class ECMOR_API ReferenceModel {
   /// Adds the real and imaginary parts of the columns of Z (N rows). Returns the number of basis
   /// vectors added (after deflation). \throws InputError if Z does not have N rows.
   Index add(const ComplexMatrix& Z);
-  /// Adds the columns of X (N rows); the same rules.
+  /// Adds the columns of X (N rows); the same rules. A column given before, bit for bit, is
+  /// skipped: it is in the span already.
   Index add(const Matrix& X);
   /// Adds every solution (FullSolution::Z), in order.
   Index add(const std::vector<FullSolution>& solutions);
@@ -51,6 +54,7 @@ class ECMOR_API ReferenceModel {
   const Model& m_model;
   double m_deflation_tol;
   Matrix m_Q;
+  std::unordered_set<std::uint64_t> m_offered;  // hashes of every column add() was given
   ReducedModel m_reduced;
   Index m_version = 0;
 };

@@ -85,6 +85,12 @@ struct RunSummary {
   std::int64_t reducer_reused_factorizations = 0;
   /// Time spent computing full-model responses for the error estimates.
   double full_response_seconds = 0.0;
+  /// Time inside the band error estimator (BandErrorEstimator::seconds(): judging candidates, the
+  /// full responses included) and, of it, the estimate mode's reference model
+  /// (BandErrorEstimator::reference_seconds()). Error control proper is full_response_seconds +
+  /// reference_seconds; the rest of band_error_seconds is evaluating the candidates themselves.
+  double band_error_seconds = 0.0;
+  double reference_seconds = 0.0;
   SolverCounters counters;
   Index full_evaluations = 0;
   double peak_memory_mb = 0.0;
