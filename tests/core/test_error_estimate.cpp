@@ -308,6 +308,15 @@ TEST(EstimateMode, AccountsForItsTimeAndTheReferenceModelsShare) {
   BandErrorEstimator estimate(cache, band, options(ErrorVerify::Estimate));
   const double seeded = estimate.seconds();
   EXPECT_GT(seeded, 0.0);  // the seed solves and the reference built from them
+  // A basis offered is taken into the reference: the reference's time and the estimator's.
+  const double reference_before = estimate.reference_seconds();
+  Matrix basis = Matrix::Zero(size_of(model), 3);
+  basis(0, 0) = basis(50, 1) = basis(100, 2) = 1.0;
+  estimate.offer_basis(basis);
+  EXPECT_EQ(estimate.reference_order(), 12 + 3);  // six seeds (real and imaginary parts) and these
+  const double offered = estimate.reference_seconds() - reference_before;
+  EXPECT_GT(offered, 0.0);
+  EXPECT_GE(estimate.seconds() - seeded, offered);
   (void)estimate.evaluate(candidate);
   const double reference = estimate.reference_seconds();
   EXPECT_GT(reference, 0.0);

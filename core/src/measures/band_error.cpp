@@ -578,6 +578,7 @@ BandError BandErrorEstimator::rented(BandError e, double overhead_before) {
 BandErrorEstimator::~BandErrorEstimator() = default;
 
 void BandErrorEstimator::offer_basis(const Matrix& basis) {
+  const detail::WallTimer timer(m_seconds, m_timing);
   if (m_engine) m_engine->offer_basis(basis);
 }
 

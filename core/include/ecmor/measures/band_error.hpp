@@ -189,8 +189,8 @@ class ECMOR_API BandErrorEstimator {
   /// Order of the reference model (0 in dense mode).
   Index reference_order() const;
   /// Wall time spent in this estimator so far: its construction (the dense grid or the reference's
-  /// seed solves), evaluate, evaluate_on, verify and a switch to the dense mode, the full solves
-  /// they make included. What a run spends on judging its candidates.
+  /// seed solves), evaluate, evaluate_on, verify, offer_basis and a switch to the dense mode, the
+  /// full solves they make included. What a run spends on judging its candidates.
   double seconds() const { return m_seconds; }
   /// Of seconds(), the estimate mode's reference model: taking bases and solves into it, its
   /// Hessenberg form, poles and values (0 in dense mode). The work the dense mode does not do;
