@@ -49,6 +49,16 @@ void dgeqp3_(const int* m, const int* n, double* a, const int* lda, int* jpvt, d
 void zgeqp3_(const int* m, const int* n, std::complex<double>* a, const int* lda, int* jpvt,
              std::complex<double>* tau, std::complex<double>* work, const int* lwork, double* rwork,
              int* info);
+double zlange_(const char* norm, const int* m, const int* n, const std::complex<double>* a,
+               const int* lda, double* work, std::size_t);
+void zgetrf_(const int* m, const int* n, std::complex<double>* a, const int* lda, int* ipiv,
+             int* info);
+void zgecon_(const char* norm, const int* n, const std::complex<double>* a, const int* lda,
+             const double* anorm, double* rcond, std::complex<double>* work, double* rwork,
+             int* info, std::size_t);
+void zgetrs_(const char* trans, const int* n, const int* nrhs, const std::complex<double>* a,
+             const int* lda, const int* ipiv, std::complex<double>* b, const int* ldb, int* info,
+             std::size_t);
 }
 
 namespace ecmor {
@@ -187,6 +197,29 @@ bool eigenvalues(const Matrix& A, ComplexVector& lambda) {
   for (int i = 0; i < n; ++i)
     lambda(i) = Complex(wr[static_cast<std::size_t>(i)], wi[static_cast<std::size_t>(i)]);
   return true;
+}
+
+bool lu_solve(ComplexMatrix& A, ComplexMatrix& B, double& rcond) {
+  rcond = 0.0;
+  const int n = static_cast<int>(A.rows());
+  if (n == 0) {
+    rcond = 1.0;
+    return true;
+  }
+  const OneBlasThread one_thread;
+  std::vector<double> rwork(2 * static_cast<std::size_t>(n));
+  std::vector<int> pivots(static_cast<std::size_t>(n));
+  std::vector<std::complex<double>> work(2 * static_cast<std::size_t>(n));
+  const double norm = zlange_("1", &n, &n, A.data(), &n, rwork.data(), 1);
+  int info = 0;
+  zgetrf_(&n, &n, A.data(), &n, pivots.data(), &info);
+  if (info != 0) return false;  // > 0: an exactly zero pivot
+  zgecon_("1", &n, A.data(), &n, &norm, &rcond, work.data(), rwork.data(), &info, 1);
+  if (info != 0 || !std::isfinite(rcond)) rcond = 0.0;
+  const int nrhs = static_cast<int>(B.cols());
+  if (nrhs == 0) return true;
+  zgetrs_("N", &n, &nrhs, A.data(), &n, pivots.data(), B.data(), &n, &info, 1);
+  return info == 0;
 }
 
 bool hessenberg_form(Matrix& F, Matrix& G, Matrix& L) {

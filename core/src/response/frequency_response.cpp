@@ -189,14 +189,14 @@ ComplexMatrix transfer_function(const ReducedModel& model, Complex s) {
         Vector r = P.rowwise().template lpNorm<Eigen::Infinity>();
         for (Index i = 0; i < n; ++i) r(i) = r(i) > 0.0 ? 1.0 / r(i) : 1.0;
         P = r.asDiagonal() * P;
-        Eigen::PartialPivLU<ComplexMatrix> lu(P);
-        const double rc = safe_rcond(lu);
+        ComplexMatrix X = r.asDiagonal() * sys.B.template cast<Complex>();
+        double rc = 0.0;
+        const bool solved = detail::lu_solve(P, X, rc);
         // Condition below machine precision: the solution has no correct digit; s is (at) a pole.
-        if (!(rc >= std::numeric_limits<double>::epsilon()))
+        if (!solved || !(rc >= std::numeric_limits<double>::epsilon()))
           throw NumericalError("reduced P_r(s) is singular at s = " + detail::number_text(s) +
                                " (rcond " + detail::number_text(rc) +
                                "): s is a pole of the reduced model?");
-        ComplexMatrix X = lu.solve(r.asDiagonal() * sys.B.template cast<Complex>());
         ComplexMatrix H = output_matrix(sys, s) * X;
         if (!H.allFinite())
           throw NumericalError("reduced P_r(s) is singular at s = " + detail::number_text(s) +
