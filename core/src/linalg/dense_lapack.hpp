@@ -41,12 +41,13 @@ bool eigenvalues(const Matrix& A, ComplexVector& lambda);
 
 /// Solves A X = B in place (B becomes X, A its LU factors) by LAPACK's zgetrf / zgetrs (LU with
 /// partial pivoting, blocked), on the calling thread alone as eigenvalues() above; rcond is the
-/// reciprocal condition number of A in the 1-norm as zgecon estimates it (0 when A is exactly
-/// singular). False when A is exactly singular (B is then unchanged) or LAPACK refused an
-/// argument. Why not Eigen::PartialPivLU: its pivot search and its rcond's norm take |a_ij| by
-/// hypot, unblocked; measured at n = 120..500 (a reduced model's P_r(s), six right-hand sides),
-/// LU, rcond and solve took 3.2-3.8x as long as here, and on rail_5177_bt (its reference model
-/// evaluated by dense LU) hypot alone was 17 % of the run.
+/// reciprocal condition number of A in the 1-norm as zgecon estimates it, the norm taken with
+/// |re| + |im| per entry (at most sqrt(2) low; 0 when A is exactly singular). False when A is
+/// exactly singular (B is then unchanged) or LAPACK refused an argument. Why not
+/// Eigen::PartialPivLU: its pivot search and its rcond's norm take |a_ij| by hypot, unblocked;
+/// measured at n = 120..500 (a reduced model's P_r(s), six right-hand sides), LU, rcond and solve
+/// took 3.2-3.8x as long as here, and on rail_5177_bt (its reference model evaluated by dense LU)
+/// hypot alone was 17 % of the run.
 bool lu_solve(ComplexMatrix& A, ComplexMatrix& B, double& rcond);
 
 /// The Hessenberg form of F = Q H Q' by LAPACK's dgehrd (blocked reflectors), applied to G and L
