@@ -94,6 +94,8 @@ void record_summary(const RunSummary& s, BenchRow& row) {
   row.seconds = s.seconds;
   row.reducer_seconds = s.reducer_seconds;
   row.full_response_seconds = s.full_response_seconds;
+  row.band_error_seconds = s.band_error_seconds;
+  row.reference_seconds = s.reference_seconds;
   const double sparse = s.reducer_counters.factorization_seconds + s.reducer_counters.solve_seconds;
   row.reducer_sparse_share = s.reducer_seconds > 0.0 ? sparse / s.reducer_seconds : 0.0;
   row.sparse_seconds = s.counters.factorization_seconds + s.counters.solve_seconds;

@@ -20,6 +20,9 @@ struct BenchRow {
   double band_error = 0.0, verified_error = 0.0, f_peak_hz = 0.0;
   bool stable = false;
   double seconds = 0.0, reducer_seconds = 0.0, full_response_seconds = 0.0;
+  /// Time in the band error estimator, and of it the estimate mode's reference model
+  /// (RunSummary::band_error_seconds, reference_seconds).
+  double band_error_seconds = 0.0, reference_seconds = 0.0;
   /// Share of the reducer's time spent in sparse factorisations and solves.
   double reducer_sparse_share = 0.0;
   /// Seconds in sparse factorisations and solves over the whole run (summed over threads).

@@ -886,6 +886,16 @@ TEST_F(Cli, BenchRunsTheToleranceLadderAndTabulatesEveryRun) {
   EXPECT_TRUE(fs::is_regular_file(out / "runs" / "run_tol1e-05" / "summary.json"));
   const std::string csv = read_text(out / "bench.csv");
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 3);
+  // Where each run's time went, as its summary.json says it.
+  EXPECT_NE(csv.find(",full_response_seconds,band_error_seconds,reference_seconds,"),
+            std::string::npos)
+      << csv;
+  for (const auto& [row, dir] : {std::pair{rows[0], "run_tol0.01"}, {rows[1], "run_tol1e-05"}}) {
+    const nlohmann::json t = read_json(out / "runs" / dir / "summary.json")["seconds"];
+    EXPECT_EQ(row["band_error_seconds"].get<double>(), t["band_error"].get<double>()) << dir;
+    EXPECT_EQ(row["reference_seconds"].get<double>(), t["reference_model"].get<double>()) << dir;
+    EXPECT_GT(row["band_error_seconds"].get<double>(), 0.0) << dir;
+  }
 }
 
 TEST_F(Cli, BenchRecordsAFailedRunAsARow) {
