@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 
 #include "../../bench/triple_chain.hpp"
 #include "ecmor/base/error.hpp"
@@ -150,6 +151,13 @@ TEST(ReferenceModel, AColumnOfferedAgainIsSkippedAndTheNewOnesAreAdded) {
     EXPECT_TRUE((a.B.array() == b.B.array()).all());
     EXPECT_TRUE((a.C.array() == b.C.array()).all());
   }
+  // A basis refused for a NaN leaves its good columns to be offered again.
+  ReferenceModel refused(model);
+  Matrix with_nan(X1.rows(), 2);
+  with_nan << X1.col(0), X1.col(1);
+  with_nan(3, 1) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(refused.add(with_nan), NumericalError);
+  EXPECT_EQ(refused.add(Matrix(X1.col(0))), 1);
   // A column that differs from an offered one in a single bit is new: orthogonalised, deflated.
   Matrix nudged = X1.col(0);
   nudged(0, 0) = std::nextafter(nudged(0, 0), 1e300);

@@ -102,16 +102,23 @@ Index ReferenceModel::add(const Matrix& X) {
   // candidate's whole basis, and successive candidates share most of it (a Krylov basis grown by
   // a point keeps its first blocks); measured on triplechain_mess_n1501_greedy, orthogonalising
   // those again was a fifth of the reference model's time.
+  // The hashes are kept only once the columns were taken: a basis refused (a NaN in it) leaves
+  // its other columns to be offered again.
   std::vector<Index> fresh;
-  fresh.reserve(static_cast<std::size_t>(X.cols()));
-  for (Index j = 0; j < X.cols(); ++j)
-    if (m_offered.insert(column_hash(X, j)).second) fresh.push_back(j);
+  std::vector<std::uint64_t> hashes;
+  for (Index j = 0; j < X.cols(); ++j) {
+    const std::uint64_t h = column_hash(X, j);
+    if (m_offered.count(h) != 0) continue;
+    fresh.push_back(j);
+    hashes.push_back(h);
+  }
   if (fresh.empty()) return 0;
   const Index first = m_Q.cols();
   const Index added = static_cast<Index>(fresh.size()) == X.cols()
                           ? orthonormalize_append(m_Q, X, InnerProduct{}, m_deflation_tol)
                           : orthonormalize_append(m_Q, Matrix(X(Eigen::all, fresh)), InnerProduct{},
                                                   m_deflation_tol);
+  m_offered.insert(hashes.begin(), hashes.end());
   if (added > 0) extend(first);
   return added;
 }
