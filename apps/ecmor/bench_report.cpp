@@ -65,9 +65,8 @@ std::string to_csv(const std::vector<BenchRow>& rows) {
       "config,model,N,reducer,strategy,tolerance,termination,target_met,order,band_error,"
       "verified_band_error,f_peak_hz,stable,seconds,reducer_seconds,full_response_seconds,"
       "band_error_seconds,reference_seconds,reducer_sparse_share,sparse_seconds,factorizations,"
-      "solves,reducer_factorizations,reducer_"
-      "solves,"
-      "reducer_calls,iterations,peak_memory_mb,hinf_error,hinf_scope,message\n";
+      "solves,reducer_factorizations,reducer_solves,reducer_calls,iterations,peak_memory_mb,"
+      "hinf_error,hinf_scope,message\n";
   for (const BenchRow& r : rows) {
     out += fmt::format(
         "{},{},{},{},{},{:g},{},{},{},{:.6e},{:.6e},{:.6e},{},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},"

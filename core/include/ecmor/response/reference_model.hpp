@@ -54,7 +54,7 @@ class ECMOR_API ReferenceModel {
   const Model& m_model;
   double m_deflation_tol;
   Matrix m_Q;
-  std::unordered_set<std::uint64_t> m_offered;  // hashes of every column add() was given
+  std::unordered_set<std::uint64_t> m_offered;  // hashes of every column add() has taken
   ReducedModel m_reduced;
   Index m_version = 0;
 };
