@@ -4,7 +4,8 @@
 // header only (stream reader), as a sparse matrix and as a dense matrix (buffer reader). Besides
 // the sanitizers, the harness checks the reader's contract and aborts, i.e. reports a crash, when
 //  * anything but an ecmor::Error escapes a reader;
-//  * an error message does not read "<path>: line <n>: <rule>";
+//  * an error message does not read "<path>: line <n>: <rule>" (or, for damaged gzip data, which
+//    the reader recognises by its magic bytes whatever the file's name, "<path>: byte <n>: <rule>");
 //  * the readers disagree: a header the header reader refuses must make the full readers fail with
 //    the same message; a matrix read sparse must have the shape the header reader reports; a
 //    matrix read dense must equal the sparse one; only the dense-size rule may refuse a dense read
@@ -61,15 +62,21 @@ std::optional<std::string> error_of(const char* reader, F&& f) {
   }
 }
 
+/// "<path>: line <n>: <rule>" for the text, "<path>: byte <offset>: <rule>" for damaged gzip data.
 void check_message(const char* reader, const std::string& msg, const fs::path& path) {
-  const std::string prefix = path.string() + ": line ";
-  if (msg.rfind(prefix, 0) != 0)
-    contract(std::string(reader) + ": message does not start with '<path>: line ': " + msg);
-  std::size_t i = prefix.size();
+  std::size_t i = std::string::npos;
+  for (const char* where : {": line ", ": byte "}) {
+    const std::string prefix = path.string() + where;
+    if (msg.rfind(prefix, 0) == 0) i = prefix.size();
+  }
+  if (i == std::string::npos)
+    contract(std::string(reader) + ": message does not start with '<path>: line ' or " +
+             "'<path>: byte ': " + msg);
   std::size_t digits = 0;
   while (i < msg.size() && msg[i] >= '0' && msg[i] <= '9') ++i, ++digits;
   if (digits == 0 || msg.compare(i, 2, ": ") != 0 || msg.size() <= i + 2)
-    contract(std::string(reader) + ": message lacks 'line <n>: <rule>': " + msg);
+    contract(std::string(reader) + ": message lacks 'line <n>: <rule>' or 'byte <n>: <rule>': " +
+             msg);
 }
 
 bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }

@@ -36,6 +36,7 @@ packages=(
   libcli11-dev
   nlohmann-json3-dev
   libmatio-dev       # MATLAB .mat models and outputs (core/src/model/mat_file.cpp)
+  zlib1g-dev         # gzip'ed Matrix Market models, .mtx.gz (core/src/base/gzip.cpp)
   gnuplot-nox
 )
 if [ "$profile" != runtime ]; then

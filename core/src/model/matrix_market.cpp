@@ -1,5 +1,6 @@
 // matrix_market.cpp: Matrix Market reading (buffer + std::from_chars, no iostream per token) and
-// atomic writing. Every malformed input gives an InputError "<path>: line <n>: <rule>".
+// atomic writing. Every malformed input gives an InputError "<path>: line <n>: <rule>", and a
+// gzip'ed file whose compressed data are damaged "<path>: byte <offset>: <rule>".
 #include "ecmor/model/matrix_market.hpp"
 
 #include <algorithm>
@@ -18,6 +19,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "base/gzip.hpp"
 #include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
 
@@ -488,6 +490,20 @@ std::int64_t file_size_of(const fs::path& path) {
   return static_cast<std::int64_t>(size);
 }
 
+bool has_gz_name(const fs::path& path) { return path.extension() == ".gz"; }
+
+/// The first bytes of a file (fewer if it is shorter).
+std::string read_prefix(const fs::path& path, std::size_t n) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) throw InputError(path.string() + ": cannot open: " + std::strerror(errno));
+  std::string buf(n, '\0');
+  buf.resize(std::fread(buf.data(), 1, n, f));
+  std::fclose(f);
+  return buf;
+}
+
+/// The text of a Matrix Market file: its bytes, or their decompression when the file is gzip'ed
+/// (recognised by its first bytes, whatever its name; a name ending in .gz must be gzip data).
 std::string read_whole_file(const fs::path& path) {
   const std::int64_t size = file_size_of(path);
   std::FILE* f = std::fopen(path.c_str(), "rb");
@@ -498,6 +514,7 @@ std::string read_whole_file(const fs::path& path) {
   std::fclose(f);
   if (error) throw InputError(path.string() + ": read error");
   buf.resize(got);  // a file that shrank while being read is parsed as it was read
+  if (detail::is_gzip(buf) || has_gz_name(path)) return detail::gunzip(buf, path.string());
   return buf;
 }
 
@@ -544,8 +561,30 @@ void check_finite_for_write(const fs::path& path, Index i, Index j, double v) {
 
 }  // namespace
 
+fs::path find_matrix_market_file(const fs::path& dir, const std::string& stem) {
+  std::error_code ec;
+  const fs::path plain = dir / (stem + ".mtx");
+  const fs::path gz = dir / (stem + ".mtx.gz");
+  const bool has_plain = fs::is_regular_file(plain, ec);
+  const bool has_gz = fs::is_regular_file(gz, ec);
+  if (has_plain && has_gz)
+    throw InputError(dir.string() + ": " + plain.filename().string() + " and " +
+                     gz.filename().string() + " are both present: keep one (which of them holds " +
+                     stem + " is ambiguous)");
+  return has_plain ? plain : (has_gz ? gz : fs::path());
+}
+
 MatrixMarketHeader read_matrix_market_header(const fs::path& path) {
   const std::int64_t size = file_size_of(path);
+  if (has_gz_name(path) || detail::is_gzip(read_prefix(path, 2))) {
+    // The whole file is decompressed, as the full readers do: the header then gets the same
+    // verdict and the same message from both (an error in the compressed data is found before
+    // the text is parsed), and the size line's promise is checked against the text's real size.
+    const std::string text = read_whole_file(path);
+    BufferLines lines(text);
+    Parser parser(path, lines, static_cast<std::int64_t>(text.size()));
+    return parser.parse_header().pub;
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path.string() + ": cannot open: " + std::strerror(errno));
   StreamLines lines(in);

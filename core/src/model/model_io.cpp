@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <functional>
 #include <limits>
+#include <map>
 #include <set>
 #include <string>
 #include <system_error>
@@ -72,7 +73,8 @@ class Container {
   std::string origin_;
 };
 
-/// Model-directory inspection: which .mtx files are there.
+/// Model-directory inspection: which .mtx and .mtx.gz files are there. A matrix may be stored
+/// either way, and the two may be mixed in one directory; the same matrix in both is refused.
 class ModelDir final : public Container {
  public:
   ModelDir(const fs::path& dir, std::string origin) : Container(std::move(origin)), dir_(dir) {
@@ -82,21 +84,34 @@ class ModelDir final : public Container {
     if (!fs::is_directory(st)) fail("not a directory (nor a .mat file)");
     fs::directory_iterator it(dir, ec);
     if (ec) fail("cannot list directory: " + ec.message());
+    std::map<std::string, std::set<std::string>> files_of;  // stem -> its file names
     for (const fs::directory_entry& e : it) {
+      const std::string name = e.path().filename().string();
+      const std::string stem = matrix_stem(name);
       std::error_code ec2;
-      if (e.path().extension() == ".mtx" && e.is_regular_file(ec2))
-        found_.insert(e.path().filename().string());
+      if (stem.empty() || !e.is_regular_file(ec2)) continue;
+      found_.insert(name);
+      files_of[stem].insert(name);
+    }
+    for (const auto& [stem, names] : files_of) {
+      if (names.size() > 1)
+        fail(fmt::format("{} are both present: keep one (which of them holds {} is ambiguous)",
+                         fmt::join(names, " and "), stem));
+      file_of_[stem] = *names.begin();
     }
   }
 
-  bool has(const std::string& role) const override { return found_.count(role + ".mtx") > 0; }
-  std::string name(const std::string& role) const override { return role + ".mtx"; }
+  bool has(const std::string& role) const override { return file_of_.count(role) > 0; }
+  std::string name(const std::string& role) const override {
+    const auto it = file_of_.find(role);
+    return it == file_of_.end() ? role + ".mtx" : it->second;
+  }
   std::string label(const std::string& role) const override { return name(role); }
   std::string item() const override { return "file"; }
-  fs::path file(const std::string& role) const { return dir_ / (role + ".mtx"); }
+  fs::path file(const std::string& role) const { return dir_ / name(role); }
 
   std::string found_list() const override {
-    return found_.empty() ? "no .mtx files" : fmt::format("{}", fmt::join(found_, ", "));
+    return found_.empty() ? "no .mtx or .mtx.gz files" : fmt::format("{}", fmt::join(found_, ", "));
   }
 
   std::pair<Index, Index> shape(const std::string& role) const override {
@@ -109,12 +124,22 @@ class ModelDir final : public Container {
   Matrix dense(const std::string& role) const override {
     return read_matrix_market_dense(file(role));
   }
-  /// The shared models' convention has no feedthrough: a D.mtx beside A.mtx is a misplaced file.
+  /// The benchmark models' convention has no feedthrough: a D.mtx beside A.mtx is a misplaced file.
   void check_feedthrough() const override { forbid({"D"}, "descriptor", "E.mtx/A.mtx"); }
 
  private:
+  /// "K" for "K.mtx" or "K.mtx.gz"; empty for any other name.
+  static std::string matrix_stem(const std::string& name) {
+    for (const std::string suffix : {".mtx", ".mtx.gz"})
+      if (name.size() > suffix.size() &&
+          name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0)
+        return name.substr(0, name.size() - suffix.size());
+    return {};
+  }
+
   fs::path dir_;
   std::set<std::string> found_;
+  std::map<std::string, std::string> file_of_;  // stem -> file name
 };
 
 /// "model <file>", with the renamed roles: "model m.mat (variables: K = Stiff, M = Mass)".
@@ -456,10 +481,14 @@ void write_reduction(const fs::path& dir, const ReducedModel& model, const Matri
 
 ProjectionBases read_projection_bases(const fs::path& run_dir) {
   std::error_code ec;
-  if (fs::is_regular_file(run_dir / "V.mtx", ec)) {
+  if (const fs::path V = find_matrix_market_file(run_dir, "V"); !V.empty()) {
+    const fs::path W = find_matrix_market_file(run_dir, "W");
+    if (W.empty())
+      throw InputError(run_dir.string() + ": " + V.filename().string() +
+                       " is there but W.mtx (or W.mtx.gz) is missing");
     ProjectionBases b;
-    b.V = read_matrix_market_dense(run_dir / "V.mtx");
-    b.W = read_matrix_market_dense(run_dir / "W.mtx");
+    b.V = read_matrix_market_dense(V);
+    b.W = read_matrix_market_dense(W);
     return b;
   }
   const fs::path mat = run_dir / kReducedModelMatFile;

@@ -19,6 +19,15 @@
 /// bounded by the file's size, plus 4 bytes per column of a sparse result and at most 256 MiB of
 /// zeros of a dense one. Values that underflow read as zero; NaN, Inf and overflowing values (also
 /// sums of duplicates) are errors. A missing or unreadable file is an InputError.
+///
+/// Compressed files: a gzip'ed Matrix Market file (`K.mtx.gz`, as the SuiteSparse Matrix
+/// Collection and many FE exports ship them) is read by the same functions. It is recognised by
+/// its first two bytes (1f 8b); a file whose name ends in `.gz` must be gzip data. The text is
+/// decompressed whole before it is parsed (one or more gzip members), so the limits above apply
+/// to the decompressed size, line numbers count its lines, and memory is that of the plain file.
+/// Damaged compressed data are an InputError "<path>: byte <offset>: <rule>", with the 0-based
+/// offset in the compressed file: a truncated stream, corrupt data or a CRC-32 mismatch (with
+/// zlib's reason), or bytes after the last member that are not another member.
 
 #include <filesystem>
 #include <string>
@@ -38,7 +47,14 @@ struct MatrixMarketHeader {
   Index entries = 0;  ///< stored entries for coordinate; rows*cols (or the triangle) for array
 };
 
-/// Reads only the header and size line (cheap; used to check sizes before loading).
+/// The file of the matrix named `stem` in `dir`: `stem.mtx` or `stem.mtx.gz`, or an empty path
+/// when there is neither.
+/// \throws InputError naming both files when both exist (which one holds the model is ambiguous).
+ECMOR_API std::filesystem::path find_matrix_market_file(const std::filesystem::path& dir,
+                                                        const std::string& stem);
+
+/// Reads only the header and size line (cheap for a plain file, used to check sizes before
+/// loading; a gzip'ed file is decompressed to find them).
 ECMOR_API MatrixMarketHeader read_matrix_market_header(const std::filesystem::path& path);
 
 /// Reads a Matrix Market file as a sparse matrix (symmetric storage expanded to the full pattern;
