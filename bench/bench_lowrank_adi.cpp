@@ -1,4 +1,4 @@
-// bench_lowrank_adi: low-rank ADI on the large shared models, both Gramians, both shift strategies.
+// bench_lowrank_adi: low-rank ADI on the large benchmark models, both Gramians, both shift strategies.
 // Measures (never asserts) iterations, rank, residual, time and where the time goes. Run from the
 // project root: ./build/bin/ecmor_bench_lowrank_adi [model ...] (default: triplechain_mess_n1501,
 // rail_5177, rail_20209); --no-compress skips the final column compression,
@@ -97,7 +97,7 @@ int main(int argc, char** argv) {
         options.compress = compress;
         options.max_iterations = max_iterations;
         options.tolerance = tolerance;
-        run_band(name, load_model("../shared/models/" + name), *band, options);
+        run_band(name, load_model("models/" + name), *band, options);
       } catch (const std::exception& e) {
         fmt::print("{}: {}\n", name, e.what());
       }
@@ -109,7 +109,7 @@ int main(int argc, char** argv) {
              "solves", "fact[s]", "solve[s]", "total[s]");
   for (const std::string& name : names) {
     try {
-      const Model model = load_model("../shared/models/" + name);
+      const Model model = load_model("models/" + name);
       for (AdiShiftStrategy strategy :
            {AdiShiftStrategy::Projection, AdiShiftStrategy::Heuristic}) {
         // A fresh solver per strategy: no factorisation or analysis carried over.

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The smallest order each bundled reducer reaches on every shared model (docs/benchmarks.md,
-# "Smallest order per shared model"): for each model of ../shared/models, on the band of its
+# The smallest order each bundled reducer reaches on every benchmark model (docs/benchmarks.md,
+# "Smallest order per benchmark model"): for each model of models/, on the band of its
 # reference response (info.json, omega_min..omega_max converted to Hz), each tolerance is asked of
 # modal (grow_order), krylov (greedy_points), balanced (grow_order) and irka (grow_order).
 # Writes OUT_DIR/smallest_orders.md: per model and tolerance the smallest order that met it and
@@ -14,7 +14,7 @@ set -euo pipefail
 out=${1:?usage: bench/smallest_orders.sh OUT_DIR [MODEL...]}
 shift
 ecmor=${ECMOR:-build/bin/ecmor}
-models_dir=../shared/models
+models_dir=models
 if [ $# -eq 0 ]; then
   set -- $(cd "$models_dir" && for d in */; do [ -f "$d/info.json" ] && echo "${d%/}"; done)
 fi
@@ -76,7 +76,7 @@ print("| model | N | band Hz | " + " | ".join(f"smallest for {t}" for t in tols)
       " | ".join(f"{r} {t}" for t in tols for r in reducers) + " |")
 print("|---|---|---|" + "---|" * len(tols) + "---|" * (len(tols) * len(reducers)))
 for model in models:
-    info = json.load(open(f"../shared/models/{model}/info.json"))
+    info = json.load(open(f"models/{model}/info.json"))
     ref = info["reference"]
     import math
     band = f"{ref['omega_min'] / (2 * math.pi):.3g}..{ref['omega_max'] / (2 * math.pi):.3g}"

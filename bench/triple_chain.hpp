@@ -17,7 +17,7 @@
 ///
 /// The three grounded dampers sit at the first and last mass of chain 1 and the first mass of
 /// chain 3: that is the (asymmetric-looking) convention of M-M.E.S.S., verified entry by entry
-/// against the shared models triplechain_{cmess_n301, saak09_n451, mess_n1501}.
+/// against the benchmark models triplechain_{cmess_n301, saak09_n451, mess_n1501}.
 
 #include "ecmor/base/types.hpp"
 #include "ecmor/model/model.hpp"

@@ -87,10 +87,10 @@ env -u ECMOR_PLUGIN_PATH cmake -S "$template" -B "$work/template" "${generator[@
 grep -q "ecmor_DIR:PATH=$prefix/lib/cmake/ecmor" "$work/template/CMakeCache.txt" ||
   die "the template found another ecmor: $(grep ecmor_DIR "$work/template/CMakeCache.txt")"
 
-# The YAML example must be among the tests (it is skipped when the shared models are not found).
+# The YAML example must be among the tests (it is skipped when the benchmark models are not found).
 tests=$(cd "$work/template" && ctest -N) || die "ctest -N failed in $work/template"
 grep -q 'pod_snapshots.reduce_iss_so' <<<"$tests" ||
-  die "the template's YAML test is not configured: no $root/../shared/models/iss_so?"
+  die "the template's YAML test is not configured: no $root/models/iss_so?"
 
 say "building the template"
 cmake --build "$work/template" -j "$jobs" >"$work/build.log" 2>&1 ||

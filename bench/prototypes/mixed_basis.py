@@ -12,6 +12,7 @@ PATIENCE steps in a row (default 1) lowered the error by less than 10 %". PEAKS:
 the next Krylov point (the one that lowers the error most is kept; when none does, 4 more modes).
 Prints one line per step: order, what was added (m: modes, k: Krylov point), band error.
 """
+import os
 import sys
 
 import numpy as np
@@ -21,10 +22,16 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
 
+def read(d, name):
+    """name.mtx or name.mtx.gz (SciPy's mmread decompresses by the extension)."""
+    plain = f"{d}/{name}.mtx"
+    return sio.mmread(plain if os.path.exists(plain) else plain + ".gz")
+
+
 def load(d):
-    M, D, K = (sp.csc_matrix(sio.mmread(f"{d}/{x}.mtx")) for x in "MDK")
-    B = np.asarray(sio.mmread(f"{d}/B.mtx").todense())
-    C = np.asarray(sio.mmread(f"{d}/C.mtx").todense())
+    M, D, K = (sp.csc_matrix(read(d, x)) for x in "MDK")
+    B = np.asarray(sp.csc_matrix(read(d, "B")).todense())
+    C = np.asarray(sp.csc_matrix(read(d, "C")).todense())
     return M, D, K, B, C
 
 

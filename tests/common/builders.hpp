@@ -1,7 +1,7 @@
 #pragma once
 /// \file builders.hpp
 /// Model pieces shared by the test suites: sparse copies of dense matrices, seeded random
-/// matrices, model directories of generated models, and the shared benchmark models (read relative
+/// matrices, model directories of generated models, and the benchmark models (read relative
 /// to the build directory, where ctest runs the tests).
 
 #include <filesystem>
@@ -32,9 +32,9 @@ inline Matrix random_matrix(Index rows, Index cols, unsigned seed) {
   return X;
 }
 
-/// A model of ../shared/models by its directory name.
+/// A model of models by its directory name.
 inline Model shared_model(const std::string& name) {
-  return load_model("../shared/models/" + name);
+  return load_model("models/" + name);
 }
 
 /// A model directory (M, D, K, B, C .mtx) of a generated second-order model, for runs of the

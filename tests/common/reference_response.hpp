@@ -1,7 +1,7 @@
 #pragma once
 /// \file reference_response.hpp
-/// The shared models' independent reference responses, ../shared/models/NAME/ref_freq_response.csv
-/// (computed by the data's authors with SciPy/SuperLU, see ../shared/models/README.md): '#' comment
+/// The benchmark models' independent reference responses, models/NAME/ref_freq_response.csv
+/// (computed by the data's authors with SciPy/SuperLU, see models/README.md): '#' comment
 /// lines, then a header line naming the columns omega (rad/s), sigma_max and re_H_i_j, im_H_i_j
 /// (output i, input j, from 0), then one row per frequency. Columns are found by their header
 /// names, not by position.

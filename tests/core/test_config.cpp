@@ -29,7 +29,7 @@ std::string parse_error(const std::string& yaml) {
 // Tests replace one line to break exactly one rule.
 const std::string kMinimal =
     "model:\n"                        // 1
-    "  dir: ../shared/models/lf10\n"  // 2
+    "  dir: models/lf10\n"  // 2
     "band:\n"                         // 3
     "  f_min_hz: 0.1\n"               // 4
     "  f_max_hz: 100\n"               // 5
@@ -52,7 +52,7 @@ std::string replace(std::string text, const std::string& from, const std::string
 TEST(RunConfig, FullConfigRoundTrip) {
   const std::string yaml =
       "# a complete run\n"
-      "model: {dir: ../shared/models/triplechain_saak09_n451}\n"
+      "model: {dir: models/triplechain_saak09_n451}\n"
       "band: {f_min_hz: 1.0e-5, f_max_hz: 10}\n"
       "target: {tolerance: 2.5e-4, norm: frobenius}\n"
       "reducer:\n"
@@ -79,7 +79,7 @@ TEST(RunConfig, FullConfigRoundTrip) {
       "plugins: [plugins/libx.so, /opt/ecmor/plugins]\n";
   const RunConfig c = parse_run_config(yaml, "full.yaml");
   const fs::path cwd = fs::current_path();
-  EXPECT_EQ(c.model.path, (cwd / "../shared/models/triplechain_saak09_n451").lexically_normal());
+  EXPECT_EQ(c.model.path, (cwd / "models/triplechain_saak09_n451").lexically_normal());
   EXPECT_TRUE(c.model.path.is_absolute());
   EXPECT_EQ(c.band.f_min_hz, 1.0e-5);
   EXPECT_EQ(c.band.f_max_hz, 10.0);
@@ -316,7 +316,7 @@ TEST(RunConfig, DuplicateKeysAreErrors) {
 }
 
 TEST(RunConfig, MissingRequiredKeys) {
-  EXPECT_EQ(parse_error(replace(kMinimal, "  dir: ../shared/models/lf10\n", "  {}\n")),
+  EXPECT_EQ(parse_error(replace(kMinimal, "  dir: models/lf10\n", "  {}\n")),
             "run.yaml:2: missing required key 'model.dir' (a model directory) or "
             "'model.file' (a .mat file)");
   EXPECT_EQ(parse_error(replace(kMinimal, "  f_max_hz: 100\n", "")),
@@ -330,7 +330,7 @@ TEST(RunConfig, MissingRequiredKeys) {
   EXPECT_EQ(parse_error(replace(kMinimal, "output:\n  dir: out/lf10\n", "")),
             "run.yaml:1: missing required section 'output'");
   // A section present but empty.
-  EXPECT_EQ(parse_error(replace(kMinimal, "model:\n  dir: ../shared/models/lf10\n", "model:\n")),
+  EXPECT_EQ(parse_error(replace(kMinimal, "model:\n  dir: models/lf10\n", "model:\n")),
             "run.yaml:1: missing required key 'model.dir' (a model directory) or "
             "'model.file' (a .mat file)");
 }

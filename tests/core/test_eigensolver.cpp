@@ -2,6 +2,7 @@
 // spectra. The factorisation is a test-only dense LU, which also shows that the eigensolvers depend
 // only on the Factorization interface (backend neutrality).
 #include <gtest/gtest.h>
+#include <zlib.h>
 
 #include <Eigen/Eigenvalues>
 #include <cmath>
@@ -45,14 +46,21 @@ class DenseLuFactorization final : public Factorization {
   std::vector<Complex> m_weights;
 };
 
-// Minimal Matrix Market reader (coordinate real general, as all shared models are stored); kept
-// independent of model_io so this test checks the eigensolver alone.
+// Minimal Matrix Market reader (coordinate real general, as all the benchmark models are stored,
+// gzip'ed or not); kept independent of model_io and of ecmor's own gzip decompression (it reads
+// through zlib's gzFile, which takes plain and compressed files alike) so this test checks the
+// eigensolver alone.
 SparseMatrix read_mtx(const std::string& path) {
-  std::ifstream in(path);
+  const gzFile in = gzopen(path.c_str(), "rb");
   if (!in) throw std::runtime_error("cannot open " + path);
+  std::string text;
+  char chunk[1 << 16];
+  for (int got = 0; (got = gzread(in, chunk, sizeof chunk)) > 0;) text.append(chunk, got);
+  gzclose(in);
+  std::istringstream lines(text);
   std::string line;
   do {
-    std::getline(in, line);
+    std::getline(lines, line);
   } while (!line.empty() && line[0] == '%');
   std::istringstream header(line);
   Index rows = 0, cols = 0, nnz = 0;
@@ -61,15 +69,16 @@ SparseMatrix read_mtx(const std::string& path) {
   for (Index k = 0; k < nnz; ++k) {
     int i = 0, j = 0;
     double v = 0.0;
-    in >> i >> j >> v;
+    lines >> i >> j >> v;
     triplets.emplace_back(i - 1, j - 1, v);
   }
+  if (!lines) throw std::runtime_error(path + ": fewer entries than its size line promises");
   SparseMatrix A(rows, cols);
   A.setFromTriplets(triplets.begin(), triplets.end());
   return A;
 }
 
-std::string model_dir(const std::string& name) { return "../shared/models/" + name + "/"; }
+std::string model_dir(const std::string& name) { return "models/" + name + "/"; }
 
 // sin of the largest principal angle between span(X) and span(Y) (Euclidean): ||(I - QyQy')Qx||_2.
 double largest_angle_sin(const Matrix& X, const Matrix& Y) {
@@ -108,7 +117,7 @@ struct Pencil {
 };
 
 Pencil load_second_order(const std::string& name) {
-  return {read_mtx(model_dir(name) + "K.mtx"), read_mtx(model_dir(name) + "M.mtx")};
+  return {read_mtx(model_dir(name) + "K.mtx.gz"), read_mtx(model_dir(name) + "M.mtx.gz")};
 }
 
 // Checks everything an eigen-decomposition of the symmetric pencil must satisfy.
@@ -346,7 +355,7 @@ struct DescriptorPencil {
 };
 
 DescriptorPencil load_descriptor(const std::string& name) {
-  return {read_mtx(model_dir(name) + "A.mtx"), read_mtx(model_dir(name) + "E.mtx")};
+  return {read_mtx(model_dir(name) + "A.mtx.gz"), read_mtx(model_dir(name) + "E.mtx.gz")};
 }
 
 // Dense reference: generalized eigenvalues of (A, E), finite ones.

@@ -1,5 +1,5 @@
 // Tests of transfer functions, band responses, poles and the response cache: closed-form small
-// systems, full-order "reductions", and the shared models' independent reference responses.
+// systems, full-order "reductions", and the benchmark models' independent reference responses.
 #include <gtest/gtest.h>
 #include <omp.h>
 
@@ -31,12 +31,12 @@ using ecmor::test::sparse;
 using namespace ecmor;
 
 // ---------------------------------------------------------------------------------------------
-// The shared models (loaded with ecmor::load_model) and their reference responses.
+// The benchmark models (loaded with ecmor::load_model) and their reference responses.
 
-std::string models_dir() { return std::string(ECMOR_TEST_SOURCE_DIR) + "/../shared/models/"; }
+std::string models_dir() { return std::string(ECMOR_TEST_SOURCE_DIR) + "/models/"; }
 
 bool has_model(const std::string& name) {
-  return std::ifstream(models_dir() + name + "/B.mtx").good();
+  return std::ifstream(models_dir() + name + "/info.json").good();
 }
 
 Model read_model(const std::string& name) { return load_model(models_dir() + name); }
@@ -243,7 +243,7 @@ TEST(TransferFunction, ReducedSingularThrows) {
 }
 
 TEST(FrequencyResponse, ParallelEqualsSerial) {
-  ASSERT_TRUE(has_model("triplechain_saak09_n451")) << "shared model not found in " << models_dir();
+  ASSERT_TRUE(has_model("triplechain_saak09_n451")) << "benchmark model not found in " << models_dir();
   Model model = read_model("triplechain_saak09_n451");
   auto solver = make_shifted_solver(model);
   const auto f = log_grid(1e-4, 10.0, 40);
@@ -285,7 +285,7 @@ TEST(FrequencyResponse, ExceptionInsideParallelRegionIsRethrown) {
 
 TEST(FrequencyResponse, ReducedFullOrderReductionReproducesFull) {
   for (const std::string name : {"lf10", "build_so", "cdplayer", "build"}) {
-    ASSERT_TRUE(has_model(name)) << "shared model " << name << " not found in " << models_dir();
+    ASSERT_TRUE(has_model(name)) << "benchmark model " << name << " not found in " << models_dir();
     Model model = read_model(name);
     auto solver = make_shifted_solver(model);
     const Index p = std::visit([](const auto& sys) { return sys.C.rows(); }, model);
@@ -526,13 +526,13 @@ TEST(ResponseCache, ComputesOnlyMissingFrequencies) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The shared models' independent references (SciPy SuperLU) on all 200 frequencies.
+// The benchmark models' independent references (SciPy SuperLU) on all 200 frequencies.
 
 class SharedReference : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(SharedReference, MatchesIndependentResponse) {
   const std::string name = GetParam();
-  ASSERT_TRUE(has_model(name)) << "shared model " << name << " not found in " << models_dir();
+  ASSERT_TRUE(has_model(name)) << "benchmark model " << name << " not found in " << models_dir();
   Model model = read_model(name);
   const Index p = std::visit([](const auto& s) { return s.C.rows(); }, model);
   const Index m = std::visit([](const auto& s) { return s.B.cols(); }, model);

@@ -1,5 +1,5 @@
 // H2 norms: closed forms, the poles/residues formula (an independent eigen-decomposition) on
-// shared models, the quadrature for large models against the dense Gramian formula, the unstable
+// benchmark models, the quadrature for large models against the dense Gramian formula, the unstable
 // model refused, and the dense balanced truncation reference with its H-infinity bound.
 #include <gtest/gtest.h>
 
@@ -37,7 +37,7 @@ using test::first_order;
 using test::message_of;
 using test::oscillator;
 
-const std::string kModels = "../shared/models/";
+const std::string kModels = "models/";
 
 /// <G1, G2>_H2 for Gi = 1 / (s^2 + di s + ki), by the residues of G1(-s) G2(s) in the left
 /// half-plane (derived by hand, checked by a 2e6-point quadrature: 0.210526315789 for
@@ -256,7 +256,7 @@ TEST_P(BandH2Modes, QuadratureAgreesWithModalClosedForm) {
 INSTANTIATE_TEST_SUITE_P(SharedModels, BandH2Modes,
                          ::testing::Values("build", "cdplayer", "iss", "build_so", "iss_so"));
 
-/// A stable reduced model of a shared model built here with Eigen:
+/// A stable reduced model of a benchmark model built here with Eigen:
 ///  * first order with unsymmetric A (build, cdplayer, iss): Galerkin projection onto the
 ///    invariant subspace of the r poles of smallest |lambda| (a modal truncation: the reduced
 ///    poles are exactly those poles);

@@ -1,5 +1,5 @@
 // H-infinity norms: closed forms (first-order lag, oscillators, a diagonal MIMO case), an
-// independent brute-force sweep with golden-section refinement on shared models, error norms
+// independent brute-force sweep with golden-section refinement on benchmark models, error norms
 // (a model against itself, balanced truncations with Glover's bounds), refused inputs.
 #include <gtest/gtest.h>
 
@@ -32,7 +32,7 @@ using test::first_order;
 using test::message_of;
 using test::oscillator;
 
-const std::string kModels = "../shared/models/";
+const std::string kModels = "models/";
 
 double rel(double x, double ref) { return std::abs(x - ref) / std::abs(ref); }
 

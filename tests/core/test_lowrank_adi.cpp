@@ -1,6 +1,6 @@
 // Low-rank ADI: residuals of the low-rank solutions (the free residual-factor norm against the
 // residual formed densely, and against lowrank_residual), agreement with the dense Bartels-Stewart
-// Gramians on small shared models within a bound derived from the ADI residual, complex shift
+// Gramians on small benchmark models within a bound derived from the ADI residual, complex shift
 // pairs in real arithmetic, the residual history, shift reuse and factorisation counts,
 // compression, non-convergence as a result, and every bad-input rule.
 //
@@ -40,7 +40,7 @@ using test::sparse;
 using test::message_of;
 
 constexpr double kEps = std::numeric_limits<double>::epsilon();
-const std::string kModels = "../shared/models/";
+const std::string kModels = "models/";
 
 double norm2(const Matrix& X) {
   if (X.size() == 0) return 0.0;

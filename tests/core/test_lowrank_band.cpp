@@ -46,7 +46,7 @@ namespace {
 using test::message_of;
 
 constexpr double kEps = std::numeric_limits<double>::epsilon();
-const std::string kModels = "../shared/models/";
+const std::string kModels = "models/";
 
 double norm2(const Matrix& X) {
   if (X.size() == 0) return 0.0;
@@ -138,7 +138,7 @@ AdiOptions adi_options() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Small shared models against the dense band Gramians.
+// Small benchmark models against the dense band Gramians.
 
 struct BandCase {
   std::string model;

@@ -16,6 +16,7 @@
 
 #include "common/bitwise_equal.hpp"
 #include "common/builders.hpp"
+#include "common/gzip_text.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/model/matrix_market.hpp"
@@ -29,7 +30,7 @@ namespace {
 
 using ecmor::test::sparse;
 
-const fs::path kModels = fs::path(ECMOR_TEST_SOURCE_DIR) / ".." / "shared" / "models";
+const fs::path kModels = fs::path(ECMOR_TEST_SOURCE_DIR) / "models";
 
 using test::bitwise_equal;
 using test::TempDir;
@@ -76,7 +77,7 @@ void write_model_files(const fs::path& dir, const SecondOrderModel& s, bool with
   write_matrix_market(dir / "M.mtx", s.M);
   if (with_d) write_matrix_market(dir / "D.mtx", s.D);
   write_matrix_market(dir / "K.mtx", s.K);
-  write_matrix_market(dir / "B.mtx", sparse(s.B));  // coordinate, as in the shared models
+  write_matrix_market(dir / "B.mtx", sparse(s.B));  // coordinate, as in the benchmark models
   write_matrix_market(dir / "C.mtx", sparse(s.C));
   if (s.has_velocity_output()) write_matrix_market(dir / "Cv.mtx", s.Cv);
 }
@@ -110,7 +111,7 @@ const MatrixSummary* find_summary(const ModelSummary& s, const std::string& name
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
-// The shared benchmark models
+// The benchmark models
 // ---------------------------------------------------------------------------------------------
 
 TEST(SharedModels, EveryModelLoadsAndMatchesItsInfoJson) {
@@ -119,14 +120,14 @@ TEST(SharedModels, EveryModelLoadsAndMatchesItsInfoJson) {
   for (const auto& e : fs::directory_iterator(kModels))
     if (e.is_directory()) dirs.push_back(e.path());
   std::sort(dirs.begin(), dirs.end());
-  ASSERT_GE(dirs.size(), 3u);
+  ASSERT_EQ(dirs.size(), 22u) << "the benchmark models of models/README.md";
   for (const fs::path& dir : dirs) {
     SCOPED_TRACE(dir.string());
     Model model;
     ASSERT_NO_THROW(model = load_model(dir));
     EXPECT_NO_THROW(validate(model, dir.string()));
     const fs::path info_path = dir / "info.json";
-    if (!fs::exists(info_path)) continue;
+    ASSERT_TRUE(fs::exists(info_path)) << "each model carries its info.json";
     std::ifstream in(info_path);
     const nlohmann::json info = nlohmann::json::parse(in);
     if (info.contains("N")) {
@@ -298,13 +299,13 @@ TEST(ModelAccessors, BothKinds) {
 }
 
 TEST(ModelValidate, SecondOrderMessages) {
-  const std::string origin = "model ../shared/models/x";
+  const std::string origin = "model models/x";
   EXPECT_NO_THROW(validate(Model(small_second_order()), origin));
   {
     SecondOrderModel s = small_second_order(450);
     s.D = SparseMatrix(450, 451);
     expect_input_error([&] { validate(Model(s), origin); },
-                       {"model ../shared/models/x: D is 450 x 451: must be square"});
+                       {"model models/x: D is 450 x 451: must be square"});
   }
   {
     SecondOrderModel s = small_second_order(301);
@@ -443,7 +444,7 @@ TEST(ModelLoad, KindDetectionErrors) {
   }
   {
     TempDir dir{"ecmor_test_model"};
-    expect_input_error([&] { (void)load_model(dir.path()); }, {"found: no .mtx files"});
+    expect_input_error([&] { (void)load_model(dir.path()); }, {"found: no .mtx or .mtx.gz files"});
     expect_input_error([&] { (void)load_model(dir / "missing"); },
                        {(dir / "missing").string(), "directory does not exist"});
     write_raw(dir / "plain", "x");
@@ -521,6 +522,78 @@ TEST(ModelLoad, MalformedOrNonFiniteFileNamesFileAndLine) {
 // ---------------------------------------------------------------------------------------------
 // Reduced models
 // ---------------------------------------------------------------------------------------------
+
+// A directory may hold each matrix as .mtx or .mtx.gz, mixed; the model is the same.
+TEST(ModelLoad, GzippedAndMixedDirectoriesGiveTheSameModel) {
+  TempDir plain{"ecmor_test_gz"}, mixed{"ecmor_test_gz"};
+  const SecondOrderModel s = small_second_order(6, 2, 3);
+  write_model_files(plain.path(), s);
+  for (const char* name : {"M", "D", "K", "B", "C"}) {
+    const fs::path from = plain / (std::string(name) + ".mtx");
+    if (std::string(name) == "K" || std::string(name) == "C") {
+      fs::copy_file(from, mixed / (std::string(name) + ".mtx"));
+    } else {
+      std::ifstream in(from, std::ios::binary);
+      const std::string text((std::istreambuf_iterator<char>(in)), {});
+      write_raw(mixed / (std::string(name) + ".mtx.gz"), test::gzip_text(text));
+    }
+  }
+  const auto a = std::get<SecondOrderModel>(load_model(plain.path()));
+  const auto b = std::get<SecondOrderModel>(load_model(mixed.path()));
+  EXPECT_TRUE(bitwise_equal(Matrix(a.M), Matrix(b.M)));
+  EXPECT_TRUE(bitwise_equal(Matrix(a.D), Matrix(b.D)));
+  EXPECT_TRUE(bitwise_equal(Matrix(a.K), Matrix(b.K)));
+  EXPECT_TRUE(bitwise_equal(a.B, b.B));
+  EXPECT_TRUE(bitwise_equal(a.C, b.C));
+  EXPECT_TRUE(bitwise_equal(Matrix(b.K), Matrix(s.K)));
+}
+
+TEST(ModelLoad, AMatrixInBothFormsIsRefusedNamingBoth) {
+  TempDir dir{"ecmor_test_gz"};
+  write_model_files(dir.path(), small_second_order());
+  write_raw(dir / "K.mtx.gz", test::gzip_text("not read"));
+  expect_input_error([&] { (void)load_model(dir.path()); },
+                     {dir.path().string(), "K.mtx and K.mtx.gz are both present", "keep one"});
+}
+
+TEST(ModelLoad, DamagedGzipNamesTheFileAndTheByte) {
+  TempDir dir{"ecmor_test_gz"};
+  const SecondOrderModel s = small_second_order();
+  write_model_files(dir.path(), s);
+  std::ifstream in(dir / "K.mtx", std::ios::binary);
+  const std::string gz = test::gzip_text(std::string((std::istreambuf_iterator<char>(in)), {}));
+  fs::remove(dir / "K.mtx");
+  const std::string cut = gz.substr(0, gz.size() / 2);
+  write_raw(dir / "K.mtx.gz", cut);
+  expect_input_error([&] { (void)load_model(dir.path()); },
+                     {(dir / "K.mtx.gz").string(), "byte " + std::to_string(cut.size()) + ":",
+                      "truncated gzip data"});
+}
+
+TEST(ReducedModelIo, ProjectionBasesMayBeGzipped) {
+  TempDir dir{"ecmor_test_gz"};
+  Matrix V(5, 2);
+  V << 1, 2, 3, 4, 5, 6, 7, 8, 9, 10;
+  const Matrix W = 2.0 * V;
+  write_matrix_market(dir / "V.mtx", V);
+  write_matrix_market(dir / "W.mtx", W);
+  for (const char* name : {"V", "W"}) {
+    const fs::path plain = dir / (std::string(name) + ".mtx");
+    std::ifstream in(plain, std::ios::binary);
+    write_raw(dir / (std::string(name) + ".mtx.gz"),
+              test::gzip_text(std::string((std::istreambuf_iterator<char>(in)), {})));
+  }
+  expect_input_error([&] { (void)read_projection_bases(dir.path()); },
+                     {"V.mtx and V.mtx.gz are both present"});
+  fs::remove(dir / "V.mtx");
+  fs::remove(dir / "W.mtx");
+  const ProjectionBases b = read_projection_bases(dir.path());
+  EXPECT_TRUE(bitwise_equal(b.V, V));
+  EXPECT_TRUE(bitwise_equal(b.W, W));
+  fs::remove(dir / "W.mtx.gz");
+  expect_input_error([&] { (void)read_projection_bases(dir.path()); },
+                     {dir.path().string(), "W.mtx (or W.mtx.gz) is missing"});
+}
 
 TEST(ReducedModelIo, RoundTripBothKindsBitwise) {
   TempDir dir{"ecmor_test_model"};

@@ -25,10 +25,10 @@ double relative_difference(const ComplexMatrix& a, const ComplexMatrix& b) {
 }
 
 // A "reduction" with V = W = I is the full model: its transfer function must reproduce H to
-// round-off, on a shared model with a velocity output (build_so) and a badly scaled one (lf10).
+// round-off, on a benchmark model with a velocity output (build_so) and a badly scaled one (lf10).
 TEST(Projection, FullOrderReductionReproducesTransferFunction) {
   for (const char* name : {"lf10", "build_so", "iss_so"}) {
-    const Model full = load_model(std::string("../shared/models/") + name);
+    const Model full = load_model(std::string("models/") + name);
     const Index n = size_of(full);
     const Matrix I = Matrix::Identity(n, n);
     const ReducedModel r = project(full, I, I);
@@ -44,7 +44,7 @@ TEST(Projection, FullOrderReductionReproducesTransferFunction) {
 // The reduced transfer function depends only on span(V), span(W): V T and W S give the same Hr
 // for invertible T, S. And the reduced matrices equal the dense products.
 TEST(Projection, ReducedModelDependsOnlyOnTheSubspaces) {
-  const Model full = load_model("../shared/models/triplechain_saak09_n451");
+  const Model full = load_model("models/triplechain_saak09_n451");
   const auto& so = std::get<SecondOrderModel>(full);
   const Index N = so.size(), n = 8;
   Matrix V = random_matrix(N, n, 1);
@@ -65,7 +65,7 @@ TEST(Projection, ReducedModelDependsOnlyOnTheSubspaces) {
 }
 
 TEST(Projection, MismatchedBasesAreNamed) {
-  const Model full = load_model("../shared/models/lf10");
+  const Model full = load_model("models/lf10");
   try {
     project(full, Matrix::Identity(18, 3), Matrix::Identity(18, 4));
     FAIL();
@@ -97,7 +97,7 @@ TEST(Orthonormalize, EuclideanWithDeflation) {
 }
 
 TEST(Orthonormalize, MassInnerProductOnABadlyScaledMatrix) {
-  const Model full = load_model("../shared/models/lf10");  // M eigenvalues 3e-11 .. 7e-5
+  const Model full = load_model("models/lf10");  // M eigenvalues 3e-11 .. 7e-5
   const SparseMatrix& M = std::get<SecondOrderModel>(full).M;
   Matrix Q;
   EXPECT_EQ(orthonormalize_append(Q, random_matrix(18, 10, 7), InnerProduct{&M}), 10);

@@ -143,11 +143,11 @@ void expect_band_integrals_match_dense(const Model& model, const Band& band) {
 }
 
 TEST(BandResolventIntegrals, MatchTheDenseEigendecompositionOnBuild) {
-  expect_band_integrals_match_dense(load_model("../shared/models/build"), Band{0.5, 20.0});
+  expect_band_integrals_match_dense(load_model("models/build"), Band{0.5, 20.0});
 }
 
 TEST(BandResolventIntegrals, MatchTheDenseEigendecompositionOnASecondOrderChain) {
-  expect_band_integrals_match_dense(load_model("../shared/models/triplechain_cmess_n301"),
+  expect_band_integrals_match_dense(load_model("models/triplechain_cmess_n301"),
                                     Band{0.01, 0.3});
 }
 

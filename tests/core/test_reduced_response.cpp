@@ -154,9 +154,9 @@ TEST(ReducedResponse, DescriptorAgreesWithDenseLU) {
   }
 }
 
-// Projections of shared benchmark models at assorted frequencies.
+// Projections of benchmark models at assorted frequencies.
 void expect_projection_agrees(const char* name, bool hessenberg = true) {
-  const Model full = load_model(std::string("../shared/models/") + name);
+  const Model full = load_model(std::string("models/") + name);
   const Index N = size_of(full);
   std::mt19937 gen(11);
   Matrix Q;
@@ -356,7 +356,7 @@ TEST(ReducedResponse, BadInputIsNamed) {
 // The band error samples the reduced model in parallel: its result must not depend on the thread
 // count, to the last bit (each frequency is computed by one thread with the same code).
 TEST(ReducedResponse, BandErrorIsIndependentOfTheThreadCount) {
-  const Model full = load_model("../shared/models/triplechain_saak09_n451");
+  const Model full = load_model("models/triplechain_saak09_n451");
   const Index N = size_of(full);
   std::mt19937 gen(21);
   Matrix Q;

@@ -143,7 +143,7 @@ TEST(FullModelStability, PolesOverManyDecadesAreJudgedOnTheirOwnScale) {
 // converge until the pencil is equilibrated; it has a real pole in the right half-plane (the
 // models' README: eigenvalues with Re up to +1.7e12 by LAPACK).
 TEST(FullModelStability, PeecIsUnstableAfterEquilibration) {
-  const StabilityReport r = full_model_stability(load_model("../shared/models/peec"), 1000);
+  const StabilityReport r = full_model_stability(load_model("models/peec"), 1000);
   EXPECT_EQ(r.verdict, Stability::Unstable) << r.reason;
   EXPECT_GT(r.max_real_pole, 1e9);
 }
@@ -151,7 +151,7 @@ TEST(FullModelStability, PeecIsUnstableAfterEquilibration) {
 // mna1: finite poles from 5.7e4 to 4.5e20 (E singular), all real and negative: asymptotically
 // stable, although the slowest are 1e-16 of the fastest.
 TEST(FullModelStability, Mna1IsAsymptoticallyStable) {
-  const StabilityReport r = full_model_stability(load_model("../shared/models/mna1"), 1000);
+  const StabilityReport r = full_model_stability(load_model("models/mna1"), 1000);
   EXPECT_EQ(r.verdict, Stability::Asymptotic) << r.reason;
 }
 

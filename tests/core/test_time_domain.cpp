@@ -29,7 +29,7 @@ using test::message_of;
 using Kind = InputSignal::Kind;
 using Scheme = TimeIntegrationOptions::Scheme;
 
-const std::string kModels = "../shared/models/";
+const std::string kModels = "models/";
 
 // m q'' + d q' + k q = b u,  y = c q + cv q'.
 SecondOrderModel oscillator(double m, double d, double k, double b, double c, double cv) {

@@ -44,7 +44,7 @@ class TripleChainShared : public ::testing::TestWithParam<SharedInstance> {};
 // alpha M + beta K + v P sum: 1e-15 relative in the Frobenius norm.
 TEST_P(TripleChainShared, ReproducesTheModelFiles) {
   const SharedInstance& p = GetParam();
-  const ecmor::Model loaded = ecmor::load_model(std::string("../shared/models/") + p.name);
+  const ecmor::Model loaded = ecmor::load_model(std::string("models/") + p.name);
   const auto& file = std::get<SecondOrderModel>(loaded);
   const SecondOrderModel gen = triple_chain(p.n1, p.alpha, p.beta, p.v);
 

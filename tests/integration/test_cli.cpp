@@ -35,7 +35,7 @@ namespace fs = std::filesystem;
 namespace ecmor {
 namespace {
 
-const fs::path kLf10 = "../shared/models/lf10";
+const fs::path kLf10 = "models/lf10";
 
 using Result = test::CliResult;
 using test::read_text;
@@ -152,7 +152,7 @@ class Cli : public ::testing::Test {
   /// Returns the child's pid; fails the test if the run ended or wrote no record by then.
   pid_t start_long_run(const fs::path& out, const fs::path& log) {
     write_text(config(),
-               "model:    {dir: ../shared/models/triplechain_mess_n1501}\n"
+               "model:    {dir: models/triplechain_mess_n1501}\n"
                "band:     {f_min_hz: 0.001, f_max_hz: 1.0}\n"
                "target:   {tolerance: 1.0e-15}\n"
                "reducer:  {name: krylov, point_count: 4}\n"
@@ -482,13 +482,13 @@ TEST_F(Cli, InfoDescribesLf10) {
 // A first-order model that is a second-order one (iss: E = I, A = [0 I; -K -D]) is said to be one;
 // a first-order model without that structure (rail_371: E SPD, A symmetric) is not.
 TEST_F(Cli, InfoNamesTheSecondOrderStructureOfAFirstOrderModel) {
-  const Result iss = run({"info", "../shared/models/iss", "--eigenfrequencies", "0"});
+  const Result iss = run({"info", "models/iss", "--eigenfrequencies", "0"});
   ASSERT_EQ(iss.exit_code, 0) << iss.err;
   EXPECT_NE(iss.out.find("second-order structure: x = [q; q'], M q'' + D q' + K q = B u with "
                          "n = 135; M, D, K symmetric"),
             std::string::npos)
       << iss.out;
-  const Result rail = run({"info", "../shared/models/rail_371", "--eigenfrequencies", "0"});
+  const Result rail = run({"info", "models/rail_371", "--eigenfrequencies", "0"});
   ASSERT_EQ(rail.exit_code, 0) << rail.err;
   EXPECT_EQ(rail.out.find("second-order structure"), std::string::npos) << rail.out;
 }
@@ -673,7 +673,7 @@ TEST_F(Cli, SignalWritesHistoryAndBestModelAndExits130) {
 TEST_F(Cli, SignalDuringTheFirstSweepEndsIt) {
   const fs::path out = output() / "sweep";
   write_text(config(),
-             "model:    {dir: ../shared/models/triplechain_mess_n1501}\n"
+             "model:    {dir: models/triplechain_mess_n1501}\n"
              "band:     {f_min_hz: 0.001, f_max_hz: 1.0}\n"
              "target:   {tolerance: 1.0e-3}\n"
              "reducer:  {name: modal}\n"
@@ -812,7 +812,7 @@ TEST_F(Cli, MetTargetWritesEveryOutput) {
   // The band edges at least were solved (estimate mode) or every sample (dense mode).
   EXPECT_GE(exact_rows, 2);
 
-  // Independently of the driver: the written model against the shared reference response
+  // Independently of the driver: the written model against the reference response
   // (omega, sigma_max, re_H_0_0, im_H_0_0) at every reference frequency inside the band. The
   // reference is accurate to ~1e-12 relative, far below the tolerance, so no slack beyond that.
   const auto& so = std::get<ReducedSecondOrderModel>(reduced);
@@ -1133,7 +1133,7 @@ void expect_certified_hinf_matches_a_sweep(const fs::path& out, const fs::path& 
 
 TEST_F(Cli, SummaryReportsTheErrorHinfNormAndHowItWasObtained) {
   // build_so (N = 24): second order, 48 first-order states, modal reduction to 5e-2.
-  const fs::path model_dir = "../shared/models/build_so";
+  const fs::path model_dir = "models/build_so";
   const std::string yaml = "model:    {dir: " + model_dir.string() +
                            "}\nband:     {f_min_hz: 0.0159, f_max_hz: 159.0}\n"
                            "target:   {tolerance: 5.0e-2}\nreducer:  {name: modal}\n"

@@ -1,4 +1,4 @@
-// .mat models through the whole run: a shared model converted to a .mat file here (with matio
+// .mat models through the whole run: a benchmark model converted to a .mat file here (with matio
 // directly) must reduce to the same order and the same band error as its Matrix Market twin,
 // through the public driver; output.format: mat must write the reduced model and the bases the run
 // wrote as .mtx, bit for bit; and the `ecmor` commands that load models (info, reduce, simulate)
@@ -32,7 +32,7 @@ namespace {
 using test::bitwise_equal;
 using test::TempDir;
 
-/// A shared model, its band (Hz) and tolerance, and the MAT version to convert it to.
+/// A benchmark model, its band (Hz) and tolerance, and the MAT version to convert it to.
 struct Twin {
   const char* model;
   const char* band;
@@ -62,7 +62,7 @@ class MatTwin : public ::testing::TestWithParam<Twin> {};
 TEST_P(MatTwin, SameOrderAndBandErrorAsTheMtxModel) {
   const Twin& t = GetParam();
   TempDir tmp{"ecmor_test_mat_twin"};
-  const fs::path dir = fs::path("../shared/models") / t.model;
+  const fs::path dir = fs::path("models") / t.model;
   const fs::path mat = convert(dir, tmp / "model.mat", t.version);
   Registry& registry = test::plugin_registry("libecmor_modal.so");
 
@@ -100,7 +100,7 @@ TEST(MatOutput, FormatBothWritesTheSameModelAndBasesAsTheMtxFiles) {
   const Twin t{"lf10", "{f_min_hz: 15.9, f_max_hz: 1.59e6}", 1e-6, MAT_FT_MAT5};
   const fs::path out = tmp / "run";
   const RunSummary s = run_reduction(
-      parse_run_config(yaml("{dir: ../shared/models/lf10}", t, out, "both"), "both.yaml"),
+      parse_run_config(yaml("{dir: models/lf10}", t, out, "both"), "both.yaml"),
       test::plugin_registry("libecmor_modal.so"));
   ASSERT_TRUE(s.has_model) << s.message;
   const fs::path mat = out / kReducedModelMatFile;
@@ -140,7 +140,7 @@ TEST(MatCli, InfoReduceAndSimulateAcceptAMatModel) {
   {
     // Renamed variables, as a user's own file might have them.
     test::MatTestFile f(mat, MAT_FT_MAT73);
-    const auto so = std::get<SecondOrderModel>(load_model("../shared/models/lf10"));
+    const auto so = std::get<SecondOrderModel>(load_model("models/lf10"));
     f.sparse("Mass", so.M);
     f.sparse("D", so.D);
     f.sparse("Stiff", so.K);
@@ -152,7 +152,7 @@ TEST(MatCli, InfoReduceAndSimulateAcceptAMatModel) {
   EXPECT_EQ(renamed.exit_code, 1) << renamed.out;  // without the renames there is no model
   EXPECT_NE(renamed.out.find(mat.string() + ": no model variables"), std::string::npos)
       << renamed.out;
-  const fs::path plain = convert("../shared/models/lf10", tmp / "plain.mat", MAT_FT_MAT5);
+  const fs::path plain = convert("models/lf10", tmp / "plain.mat", MAT_FT_MAT5);
   const CliResult info =
       run_ecmor("info '" + plain.string() + "' --eigenfrequencies 2", tmp.path());
   EXPECT_EQ(info.exit_code, 0) << info.out;

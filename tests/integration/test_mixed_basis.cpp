@@ -101,7 +101,7 @@ TEST(MixedBasis, WithoutAUsefulBlockThePointsStartAtTheBandCentre) {
   const Band band{1.0 / kTwoPi, 1e4 / kTwoPi};
   const fs::path out = tmp / "out";
   const RunSummary s =
-      reduce(fs::absolute("../shared/models/fom"), "modal", "name: mixed_basis", out, "", band);
+      reduce(fs::absolute("models/fom"), "modal", "name: mixed_basis", out, "", band);
   SCOPED_TRACE(s.message);
   EXPECT_EQ(s.termination, Termination::Converged);
   ASSERT_TRUE(s.has_model);

@@ -34,7 +34,7 @@ namespace ecmor {
 namespace {
 
 const fs::path kLf10Config = "configs/lf10.yaml";
-const fs::path kLf10 = "../shared/models/lf10";
+const fs::path kLf10 = "models/lf10";
 
 using Result = test::CliResult;
 using test::read_text;
@@ -415,7 +415,7 @@ TEST_F(Plots, BenchChartsMatchTheTableAndShowFailedRuns) {
   write_text(bad, bad_text);
   // A second model with the same method: its own panel, the same series (colour and marker).
   const fs::path other = m_dir / "build_so.yaml";
-  write_text(other, "model:    {dir: " + fs::absolute("../shared/models/build_so").string() +
+  write_text(other, "model:    {dir: " + fs::absolute("models/build_so").string() +
                         "}\n"
                         "band:     {f_min_hz: 0.1, f_max_hz: 10}\n"
                         "target:   {tolerance: 1.0e-3}\n"

@@ -23,7 +23,7 @@ namespace {
 // iss_so (N = 270), a band with 43 modes: modal, second-order BT and greedy Krylov all meet 1e-2,
 // at different orders, in a few seconds each.
 const std::string kHead = R"(
-model:  {dir: ../shared/models/iss_so}
+model:  {dir: models/iss_so}
 band:   {f_min_hz: 0.0159, f_max_hz: 2.0}
 target: {tolerance: 1.0e-2, norm: spectral}
 )";
@@ -197,7 +197,7 @@ TEST(Portfolio, WithoutMembersTriesTheBundledReducersThatSuitTheModel) {
     test::TempDir dir;
     Registry registry;
     fill_registry(registry);
-    const std::string head = std::string("model: {dir: ../shared/models/") + c.model +
+    const std::string head = std::string("model: {dir: models/") + c.model +
                              "}\nband: {f_min_hz: 0.1, f_max_hz: 100}\n"
                              "target: {tolerance: 1.0e-2}\n";
     const RunSummary s = run_yaml(head + "strategy: {name: portfolio, prune: false}\n" +

@@ -27,7 +27,7 @@ namespace fs = std::filesystem;
 namespace ecmor {
 namespace {
 
-const fs::path kBuildSo = "../shared/models/build_so";
+const fs::path kBuildSo = "models/build_so";
 
 using Result = test::CliResult;
 using test::read_text;

@@ -41,7 +41,7 @@ using test::message_of;
 Registry& registry() { return test::plugin_registry("libecmor_balanced.so"); }
 
 std::filesystem::path shared(const std::string& name) {
-  return std::filesystem::path("../shared/models") / name;
+  return std::filesystem::path("models") / name;
 }
 
 Band band_of(double f_min, double f_max) {

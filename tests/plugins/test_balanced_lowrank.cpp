@@ -36,7 +36,7 @@ using test::message_of;
 Registry& registry() { return test::plugin_registry("libecmor_balanced.so"); }
 
 std::filesystem::path shared(const std::string& name) {
-  return std::filesystem::path("../shared/models") / name;
+  return std::filesystem::path("models") / name;
 }
 
 Band band_of(double f_min, double f_max) {
@@ -297,7 +297,7 @@ TEST(BalancedLowRank, BandLimitedLowRankAgreesWithTheDenseBandRoute) {
 
 // ref_freq_response.csv of a MIMO model: omega, sigma_max, then re_H_i_j, im_H_i_j.
 /// On a large model (rail_5177, 5177 states: the low-rank route) frequency-limited BT balances the
-/// band and beats plain BT there at the same order, measured against the shared reference response
+/// band and beats plain BT there at the same order, measured against the reference response
 /// at its frequencies inside the band (relative spectral error).
 TEST(BalancedLowRank, BandLimitedBeatsPlainOnALargeModelAgainstTheReference) {
   const std::string name = "rail_5177";

@@ -1,6 +1,6 @@
 // Tests of the "irka" reducer plugin, loaded through the registry like any plugin. References are
 // independent of the plugin: the full transfer function and its derivative by dense LU (Eigen) on
-// the shared models, the reduced model's poles and residues by Eigen's eigensolver on the returned
+// the benchmark models, the reduced model's poles and residues by Eigen's eigensolver on the returned
 // matrices.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -32,7 +32,7 @@ using test::message_of;
 Registry& registry() { return test::plugin_registry("libecmor_irka.so"); }
 
 std::filesystem::path shared(const std::string& name) {
-  return std::filesystem::path("../shared/models") / name;
+  return std::filesystem::path("models") / name;
 }
 
 /// A reducer bound to a model, the solver and a band.

@@ -56,7 +56,7 @@ class FrequencyLimitedIrka : public ::testing::TestWithParam<Case> {};
 
 TEST_P(FrequencyLimitedIrka, SmallerBandH2ErrorThanPlainIrka) {
   const Case c = GetParam();
-  const Model model = load_model(std::filesystem::path("../shared/models") / c.model);
+  const Model model = load_model(std::filesystem::path("models") / c.model);
   const Band band{c.f_min_hz, c.f_max_hz};
   auto solver = make_shifted_solver(model);
   H2QuadratureOptions q;
@@ -110,7 +110,7 @@ INSTANTIATE_TEST_SUITE_P(SharedModels, FrequencyLimitedIrka,
                          });
 
 TEST(FrequencyLimitedIrkaInput, RefusesTheBestStartAndAStrayQuadratureTolerance) {
-  const Model model = load_model("../shared/models/build");
+  const Model model = load_model("models/build");
   auto solver = make_shifted_solver(model);
   ParameterMap p("reducer 'irka'");
   p.set("frequency_limited", true);

@@ -38,7 +38,7 @@ class IrkaVersusBalancedTruncation : public ::testing::TestWithParam<Case> {};
 
 TEST_P(IrkaVersusBalancedTruncation, H2ErrorIsNoWorseAtOrders10And20) {
   const Case c = GetParam();
-  const Model model = load_model(std::filesystem::path("../shared/models") / c.model);
+  const Model model = load_model(std::filesystem::path("models") / c.model);
   const auto t0 = std::chrono::steady_clock::now();
   const ReducedModel dense = densify(model);
   // Errors by adaptive quadrature of ||G(i w) - Gr(i w)||_F^2 (core h2_error_quadrature, accurate

@@ -931,7 +931,7 @@ TEST(Krylov, ResponseMatchesTheIndependentReferenceOnTriplechain451) {
   // order 200. Measured: 4.6e-3 at 4.7 rad/s (5 moments each, order 125: 3.2e-2). Tolerance 1e-2
   // on the relative error at every one of the 200 reference frequencies (6 decades).
   const auto ref = test::read_reference_response(
-      "../shared/models/triplechain_saak09_n451/ref_freq_response.csv", 1, 1);
+      "models/triplechain_saak09_n451/ref_freq_response.csv", 1, 1);
   ASSERT_EQ(ref.omega.size(), 200u);
   std::vector<ExpansionPoint> pts;
   for (int i = 0; i < 12; ++i) {

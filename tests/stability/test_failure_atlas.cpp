@@ -215,7 +215,7 @@ struct Scenario {
 
 constexpr double kTwoPi = 6.283185307179586;
 
-fs::path shared(const std::string& name) { return fs::path("../shared/models") / name; }
+fs::path shared(const std::string& name) { return fs::path("models") / name; }
 
 std::vector<Scenario> scenarios() {
   auto chain = [](Chain c) {

@@ -3,7 +3,7 @@
 /// Loading full models from a directory of Matrix Market files or from a MATLAB .mat file, and
 /// writing and reading reduced models.
 ///
-/// Directory conventions (see ../shared/models/README.md):
+/// Directory conventions (see models/README.md):
 ///   second order: M.mtx D.mtx K.mtx B.mtx C.mtx [Cv.mtx]   (D.mtx optional: absent means D = 0)
 ///   descriptor:   E.mtx A.mtx B.mtx C.mtx                 (E.mtx optional: absent means E = I)
 /// A .mat file (MAT v4, v5 or v7.3, read with matio) holds the same matrices as variables named

@@ -3,7 +3,7 @@
 /// The YAML run configuration, validated: unknown keys are errors that suggest the nearest valid
 /// key; wrong types and ranges name the key and its line. Example:
 ///
-///   model:    {dir: ../shared/models/triplechain_saak09_n451}   # or {file: m.mat}
+///   model:    {dir: models/triplechain_saak09_n451}   # or {file: m.mat}
 ///   band:     {f_min_hz: 1.0e-5, f_max_hz: 10.0}
 ///   target:   {tolerance: 1.0e-3, norm: spectral}        # spectral (Eq. 22) | frobenius (Eq. 23)
 ///   reducer:  {name: modal, static_correction: true}     # plus reducer-specific parameters
