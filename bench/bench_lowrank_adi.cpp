@@ -1,7 +1,7 @@
-// bench_lowrank_adi: low-rank ADI on the large benchmark models, both Gramians, both shift strategies.
-// Measures (never asserts) iterations, rank, residual, time and where the time goes. Run from the
-// project root: ./build/bin/ecmor_bench_lowrank_adi [model ...] (default: triplechain_mess_n1501,
-// rail_5177, rail_20209); --no-compress skips the final column compression,
+// bench_lowrank_adi: low-rank ADI on the large benchmark models, both Gramians, both shift
+// strategies. Measures (never asserts) iterations, rank, residual, time and where the time goes.
+// Run from the project root: ./build/bin/ecmor_bench_lowrank_adi [model ...] (default:
+// triplechain_mess_n1501, rail_5177, rail_20209); --no-compress skips the final column compression,
 // --max-iterations N overrides the default budget, --tolerance T the ADI tolerance.
 // --band F1 F2 (Hz) runs the frequency-limited Gramians instead (lowrank_band_gramians, projection
 // shifts): quadrature nodes and time, then per Gramian the iterations, the rank of the

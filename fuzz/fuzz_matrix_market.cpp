@@ -5,7 +5,8 @@
 // the sanitizers, the harness checks the reader's contract and aborts, i.e. reports a crash, when
 //  * anything but an ecmor::Error escapes a reader;
 //  * an error message does not read "<path>: line <n>: <rule>" (or, for damaged gzip data, which
-//    the reader recognises by its magic bytes whatever the file's name, "<path>: byte <n>: <rule>");
+//    the reader recognises by its magic bytes whatever the file's name, "<path>: byte <n>:
+//    <rule>");
 //  * the readers disagree: a header the header reader refuses must make the full readers fail with
 //    the same message; a matrix read sparse must have the shape the header reader reports; a
 //    matrix read dense must equal the sparse one; only the dense-size rule may refuse a dense read
@@ -75,8 +76,8 @@ void check_message(const char* reader, const std::string& msg, const fs::path& p
   std::size_t digits = 0;
   while (i < msg.size() && msg[i] >= '0' && msg[i] <= '9') ++i, ++digits;
   if (digits == 0 || msg.compare(i, 2, ": ") != 0 || msg.size() <= i + 2)
-    contract(std::string(reader) + ": message lacks 'line <n>: <rule>' or 'byte <n>: <rule>': " +
-             msg);
+    contract(std::string(reader) +
+             ": message lacks 'line <n>: <rule>' or 'byte <n>: <rule>': " + msg);
 }
 
 bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }

@@ -33,9 +33,7 @@ inline Matrix random_matrix(Index rows, Index cols, unsigned seed) {
 }
 
 /// A model of models by its directory name.
-inline Model shared_model(const std::string& name) {
-  return load_model("models/" + name);
-}
+inline Model shared_model(const std::string& name) { return load_model("models/" + name); }
 
 /// A model directory (M, D, K, B, C .mtx) of a generated second-order model, for runs of the
 /// driver; `what` is the files' comment.

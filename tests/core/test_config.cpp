@@ -28,17 +28,17 @@ std::string parse_error(const std::string& yaml) {
 // A valid configuration, one key per line so that line numbers in messages are easy to predict.
 // Tests replace one line to break exactly one rule.
 const std::string kMinimal =
-    "model:\n"                        // 1
-    "  dir: models/lf10\n"  // 2
-    "band:\n"                         // 3
-    "  f_min_hz: 0.1\n"               // 4
-    "  f_max_hz: 100\n"               // 5
-    "target:\n"                       // 6
-    "  tolerance: 1.0e-3\n"           // 7
-    "reducer:\n"                      // 8
-    "  name: modal\n"                 // 9
-    "output:\n"                       // 10
-    "  dir: out/lf10\n";              // 11
+    "model:\n"               // 1
+    "  dir: models/lf10\n"   // 2
+    "band:\n"                // 3
+    "  f_min_hz: 0.1\n"      // 4
+    "  f_max_hz: 100\n"      // 5
+    "target:\n"              // 6
+    "  tolerance: 1.0e-3\n"  // 7
+    "reducer:\n"             // 8
+    "  name: modal\n"        // 9
+    "output:\n"              // 10
+    "  dir: out/lf10\n";     // 11
 
 std::string replace(std::string text, const std::string& from, const std::string& to) {
   const auto pos = text.find(from);

@@ -243,7 +243,8 @@ TEST(TransferFunction, ReducedSingularThrows) {
 }
 
 TEST(FrequencyResponse, ParallelEqualsSerial) {
-  ASSERT_TRUE(has_model("triplechain_saak09_n451")) << "benchmark model not found in " << models_dir();
+  ASSERT_TRUE(has_model("triplechain_saak09_n451"))
+      << "benchmark model not found in " << models_dir();
   Model model = read_model("triplechain_saak09_n451");
   auto solver = make_shifted_solver(model);
   const auto f = log_grid(1e-4, 10.0, 40);

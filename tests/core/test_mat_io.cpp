@@ -393,8 +393,8 @@ TEST(MatConfig, ModelFileVariablesAndOutputFormat) {
   EXPECT_EQ(c.model.variables, renames);
   EXPECT_EQ(c.output_format, OutputFormat::Mat);
 
-  const RunConfig d = parse_run_config(
-      "model: {dir: models/lf10}" + kRest + "output: {dir: out/x}\n", "run.yaml");
+  const RunConfig d =
+      parse_run_config("model: {dir: models/lf10}" + kRest + "output: {dir: out/x}\n", "run.yaml");
   EXPECT_TRUE(d.model.variables.empty());
   EXPECT_EQ(d.output_format, OutputFormat::Mtx);  // the default is unchanged
   EXPECT_EQ(

@@ -297,9 +297,9 @@ TEST(MatrixMarketGzip, RecognisedByContentAndNameMustMatch) {
   EXPECT_NE(msg.find((dir / "plain.mtx.gz").string() + ": byte 0: not gzip data"),
             std::string::npos)
       << msg;
-  EXPECT_EQ(test::message_of<InputError>(
-                [&] { (void)read_matrix_market_header(dir / "plain.mtx.gz"); }),
-            msg);
+  EXPECT_EQ(
+      test::message_of<InputError>([&] { (void)read_matrix_market_header(dir / "plain.mtx.gz"); }),
+      msg);
 }
 
 // `cat a.gz b.gz` is one valid gzip file: the text is the concatenation, as gzip -d gives it.
@@ -307,8 +307,8 @@ TEST(MatrixMarketGzip, SeveralMembersAreOneText) {
   TempDir dir{"ecmor_test_mm_gz"};
   for (std::size_t split : {std::size_t{1}, kGzText.size() / 2, kGzText.size() - 1}) {
     SCOPED_TRACE(split);
-    write_raw(dir / "m.mtx.gz", test::gzip_text(kGzText.substr(0, split)) +
-                                    test::gzip_text(kGzText.substr(split)));
+    write_raw(dir / "m.mtx.gz",
+              test::gzip_text(kGzText.substr(0, split)) + test::gzip_text(kGzText.substr(split)));
     const SparseMatrix A = read_matrix_market_sparse(dir / "m.mtx.gz");
     EXPECT_EQ(A.nonZeros(), 8);
     EXPECT_EQ(A.coeff(3, 1), 0.125);

@@ -147,8 +147,7 @@ TEST(BandResolventIntegrals, MatchTheDenseEigendecompositionOnBuild) {
 }
 
 TEST(BandResolventIntegrals, MatchTheDenseEigendecompositionOnASecondOrderChain) {
-  expect_band_integrals_match_dense(load_model("models/triplechain_cmess_n301"),
-                                    Band{0.01, 0.3});
+  expect_band_integrals_match_dense(load_model("models/triplechain_cmess_n301"), Band{0.01, 0.3});
 }
 
 TEST(BandH2, QuadratureMatchesTheAnalyticBandNormOfAFirstOrderLag) {

@@ -99,9 +99,9 @@ TEST(MatOutput, FormatBothWritesTheSameModelAndBasesAsTheMtxFiles) {
   TempDir tmp{"ecmor_test_mat_out"};
   const Twin t{"lf10", "{f_min_hz: 15.9, f_max_hz: 1.59e6}", 1e-6, MAT_FT_MAT5};
   const fs::path out = tmp / "run";
-  const RunSummary s = run_reduction(
-      parse_run_config(yaml("{dir: models/lf10}", t, out, "both"), "both.yaml"),
-      test::plugin_registry("libecmor_modal.so"));
+  const RunSummary s =
+      run_reduction(parse_run_config(yaml("{dir: models/lf10}", t, out, "both"), "both.yaml"),
+                    test::plugin_registry("libecmor_modal.so"));
   ASSERT_TRUE(s.has_model) << s.message;
   const fs::path mat = out / kReducedModelMatFile;
   // The .mtx files hold 17 significant digits, which read back bit for bit.

@@ -293,8 +293,7 @@ TEST_F(PetscBackend, SlepcEigenpairsMatchTheDenseReference) {
   ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
   ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
   ::setenv("OMPI_MCA_btl_vader_single_copy_mechanism", "none", 1);
-  const auto one =
-      std::get<SecondOrderModel>(load_model("models/triplechain_cmess_n301"));
+  const auto one = std::get<SecondOrderModel>(load_model("models/triplechain_cmess_n301"));
   auto twice = [](const SparseMatrix& A) {
     std::vector<Eigen::Triplet<double>> t;
     for (int k = 0; k < A.outerSize(); ++k)

@@ -1,7 +1,7 @@
 // Tests of the "irka" reducer plugin, loaded through the registry like any plugin. References are
 // independent of the plugin: the full transfer function and its derivative by dense LU (Eigen) on
-// the benchmark models, the reduced model's poles and residues by Eigen's eigensolver on the returned
-// matrices.
+// the benchmark models, the reduced model's poles and residues by Eigen's eigensolver on the
+// returned matrices.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 

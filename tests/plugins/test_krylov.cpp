@@ -930,8 +930,8 @@ TEST(Krylov, ResponseMatchesTheIndependentReferenceOnTriplechain451) {
   // (0.2 .. 4 rad/s): 12 points log-spaced there plus s0 = 0 (static response), 8 moments each,
   // order 200. Measured: 4.6e-3 at 4.7 rad/s (5 moments each, order 125: 3.2e-2). Tolerance 1e-2
   // on the relative error at every one of the 200 reference frequencies (6 decades).
-  const auto ref = test::read_reference_response(
-      "models/triplechain_saak09_n451/ref_freq_response.csv", 1, 1);
+  const auto ref =
+      test::read_reference_response("models/triplechain_saak09_n451/ref_freq_response.csv", 1, 1);
   ASSERT_EQ(ref.omega.size(), 200u);
   std::vector<ExpansionPoint> pts;
   for (int i = 0; i < 12; ++i) {
