@@ -49,6 +49,7 @@ if [ "$profile" = all ]; then
     libspdlog-dev
     clang-14 libclang-rt-14-dev libomp-14-dev   # scripts/fuzz.sh, scripts/sanitize.sh: libFuzzer, the sanitizers, OpenMP
     clang-format-14                             # scripts/format.sh, the test format_check
+    python3                                     # the tests layout_check and no_outside_paths
     libpetsc-complex-dev openmpi-bin   # the PETSc backend (complex scalars, MUMPS) over MPI
     libslepc-complex-dev               # its distributed eigensolver (modal reducer)
   )
