@@ -6,6 +6,8 @@
 /// Directory conventions (see models/README.md):
 ///   second order: M.mtx D.mtx K.mtx B.mtx C.mtx [Cv.mtx]   (D.mtx optional: absent means D = 0)
 ///   descriptor:   E.mtx A.mtx B.mtx C.mtx                 (E.mtx optional: absent means E = I)
+/// Each file may be gzip'ed instead (K.mtx.gz), mixed within a directory; a matrix present in
+/// both forms is an InputError naming both files.
 /// A .mat file (MAT v4, v5 or v7.3, read with matio) holds the same matrices as variables named
 /// M, D, K, B, C[, Cv] or E, A, B, C (or renamed, ModelSource::variables), each dense or sparse,
 /// of any real numeric or logical class (converted to double). In a descriptor file a variable D
@@ -100,8 +102,9 @@ ECMOR_API void write_reduction(const std::filesystem::path& dir, const ReducedMo
 /// \throws InputError naming the directory or file and the rule broken.
 ECMOR_API ReducedModel read_reduced_model(const std::filesystem::path& path);
 
-/// The projection bases of a run directory: V.mtx and W.mtx, else the variables V and W of its
-/// kReducedModelMatFile (no W there means W = V, as write_reduction writes a Galerkin basis).
+/// The projection bases of a run directory: V.mtx and W.mtx (either may be gzip'ed, V.mtx.gz),
+/// else the variables V and W of its kReducedModelMatFile (no W there means W = V, as
+/// write_reduction writes a Galerkin basis).
 struct ProjectionBases {
   Matrix V, W;
 };
