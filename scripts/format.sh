@@ -14,10 +14,19 @@ if ! command -v "$tool" >/dev/null 2>&1; then
   echo "format: $tool not found (bash scripts/setup.sh installs clang-format-14)" >&2
   exit 2
 fi
-mapfile -t files < <(git ls-files -- 'core/*.cpp' 'core/*.hpp' 'strategies/*.cpp' \
-  'strategies/*.hpp' 'plugins/*.cpp' 'plugins/*.hpp' 'apps/*.cpp' 'apps/*.hpp' 'tests/*.cpp' \
-  'tests/*.hpp' 'bench/*.cpp' 'bench/*.hpp' 'fuzz/*.cpp' 'fuzz/*.hpp' 'examples/*.cpp' \
-  'examples/*.hpp')
+folders=(core strategies plugins apps tests bench fuzz examples)
+if git rev-parse --is-inside-work-tree >/dev/null 2>&1; then
+  specs=()  # git pathspecs (quoted: the shell must not expand them)
+  for d in "${folders[@]}"; do specs+=("$d/*.cpp" "$d/*.hpp"); done
+  mapfile -t files < <(git ls-files -- "${specs[@]}")
+else
+  # An exported tree (no git, or no .git): every source in the same folders.
+  mapfile -t files < <(find "${folders[@]}" -type f \( -name '*.cpp' -o -name '*.hpp' \) | sort)
+fi
+if [ ${#files[@]} -eq 0 ]; then
+  echo "format: no C++ sources found under ${folders[*]}" >&2
+  exit 2
+fi
 if [ "$mode" = apply ]; then
   "$tool" -i --style=file "${files[@]}"
   exit 0
