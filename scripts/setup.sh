@@ -5,7 +5,8 @@
 #            machine's first run does not wait for the test, sanitizer, FE and MPI/PETSc packages;
 #   fe:      runtime and the programs of the CalculiX import pipeline (`ecmor import calculix`
 #            runs ccx; examples/calculix-beam meshes with gmsh, which brings OpenCASCADE and X11
-#            libraries: about 130 packages, kept out of the first run);
+#            libraries: about 130 packages, kept out of the first run; jq for
+#            examples/multibody/run.sh);
 #   all:     fe and GoogleTest, Google Benchmark, clang (fuzzing, sanitizers), PETSc/SLEPc over
 #            Open MPI (the optional backend).
 # Idempotent: packages already present are skipped; safe to run repeatedly.
@@ -41,6 +42,7 @@ packages=(
 )
 if [ "$profile" != runtime ]; then
   packages+=(calculix-ccx gmsh)   # `ecmor import calculix` runs ccx; the example meshes with gmsh
+  packages+=(jq)                  # examples/multibody/run.sh (the test multibody_sid_pipeline) reads JSON
 fi
 if [ "$profile" = all ]; then
   packages+=(
