@@ -23,8 +23,9 @@ nlohmann::json counters_json(const SolverCounters& c) {
   return j;
 }
 
-// The verified error curve, for plots and for users who want to look rather than read.
-void write_error_curve(const std::filesystem::path& path, const BandError& e) {
+}  // namespace
+
+void write_band_error_csv(const std::filesystem::path& path, const BandError& e) {
   write_file_atomically(path, [&](std::ostream& os) {
     // exact: 1 where the full model was solved, 0 where its response is the estimator's
     // reference model's (estimate mode).
@@ -37,6 +38,8 @@ void write_error_curve(const std::filesystem::path& path, const BandError& e) {
     }
   });
 }
+
+namespace {
 
 struct HinfReport {
   double value = 0.0;
@@ -86,17 +89,14 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 
 nlohmann::json accept_model(const StrategyResult& result, const RunConfig& config,
                             const Model& model, BandErrorEstimator& estimator,
-                            const ResponseCache& cache, const RigidBodyModes& rigid, bool writer,
-                            std::chrono::steady_clock::time_point start, RunSummary& summary) {
+                            const ResponseCache& cache, const RigidBodyModes& rigid,
+                            std::chrono::steady_clock::time_point start, RunSummary& summary,
+                            BandError& verified) {
   nlohmann::json j;
   const ReducerResult& best = *result.best;
-  if (writer) {
-    write_reduction(config.output_dir, best.model, best.V, best.W, config.output_format);
-  }
   // The reported model is always re-checked independently, converged or not (a stop request
   // no longer applies here: the check of the model being written is part of writing it).
-  const BandError verified = estimator.verify(best.model, config.verify_factor);
-  if (writer) write_error_curve(config.output_dir / "band_error.csv", verified);
+  verified = estimator.verify(best.model, config.verify_factor);
   summary.has_model = true;
   summary.order = best.V.cols();
   // Estimate mode: the reported error is the re-check's, measured against the full model at
@@ -239,7 +239,9 @@ nlohmann::json summary_json(const RunSummary& summary, const RunConfig& config, 
   j["norm"] = to_string(config.norm);
   j["band"] = {{"f_min_hz", config.band.f_min_hz}, {"f_max_hz", config.band.f_max_hz}};
   // The model as the YAML named it: `dir`, or `file` with the renamed `variables`.
-  if (is_mat_path(config.model.path)) {
+  if (config.model.path.empty()) {
+    j["model"] = {{"memory", true}};  // given in memory (the Python module), read from no file
+  } else if (is_mat_path(config.model.path)) {
     j["model"] = {{"file", config.model.path.string()}, {"variables", config.model.variables}};
   } else {
     j["model"] = {{"dir", config.model.path.string()}};

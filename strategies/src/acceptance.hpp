@@ -16,15 +16,18 @@ namespace ecmor::driver {
 /// Seconds since `start`.
 double seconds_since(std::chrono::steady_clock::time_point start);
 
-/// For result.best: writes it into config.output_dir (rank 0: `writer`), re-checks it
-/// (estimator.verify), writes band_error.csv, computes the H-infinity error and the stability
-/// against `rigid`; fills the model fields of `summary` (a converged result that fails the
-/// re-check becomes failed) and returns the JSON of the checks: hinf_error,
-/// undefined_frequencies_hz, sampling, error_control, points.
+/// For result.best: re-checks it (estimator.verify) into `verified`, computes the H-infinity
+/// error and the stability against `rigid`; fills the model fields of `summary` (a converged
+/// result that fails the re-check becomes failed) and returns the JSON of the checks:
+/// hinf_error, undefined_frequencies_hz, sampling, error_control, points. Writes nothing.
 nlohmann::json accept_model(const StrategyResult& result, const RunConfig& config,
                             const Model& model, BandErrorEstimator& estimator,
-                            const ResponseCache& cache, const RigidBodyModes& rigid, bool writer,
-                            std::chrono::steady_clock::time_point start, RunSummary& summary);
+                            const ResponseCache& cache, const RigidBodyModes& rigid,
+                            std::chrono::steady_clock::time_point start, RunSummary& summary,
+                            BandError& verified);
+
+/// band_error.csv: the verified error curve, for plots and for users who want to look.
+void write_band_error_csv(const std::filesystem::path& path, const BandError& e);
 
 /// The full model's own stability (summary.full_stability), a warning when it is unstable or
 /// marginal (not for a free body whose reduced model keeps its rigid-body modes), and the JSON

@@ -234,13 +234,14 @@ ParameterValue::Storage classify_scalar(const YAML::Node& node) {
 
 class Parser {
  public:
-  explicit Parser(std::string name) : m_name(std::move(name)) {}
+  Parser(std::string name, ConfigRequirements requirements)
+      : m_name(std::move(name)), m_req(requirements) {}
 
   RunConfig parse(const std::string& yaml);
 
  private:
   std::string at(const YAML::Mark& mark) const {
-    return mark.is_null() ? m_name : fmt::format("{}:{}", m_name, mark.line + 1);
+    return mark.is_null() || !m_req.lines ? m_name : fmt::format("{}:{}", m_name, mark.line + 1);
   }
   std::string at(const YAML::Node& node) const {
     return node.IsDefined() ? at(node.Mark()) : m_name;
@@ -324,6 +325,7 @@ class Parser {
                            const std::string& full_key);
 
   std::string m_name;
+  ConfigRequirements m_req;
   YAML::Node m_root;
 };
 
@@ -557,7 +559,7 @@ RunConfig Parser::parse(const std::string& yaml) {
   const bool portfolio = names_portfolio();
   require_sections(portfolio);
   RunConfig config;
-  parse_model(config);
+  if (m_req.model) parse_model(config);
   parse_band(config);
   parse_target(config);
   parse_strategy(portfolio, config);
@@ -595,8 +597,14 @@ bool Parser::names_portfolio() {
 }
 
 void Parser::require_sections(bool portfolio) {
+  if (!m_req.model && m_root["model"].IsDefined())
+    fail(key_location(m_root, "model"),
+         "the model is given by the caller, so the configuration must not name one: remove the "
+         "'model' section");
   for (const char* required : {"model", "band", "target", "reducer", "output"}) {
     if (portfolio && std::string(required) == "reducer") continue;
+    if (!m_req.model && std::string(required) == "model") continue;
+    if (!m_req.output && std::string(required) == "output") continue;
     if (!m_root[required].IsDefined())
       fail(at(m_root), fmt::format("missing required section '{}'", required));
   }
@@ -734,7 +742,8 @@ void Parser::parse_check(RunConfig& config) {
 
 void Parser::parse_output(RunConfig& config) {
   const YAML::Node output = section(m_root, "output", {"dir", "format"});
-  config.output_dir = path_value(output, "output", "dir");
+  if (m_req.output || output["dir"].IsDefined())
+    config.output_dir = path_value(output, "output", "dir");
   if (auto format = choice<OutputFormat>(
           output, "output", "format",
           {{"mtx", OutputFormat::Mtx}, {"mat", OutputFormat::Mat}, {"both", OutputFormat::Both}}))
@@ -770,8 +779,9 @@ std::vector<ParameterDoc> section_options(const std::string& section) {
   throw std::invalid_argument("section_options: '" + section + "' is no section of options");
 }
 
-RunConfig parse_run_config(const std::string& yaml, const std::string& name) {
-  return Parser(name).parse(yaml);
+RunConfig parse_run_config(const std::string& yaml, const std::string& name,
+                           const ConfigRequirements& requirements) {
+  return Parser(name, requirements).parse(yaml);
 }
 
 RunConfig load_run_config(const std::filesystem::path& path) {

@@ -61,14 +61,15 @@ RunSummary stopped_while_sampling(const RunConfig& config, const Model& model,
 
 }  // namespace
 
-RunSummary run_reduction(const RunConfig& given, Registry& registry, RunObserver* observer) {
+namespace {
+
+RunResult run_loaded(const RunConfig& given, const Model& model, Registry& registry,
+                     RunObserver* observer, std::chrono::steady_clock::time_point start,
+                     double load_seconds) {
   using driver::seconds_since;
-  const auto start = std::chrono::steady_clock::now();
-  const Model model = load_model(given.model);
   RunConfig config = given;
   if (config.is_portfolio() && config.portfolio.empty())
     config.portfolio = default_portfolio(model, registry);
-  const double load_seconds = seconds_since(start);
   if (observer) observer->on_model_loaded(config, model, load_seconds);
 
   // Bad configuration (of every member) is found before any heavy work.
@@ -92,22 +93,23 @@ RunSummary run_reduction(const RunConfig& given, Registry& registry, RunObserver
     InterruptScope interrupt([&] { return stop.signalled(); });
     estimator = std::make_unique<BandErrorEstimator>(cache, config.band, error_options);
   } catch (const Interrupted& e) {
-    RunSummary summary =
-        stopped_while_sampling(config, model, *solver, cache, e, load_seconds, start);
-    if (observer) observer->on_finished(summary);
-    return summary;
+    RunResult out;
+    out.summary = stopped_while_sampling(config, model, *solver, cache, e, load_seconds, start);
+    if (observer) observer->on_finished(out.summary);
+    return out;
   }
   // The full model's rigid-body modes (the null space of K), before any reduction: every reduced
   // model is judged against them (a free body's reduced model keeps its poles at s = 0).
   const double rigid_start = seconds_since(start);
   const RigidBodyModes rigid = rigid_body_modes(model, *solver);
   const double rigid_seconds = seconds_since(start) - rigid_start;
+  // Files are written only with an output directory, and under MPI (PETSc backend), where every
+  // rank runs this driver, by rank 0 alone.
+  const bool writer = process_rank() == 0 && !config.output_dir.empty();
   // Created at the first record: a reducer that refuses the model in setup() leaves no output
   // directory behind (bad input is reported before anything is written).
   std::optional<HistoryWriter> history;
-  Index recorded = 0;
-  // Under MPI (PETSc backend) every rank runs this driver; rank 0 alone writes the outputs.
-  const bool writer = process_rank() == 0;
+  RunResult out;
   auto record = [&](const IterationRecord& r) {
     // A write error is rank 0's alone; made collective, so that every rank leaves the strategy
     // at the same record instead of the others waiting in the next collective solve.
@@ -120,23 +122,24 @@ RunSummary run_reduction(const RunConfig& given, Registry& registry, RunObserver
         failure = e.what();
       }
     }
-    ++recorded;
+    out.history.push_back(r);
     if (any_process(!failure.empty()))
       throw IoError(failure.empty() ? std::string("rank 0 could not write the history") : failure);
   };
 
   driver::MemberRuns runs = driver::run_members(
       members, driver::MemberEnvironment{config, model, *solver, cache, *estimator, rigid, start,
-                                         stop, observer, record, [&] { return recorded; }});
+                                         stop, observer, record,
+                                         [&] { return static_cast<Index>(out.history.size()); }});
   int winner = -1;
-  const StrategyResult result = driver::conclude(runs, portfolio, stop, winner);
+  StrategyResult result = driver::conclude(runs, portfolio, stop, winner);
 
-  RunSummary summary;
+  RunSummary& summary = out.summary;
   summary.termination = result.termination;
   summary.message = result.message;
   summary.tolerance = config.tolerance;
   summary.output_dir = config.output_dir;
-  summary.iterations = recorded;
+  summary.iterations = static_cast<Index>(out.history.size());
   summary.attempts = runs.attempts;
   const bool won = winner >= 0;
   summary.reducer =
@@ -148,8 +151,14 @@ RunSummary run_reduction(const RunConfig& given, Registry& registry, RunObserver
 
   nlohmann::json j;
   if (result.best) {
-    j.update(driver::accept_model(result, config, model, *estimator, cache, rigid, writer, start,
-                                  summary));
+    const ReducerResult& best = *result.best;
+    // Written before the re-check: a run that dies in it still leaves its model.
+    if (writer)
+      write_reduction(config.output_dir, best.model, best.V, best.W, config.output_format);
+    j.update(driver::accept_model(result, config, model, *estimator, cache, rigid, start, summary,
+                                  out.verified));
+    if (writer) driver::write_band_error_csv(config.output_dir / "band_error.csv", out.verified);
+    out.model = std::move(result.best);  // the bases are N x n: moved, not copied
   }
   j.update(driver::report_stability(config, model, rigid, rigid_seconds, start, summary));
   summary.counters = solver->counters();
@@ -164,10 +173,40 @@ RunSummary run_reduction(const RunConfig& given, Registry& registry, RunObserver
   summary.seconds = seconds_since(start);
   summary.peak_memory_mb = peak_memory_mb();
   j.update(driver::summary_json(summary, config, model, solver->backend(), winner));
-  if (writer) write_text_atomically(config.output_dir / "summary.json", j.dump(2) + "\n");
+  out.summary_json = j.dump(2) + "\n";
+  if (writer) write_text_atomically(config.output_dir / "summary.json", out.summary_json);
 
   if (observer) observer->on_finished(summary);
-  return summary;
+  return out;
+}
+
+}  // namespace
+
+RunResult run_reduction(const RunConfig& config, const Model& model, Registry& registry,
+                        RunObserver* observer) {
+  return run_loaded(config, model, registry, observer, std::chrono::steady_clock::now(), 0.0);
+}
+
+RunSummary run_reduction(const RunConfig& config, Registry& registry, RunObserver* observer) {
+  const auto start = std::chrono::steady_clock::now();
+  const Model model = load_model(config.model);
+  return run_loaded(config, model, registry, observer, start, driver::seconds_since(start)).summary;
+}
+
+void write_run_outputs(const RunResult& result, const std::filesystem::path& dir,
+                       OutputFormat format) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec || !std::filesystem::is_directory(dir))
+    throw IoError(fmt::format("cannot create the output directory {}: {}", dir.string(),
+                              ec ? ec.message() : "not a directory"));
+  if (result.model) {
+    write_reduction(dir, result.model->model, result.model->V, result.model->W, format);
+    driver::write_band_error_csv(dir / "band_error.csv", result.verified);
+  }
+  if (!result.history.empty()) write_history(dir, result.history);
+  if (!result.summary_json.empty())
+    write_text_atomically(dir / "summary.json", result.summary_json);
 }
 
 }  // namespace ecmor

@@ -334,15 +334,20 @@ HistoryWriter::HistoryWriter(std::filesystem::path dir) : m_dir(std::move(dir)) 
 
 void HistoryWriter::append(const IterationRecord& record) {
   m_records.push_back(record);
+  write_history(m_dir, m_records);
+}
 
+std::string history_json_line(const IterationRecord& record) { return to_json(record).dump(); }
+
+void write_history(const std::filesystem::path& dir, const std::vector<IterationRecord>& records) {
   std::string csv = csv_header();
   std::string jsonl;
-  for (const IterationRecord& r : m_records) {
+  for (const IterationRecord& r : records) {
     csv += csv_row(r);
-    jsonl += to_json(r).dump() + "\n";
+    jsonl += history_json_line(r) + "\n";
   }
-  replace_file(m_dir / "history.csv", csv);
-  replace_file(m_dir / "history.jsonl", jsonl);
+  replace_file(dir / "history.csv", csv);
+  replace_file(dir / "history.jsonl", jsonl);
 }
 
 std::vector<HistoryCsvRow> read_history_csv(const std::filesystem::path& path) {

@@ -108,8 +108,22 @@ struct RunConfig {
 ///         with their line.
 RunConfig load_run_config(const std::filesystem::path& path);
 
-/// Same from a string (for tests); `name` is used in messages.
-RunConfig parse_run_config(const std::string& yaml, const std::string& name);
+/// What a configuration must hold besides band, target and the reducer/strategy sections.
+struct ConfigRequirements {
+  /// The model section is required. False: the caller holds the model in memory (the Python
+  /// module's ecmor.reduce(model, ...)), and a model section is an error.
+  bool model = true;
+  /// The output section (output.dir) is required. False: it is optional; without output.dir
+  /// the run writes nothing (RunConfig::output_dir empty).
+  bool output = true;
+  /// Messages cite "name:line". False for text generated from another form (a Python dict),
+  /// whose lines mean nothing to the user: messages cite `name` alone.
+  bool lines = true;
+};
+
+/// Same from a string; `name` is used in messages.
+RunConfig parse_run_config(const std::string& yaml, const std::string& name,
+                           const ConfigRequirements& requirements = {});
 
 /// The documented options of the portfolio strategy's own keys (`prune`; `members` and
 /// `time_limit_s` are described above), from the option specs the reader uses: what

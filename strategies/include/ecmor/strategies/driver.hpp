@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -132,6 +133,32 @@ class RunObserver {
 /// grow_order members after them.
 /// \throws ConfigError when none of them is loaded.
 std::vector<PortfolioMember> default_portfolio(const Model& model, const Registry& registry);
+
+/// Everything a finished run produced, in memory: what its output files hold. A run without an
+/// output directory (RunConfig::output_dir empty: the Python module's runs) writes nothing and
+/// keeps all of it here; write_run_outputs() writes it later, file for file as a run with an
+/// output directory does.
+struct RunResult {
+  RunSummary summary;
+  std::string summary_json;              ///< the text of summary.json
+  std::vector<IterationRecord> history;  ///< every record, as history.csv and history.jsonl
+  /// The reported model with its bases V, W and expansion points (absent: no usable model).
+  std::optional<ReducerResult> model;
+  BandError verified;  ///< the reported model's re-check, as band_error.csv (with a model)
+};
+
+/// Writes a finished run's outputs into `dir` (created if needed), each file atomically: the
+/// reduced model and V, W in `format` (with a model), history.csv, history.jsonl,
+/// band_error.csv (with a model) and summary.json.
+/// 	hrows IoError naming the file that could not be written.
+void write_run_outputs(const RunResult& result, const std::filesystem::path& dir,
+                       OutputFormat format);
+
+/// Runs one configured reduction of a model already in memory (config.model is then only
+/// reported, not read). With config.output_dir empty nothing is written; otherwise the outputs
+/// are written as the run goes (the history after every iteration), as below.
+RunResult run_reduction(const RunConfig& config, const Model& model, Registry& registry,
+                        RunObserver* observer = nullptr);
 
 /// Runs one configured reduction; a portfolio (config.is_portfolio()) runs its members one
 /// after the other on the same solver and full-response cache, so full-model responses computed

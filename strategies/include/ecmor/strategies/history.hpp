@@ -46,6 +46,15 @@ class HistoryWriter {
   std::vector<IterationRecord> m_records;
 };
 
+/// One line of history.jsonl (without its newline): every field of the record, nothing rounded;
+/// non-finite numbers as the strings "inf", "-inf", "nan".
+std::string history_json_line(const IterationRecord& record);
+
+/// Writes history.csv and history.jsonl of `records` into the existing directory `dir`, each
+/// atomically (what HistoryWriter::append writes).
+/// \throws IoError naming the file that could not be written.
+void write_history(const std::filesystem::path& dir, const std::vector<IterationRecord>& records);
+
 /// One row of history.csv as read back: the fields the CSV carries. It holds part of an
 /// IterationRecord (the points as format_points() text, two of the solver counters, no
 /// diagnostics); history.jsonl has every field.
