@@ -72,3 +72,40 @@ if(NOT ECMOR_WITH_PETSC STREQUAL "OFF")
     message(STATUS "ecmor: PETSc backend OFF: ${_ecmor_petsc_problem}")
   endif()
 endif()
+
+# The Python module (python/, docs/python.md): Python 3 with its headers, NumPy and pybind11
+# (Debian: python3-dev, python3-numpy, pybind11-dev; the tests also need python3-scipy and
+# python3-pytest). The interpreter must import NumPy: one found first on PATH without it (a pyenv
+# or virtualenv shim) switches the module off with a message; -DPython3_EXECUTABLE=... chooses.
+set(ECMOR_PYTHON FALSE)
+if(ECMOR_BUILD_PYTHON)
+  find_package(Python3 3.9 COMPONENTS Interpreter Development.Module)
+  set(_ecmor_python_problem "")
+  if(NOT Python3_FOUND)
+    set(_ecmor_python_problem "no Python 3 interpreter with headers (install python3-dev)")
+  else()
+    execute_process(COMMAND "${Python3_EXECUTABLE}" -c "import numpy"
+                    RESULT_VARIABLE _ecmor_numpy OUTPUT_QUIET ERROR_QUIET)
+    find_package(pybind11 CONFIG QUIET)
+    if(NOT _ecmor_numpy EQUAL 0)
+      set(_ecmor_python_problem "${Python3_EXECUTABLE} cannot import numpy (install python3-numpy, or choose the interpreter with -DPython3_EXECUTABLE=...)")
+    elseif(NOT pybind11_FOUND)
+      set(_ecmor_python_problem "pybind11 not found (install pybind11-dev)")
+    endif()
+  endif()
+  if(_ecmor_python_problem STREQUAL "")
+    set(ECMOR_PYTHON TRUE)
+    # Where `cmake --install` puts the package: Debian's dist-packages of the prefix (/usr:
+    # lib/python3/dist-packages; any other prefix, e.g. /usr/local: lib/python3.X/dist-packages).
+    if(CMAKE_INSTALL_PREFIX STREQUAL "/usr")
+      set(_ecmor_py_default "lib/python3/dist-packages")
+    else()
+      set(_ecmor_py_default "lib/python3.${Python3_VERSION_MINOR}/dist-packages")
+    endif()
+    set(ECMOR_PYTHON_INSTALL_DIR "${_ecmor_py_default}" CACHE STRING
+        "Where the Python package ecmor is installed, relative to the prefix")
+    message(STATUS "ecmor: Python module ON (${Python3_EXECUTABLE}, Python ${Python3_VERSION}, pybind11 ${pybind11_VERSION})")
+  else()
+    message(STATUS "ecmor: Python module OFF: ${_ecmor_python_problem}")
+  endif()
+endif()

@@ -26,6 +26,12 @@ if [ "$profile" = all ]; then
 elif [ ! -f "$build_dir/CMakeCache.txt" ]; then
   flags+=(-DECMOR_BUILD_TESTS=OFF -DECMOR_BUILD_BENCH=OFF)
 fi
+# The Python module needs an interpreter that imports NumPy (setup.sh installs Debian's): when
+# the python3 first on PATH (a pyenv or virtualenv shim) cannot, Debian's own is named.
+if ! python3 -c 'import numpy' >/dev/null 2>&1 && [ -x /usr/bin/python3 ] &&
+   /usr/bin/python3 -c 'import numpy' >/dev/null 2>&1; then
+  flags+=(-DPython3_EXECUTABLE=/usr/bin/python3)
+fi
 if [ ! -f "$build_dir/CMakeCache.txt" ]; then
   cmake -S . -B "$build_dir" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release "${flags[@]}"
 else

@@ -14,7 +14,7 @@ if ! command -v "$tool" >/dev/null 2>&1; then
   echo "format: $tool not found (bash scripts/setup.sh installs clang-format-14)" >&2
   exit 2
 fi
-folders=(core strategies plugins apps tests bench fuzz examples)
+folders=(core strategies plugins apps python tests bench fuzz examples)
 if git rev-parse --is-inside-work-tree >/dev/null 2>&1; then
   specs=()  # git pathspecs (quoted: the shell must not expand them)
   for d in "${folders[@]}"; do specs+=("$d/*.cpp" "$d/*.hpp"); done

@@ -8,7 +8,7 @@
 #            libraries: about 130 packages, kept out of the first run; jq for
 #            examples/multibody/run.sh);
 #   all:     fe and GoogleTest, Google Benchmark, clang (fuzzing, sanitizers), PETSc/SLEPc over
-#            Open MPI (the optional backend).
+#            Open MPI (the optional backend), the Python module's build and test packages.
 # Idempotent: packages already present are skipped; safe to run repeatedly.
 # Needs root (or sudo) and the Debian package registry; downloads nothing else.
 # OpenBLAS (its OpenMP build) comes with them: Debian's alternatives put it behind libblas.so.3
@@ -52,6 +52,8 @@ if [ "$profile" = all ]; then
     clang-14 libclang-rt-14-dev libomp-14-dev   # scripts/fuzz.sh, scripts/sanitize.sh: libFuzzer, the sanitizers, OpenMP
     clang-format-14                             # scripts/format.sh, the test format_check
     python3                                     # the tests layout_check and no_outside_paths
+    python3-dev pybind11-dev python3-numpy      # the Python module (python/, docs/python.md)
+    python3-scipy python3-pytest python3-yaml   # its tests (tests/python/)
     libpetsc-complex-dev openmpi-bin   # the PETSc backend (complex scalars, MUMPS) over MPI
     libslepc-complex-dev               # its distributed eigensolver (modal reducer)
   )

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The SDK end to end, as a researcher does it: install an already-built ecmor into a temporary
 # prefix, check the installed layout and driver, then configure, build and test the plugin template
-# (examples/plugin-template) as a separate project against that prefix only.
+# (examples/plugin-template) as a separate project against that prefix only. With the Python
+# module built, the installed package is imported and must find the bundled plugins.
 # Usage: scripts/test_sdk.sh [BUILD_DIR]      (default: $BUILD_DIR, else build; relative to the root)
 # Environment: JOBS (default: number of cores), KEEP_SDK_TEST=1 keeps the temporary directory.
 # The temporary directory is created under BUILD_DIR and removed on success; on failure it is kept
@@ -76,6 +77,32 @@ for name in "${bundled[@]}"; do
     die "the installed 'ecmor plugins' does not list '$name':"$'\n'"$listing"
 done
 say "installed driver lists ${bundled[*]}"
+
+# The Python module, when the build has it: importable from the installed package directory alone,
+# its extension loading libecmor_core from the prefix, and finding the bundled plugins by itself.
+pydir=$(sed -n 's/^ECMOR_PYTHON_INSTALL_DIR:[A-Z]*=//p' "$build_dir/CMakeCache.txt")
+python=$(sed -n 's/^Python3_EXECUTABLE:[A-Z]*=//p' "$build_dir/CMakeCache.txt")
+if [ -n "$pydir" ] && [ -n "$python" ]; then
+  extension=$(ls "$prefix/$pydir"/ecmor/_ecmor*.so 2>/dev/null) ||
+    die "the install has no Python extension in $prefix/$pydir/ecmor"
+  core=$(ldd "$extension" | awk '/libecmor_core/ {print $3}')
+  case $core in
+    "$prefix"/*) ;;
+    *) die "$extension loads libecmor_core from '${core:-nowhere}', not from $prefix/lib" ;;
+  esac
+  listing=$(cd "$work" && env -u ECMOR_PLUGIN_PATH PYTHONPATH="$prefix/$pydir" "$python" -c \
+    'import ecmor; print(ecmor.__file__); print(" ".join(p["name"] for p in ecmor.plugins()))' 2>&1) ||
+    die "importing the installed Python module failed: $listing"
+  case $listing in
+    "$prefix"/*) ;;
+    *) die "python imported ecmor from elsewhere: $listing" ;;
+  esac
+  for name in "${bundled[@]}"; do
+    grep -Eq "(^|[^a-z_])$name([^a-z_]|$)" <<<"$listing" ||
+      die "the installed Python module does not list '$name':"$'\n'"$listing"
+  done
+  say "installed Python module ($pydir) lists ${bundled[*]}"
+fi
 
 generator=()
 if command -v ninja >/dev/null 2>&1; then generator=(-G Ninja); fi
