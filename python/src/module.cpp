@@ -11,6 +11,8 @@
 #include <csignal>
 #include <cstring>
 #include <memory>
+#include <type_traits>
+#include <variant>
 
 #include "arrays.hpp"
 #include "ecmor/base/error.hpp"
@@ -46,58 +48,71 @@ struct Run {
 
 // ---- models in ------------------------------------------------------------------------------
 
-FullModel second_order(const py::tuple& M, const py::tuple& D, const py::tuple& K,
-                       const py::tuple& B, const py::tuple& C, const py::object& Cv,
-                       const std::string& origin) {
-  SecondOrderModel m;
-  m.M = sparse_from(M, origin);
-  m.D = sparse_from(D, origin);
-  m.K = sparse_from(K, origin);
+// The N x N matrices of a full model are sparse, of a reduced one dense; B, C, Cv dense in both.
+template <class Mat>
+Mat square_from(const py::tuple& input, const std::string& origin) {
+  if constexpr (std::is_same_v<Mat, SparseMatrix>) {
+    return sparse_from(input, origin);
+  } else {
+    return dense_from(input, origin);
+  }
+}
+
+// A model of kind Model (Model or ReducedModel) holding `system`, validated.
+template <class Variant, class System>
+std::shared_ptr<const Variant> validated(System system, const std::string& origin) {
+  auto model = std::make_shared<const Variant>(std::move(system));
+  validate(*model, origin);
+  return model;
+}
+
+template <class Variant, class Mat>
+std::shared_ptr<const Variant> second_order_of(const py::tuple& M, const py::tuple& D,
+                                               const py::tuple& K, const py::tuple& B,
+                                               const py::tuple& C, const py::object& Cv,
+                                               const std::string& origin) {
+  SecondOrderSystem<Mat> m;
+  m.M = square_from<Mat>(M, origin);
+  m.D = square_from<Mat>(D, origin);
+  m.K = square_from<Mat>(K, origin);
   m.B = dense_from(B, origin);
   m.C = dense_from(C, origin);
   if (!Cv.is_none()) m.Cv = dense_from(Cv.cast<py::tuple>(), origin);
-  auto model = std::make_shared<const Model>(std::move(m));
-  validate(*model, origin);
-  return {model};
+  return validated<Variant>(std::move(m), origin);
+}
+
+template <class Variant, class Mat>
+std::shared_ptr<const Variant> descriptor_of(const py::tuple& E, const py::tuple& A,
+                                             const py::tuple& B, const py::tuple& C,
+                                             const std::string& origin) {
+  DescriptorSystem<Mat> m;
+  m.E = square_from<Mat>(E, origin);
+  m.A = square_from<Mat>(A, origin);
+  m.B = dense_from(B, origin);
+  m.C = dense_from(C, origin);
+  return validated<Variant>(std::move(m), origin);
+}
+
+FullModel second_order(const py::tuple& M, const py::tuple& D, const py::tuple& K,
+                       const py::tuple& B, const py::tuple& C, const py::object& Cv,
+                       const std::string& origin) {
+  return {second_order_of<Model, SparseMatrix>(M, D, K, B, C, Cv, origin)};
 }
 
 FullModel descriptor(const py::tuple& E, const py::tuple& A, const py::tuple& B, const py::tuple& C,
                      const std::string& origin) {
-  DescriptorModel m;
-  m.E = sparse_from(E, origin);
-  m.A = sparse_from(A, origin);
-  m.B = dense_from(B, origin);
-  m.C = dense_from(C, origin);
-  auto model = std::make_shared<const Model>(std::move(m));
-  validate(*model, origin);
-  return {model};
+  return {descriptor_of<Model, SparseMatrix>(E, A, B, C, origin)};
 }
 
 Reduced reduced_second_order(const py::tuple& M, const py::tuple& D, const py::tuple& K,
                              const py::tuple& B, const py::tuple& C, const py::object& Cv,
                              const std::string& origin) {
-  ReducedSecondOrderModel m;
-  m.M = dense_from(M, origin);
-  m.D = dense_from(D, origin);
-  m.K = dense_from(K, origin);
-  m.B = dense_from(B, origin);
-  m.C = dense_from(C, origin);
-  if (!Cv.is_none()) m.Cv = dense_from(Cv.cast<py::tuple>(), origin);
-  auto model = std::make_shared<const ReducedModel>(std::move(m));
-  validate(*model, origin);
-  return {model};
+  return {second_order_of<ReducedModel, Matrix>(M, D, K, B, C, Cv, origin)};
 }
 
 Reduced reduced_descriptor(const py::tuple& E, const py::tuple& A, const py::tuple& B,
                            const py::tuple& C, const std::string& origin) {
-  ReducedDescriptorModel m;
-  m.E = dense_from(E, origin);
-  m.A = dense_from(A, origin);
-  m.B = dense_from(B, origin);
-  m.C = dense_from(C, origin);
-  auto model = std::make_shared<const ReducedModel>(std::move(m));
-  validate(*model, origin);
-  return {model};
+  return {descriptor_of<ReducedModel, Matrix>(E, A, B, C, origin)};
 }
 
 FullModel load(const std::filesystem::path& path,
@@ -109,9 +124,30 @@ FullModel load(const std::filesystem::path& path,
 
 // ---- matrices out -----------------------------------------------------------------------------
 
+// The matrix `name` of a model of either kind, through square() (M, D, K, E, A) or rect() (B, C,
+// Cv); KeyError for a name the kind does not have.
+template <class SecondOrder, class Descriptor, class Square, class Rect>
+py::object named_matrix(const std::variant<SecondOrder, Descriptor>& model, const std::string& name,
+                        Square square, Rect rect) {
+  if (const auto* so = std::get_if<SecondOrder>(&model)) {
+    if (name == "M") return square(so->M);
+    if (name == "D") return square(so->D);
+    if (name == "K") return square(so->K);
+    if (name == "B") return rect(so->B);
+    if (name == "C") return rect(so->C);
+    if (name == "Cv") return rect(so->Cv);
+  } else {
+    const auto& ds = std::get<Descriptor>(model);
+    if (name == "E") return square(ds.E);
+    if (name == "A") return square(ds.A);
+    if (name == "B") return rect(ds.B);
+    if (name == "C") return rect(ds.C);
+  }
+  throw py::key_error(name);
+}
+
 // ("sparse", (data, indices, indptr), (rows, cols)) or ("dense", array); None for an absent Cv.
 py::object full_matrix(const py::object& self, const std::string& name) {
-  const Model& model = *self.cast<const FullModel&>().model;
   auto sparse = [&](const SparseMatrix& m) -> py::object {
     return py::make_tuple("sparse", sparse_view(m, self), py::make_tuple(m.rows(), m.cols()));
   };
@@ -119,43 +155,15 @@ py::object full_matrix(const py::object& self, const std::string& name) {
     if (m.size() == 0) return py::none();
     return py::make_tuple("dense", dense_view(m, self));
   };
-  if (const auto* so = std::get_if<SecondOrderModel>(&model)) {
-    if (name == "M") return sparse(so->M);
-    if (name == "D") return sparse(so->D);
-    if (name == "K") return sparse(so->K);
-    if (name == "B") return dense(so->B);
-    if (name == "C") return dense(so->C);
-    if (name == "Cv") return dense(so->Cv);
-  } else {
-    const auto& ds = std::get<DescriptorModel>(model);
-    if (name == "E") return sparse(ds.E);
-    if (name == "A") return sparse(ds.A);
-    if (name == "B") return dense(ds.B);
-    if (name == "C") return dense(ds.C);
-  }
-  throw py::key_error(name);
+  return named_matrix(*self.cast<const FullModel&>().model, name, sparse, dense);
 }
 
+// A read-only NumPy array; None for an absent Cv.
 py::object reduced_matrix(const py::object& self, const std::string& name) {
-  const ReducedModel& model = *self.cast<const Reduced&>().model;
   auto dense = [&](const Matrix& m) -> py::object {
     return m.size() == 0 ? py::object(py::none()) : py::object(dense_view(m, self));
   };
-  if (const auto* so = std::get_if<ReducedSecondOrderModel>(&model)) {
-    if (name == "M") return dense(so->M);
-    if (name == "D") return dense(so->D);
-    if (name == "K") return dense(so->K);
-    if (name == "B") return dense(so->B);
-    if (name == "C") return dense(so->C);
-    if (name == "Cv") return dense(so->Cv);
-  } else {
-    const auto& ds = std::get<ReducedDescriptorModel>(model);
-    if (name == "E") return dense(ds.E);
-    if (name == "A") return dense(ds.A);
-    if (name == "B") return dense(ds.B);
-    if (name == "C") return dense(ds.C);
-  }
-  throw py::key_error(name);
+  return named_matrix(*self.cast<const Reduced&>().model, name, dense, dense);
 }
 
 // ---- plugins ----------------------------------------------------------------------------------
