@@ -280,7 +280,7 @@ def _plain(x):
 
 
 _SECTIONS = ("model", "band", "target", "reducer", "strategy", "error", "solver", "backend",
-             "output", "plugins", "check")
+             "output", "plugins", "check", "compress")
 
 
 def _route(options, reducer, strategy):

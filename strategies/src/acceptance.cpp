@@ -276,6 +276,22 @@ nlohmann::json summary_json(const RunSummary& summary, const RunConfig& config, 
         {"prune", config.portfolio_prune},
         {"members", list}};
   }
+  const CompressionReport& c = summary.compression;
+  j["compression"] = {
+      {"enabled", config.compress},
+      {"attempted", c.attempted},
+      {"applied", c.applied},
+      {"method", c.attempted ? nlohmann::json(c.method) : nlohmann::json(nullptr)},
+      {"note", c.note},
+      {"order_before", c.order_before},
+      {"order_after", c.order_after},
+      {"states_saved", c.order_before - c.order_after},
+      {"error_before", c.error_before},
+      {"error_after", c.applied ? nlohmann::json(c.error_after) : nlohmann::json(nullptr)},
+      {"candidates", c.candidates},
+      {"verifications", c.verifications},
+      {"factorizations", c.factorizations},
+      {"seconds", c.seconds}};
   j["iterations"] = summary.iterations;
   j["seconds"] = {{"total", summary.seconds},
                   {"load", summary.load_seconds},

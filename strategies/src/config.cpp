@@ -25,7 +25,7 @@ namespace {
 
 const std::vector<std::string> kSections = {"model",    "band",    "target", "reducer",
                                             "strategy", "error",   "solver", "backend",
-                                            "output",   "plugins", "check"};
+                                            "output",   "plugins", "check",  "compress"};
 
 // The keys of a portfolio's strategy section that are not options: `members` (a list of
 // mappings) and the run's time_limit_s.
@@ -321,6 +321,7 @@ class Parser {
   void read_section(const std::string& name, const OptionSpecs<RunConfig>& specs,
                     RunConfig& config);
   void parse_plugins(RunConfig& config);
+  void parse_compress(RunConfig& config);
   ParameterValue parameter(const YAML::Node& key, const YAML::Node& value,
                            const std::string& full_key);
 
@@ -569,6 +570,7 @@ RunConfig Parser::parse(const std::string& yaml) {
   parse_check(config);
   parse_output(config);
   parse_plugins(config);
+  parse_compress(config);
   return config;
 }
 
@@ -767,6 +769,19 @@ void Parser::parse_plugins(RunConfig& config) {
   } else {
     fail(at(plugins), "'plugins' must be a list of paths, found " + node_kind(plugins));
   }
+}
+
+// compress: true | false (the compression of the accepted model, driver.hpp).
+void Parser::parse_compress(RunConfig& config) {
+  const YAML::Node node = m_root["compress"];
+  if (!node.IsDefined()) return;
+  const std::string text = node.IsScalar() ? node.Scalar() : std::string();
+  if (text != "true" && text != "false")
+    fail(node.IsNull() ? key_location(m_root, "compress") : at(node),
+         fmt::format("compress = '{}': must be true (search the accepted model for the smallest "
+                     "model that still meets the target) or false",
+                     node.IsScalar() ? text : node_kind(node)));
+  config.compress = text == "true";
 }
 
 }  // namespace

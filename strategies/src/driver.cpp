@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "acceptance.hpp"
+#include "compression.hpp"
 #include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/interrupt.hpp"
@@ -131,8 +132,55 @@ RunResult run_loaded(const RunConfig& given, const Model& model, Registry& regis
       members, driver::MemberEnvironment{config, model, *solver, cache, *estimator, rigid, start,
                                          stop, observer, record,
                                          [&] { return static_cast<Index>(out.history.size()); }});
+  // Each member's accepted model is compressed before the winner is chosen, so that a portfolio
+  // reports the smallest model any member's compression reaches.
+  std::vector<CompressionReport> compressions(runs.results.size());
+  if (config.compress) {
+    for (std::size_t k = 0; k < runs.results.size(); ++k) {
+      StrategyResult& member = runs.results[k];
+      if (!member.best || member.termination != Termination::Converged) continue;
+      CompressionReport& compression = compressions[k];
+      compression.error_before = member.best_error.sup_relative;
+      BandError check;
+      if (auto smaller =
+              driver::compress_accepted(*member.best, *estimator, cache, config.tolerance,
+                                        config.verify_factor, rigid, compression, check)) {
+        member.best = std::move(smaller);
+        member.best_error = std::move(check);
+        member.message += "; compressed " + compression.note;
+        PortfolioAttempt& attempt = runs.attempts[k];
+        attempt.order = member.best->V.cols();
+        attempt.band_error = member.best_error.sup_relative;
+        attempt.message = member.message;
+      }
+      // Its own phase in the history: the order before and after, the error it cost.
+      IterationRecord r;
+      r.iteration = static_cast<Index>(out.history.size()) + 1;
+      r.phase = "compress";
+      r.order = member.best->V.cols();
+      r.points = member.best->points;
+      r.band_error = member.best_error.sup_relative;
+      r.f_peak_hz = member.best_error.f_peak_hz;
+      r.meets_tolerance = true;
+      r.seconds = driver::seconds_since(start);
+      r.step_seconds = compression.seconds;
+      r.counters = solver->counters();
+      r.full_evaluations = cache.size();
+      r.sampling = member.best_error.sampling();
+      r.note =
+          (portfolio ? "[" + runs.attempts[k].label() + "] " : std::string()) + compression.note;
+      r.diagnostics["order_before"] = static_cast<double>(compression.order_before);
+      r.diagnostics["error_before"] = compression.error_before;
+      r.diagnostics["compression_factorizations"] = static_cast<double>(compression.factorizations);
+      if (portfolio) r.diagnostics["portfolio_member"] = static_cast<double>(k + 1);
+      record(r);
+      if (observer) observer->on_iteration(r);
+    }
+  }
   int winner = -1;
   StrategyResult result = driver::conclude(runs, portfolio, stop, winner);
+  const CompressionReport compression =
+      winner >= 0 ? compressions[static_cast<std::size_t>(winner)] : CompressionReport{};
 
   RunSummary& summary = out.summary;
   summary.termination = result.termination;
@@ -141,6 +189,7 @@ RunResult run_loaded(const RunConfig& given, const Model& model, Registry& regis
   summary.output_dir = config.output_dir;
   summary.iterations = static_cast<Index>(out.history.size());
   summary.attempts = runs.attempts;
+  summary.compression = compression;
   const bool won = winner >= 0;
   summary.reducer =
       won ? runs.attempts[static_cast<std::size_t>(winner)].reducer : config.reducer_name;

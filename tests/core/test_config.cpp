@@ -274,11 +274,12 @@ TEST(RunConfig, UnknownKeysSuggestTheNearest) {
   EXPECT_EQ(parse_error(replace(kMinimal, "  f_min_hz:", "  fmin:")),
             "run.yaml:4: unknown key 'fmin' in 'band' (valid: f_min_hz, f_max_hz)");
   // Every unknown key is listed, not just the first.
-  EXPECT_EQ(parse_error(kMinimal + "colour: red\nverbose: true\n"),
-            "run.yaml:12: unknown key 'colour' in the configuration (valid: model, band, target, "
-            "reducer, strategy, error, solver, backend, output, plugins, check); run.yaml:13: "
-            "unknown key 'verbose' in the configuration (valid: model, band, target, reducer, "
-            "strategy, error, solver, backend, output, plugins, check)");
+  EXPECT_EQ(
+      parse_error(kMinimal + "colour: red\nverbose: true\n"),
+      "run.yaml:12: unknown key 'colour' in the configuration (valid: model, band, target, "
+      "reducer, strategy, error, solver, backend, output, plugins, check, compress); run.yaml:13: "
+      "unknown key 'verbose' in the configuration (valid: model, band, target, reducer, "
+      "strategy, error, solver, backend, output, plugins, check, compress)");
 }
 
 TEST(RunConfig, ErrorControlModeAndItsBudgets) {
@@ -470,13 +471,13 @@ TEST(RunConfig, SyntaxErrorsEmptyAndNonMappingDocuments) {
   EXPECT_EQ(bad_indent.rfind("run.yaml:3: YAML syntax error: ", 0), 0u) << bad_indent;
   EXPECT_EQ(parse_error(""),
             "run.yaml: the file is empty (expected the sections model, band, "
-            "target, reducer, strategy, error, solver, backend, output, plugins, check)");
+            "target, reducer, strategy, error, solver, backend, output, plugins, check, compress)");
   EXPECT_EQ(parse_error("# only a comment\n\n"),
             "run.yaml: the file is empty (expected the sections model, band, target, reducer, "
-            "strategy, error, solver, backend, output, plugins, check)");
+            "strategy, error, solver, backend, output, plugins, check, compress)");
   EXPECT_EQ(parse_error("- a\n- b\n"),
             "run.yaml:1: expected a mapping of sections (model, band, target, reducer, strategy, "
-            "error, solver, backend, output, plugins, check), found a list");
+            "error, solver, backend, output, plugins, check, compress), found a list");
 }
 
 TEST(RunConfig, LoadFromFile) {

@@ -36,6 +36,22 @@ struct PortfolioAttempt {
   std::string label() const { return reducer + "/" + strategy; }
 };
 
+/// The compression of an accepted model (YAML `compress: true`; the driver's
+/// compress_accepted): what it tried, what it kept and what it cost.
+struct CompressionReport {
+  bool attempted = false;  ///< a converged run's model was offered to it
+  bool applied = false;    ///< a smaller model replaced the accepted one
+  std::string method;      ///< "reduced modal truncation"
+  std::string note;        ///< what it did, or why it kept the accepted model
+  Index order_before = 0, order_after = 0;
+  double error_before = 0.0;  ///< the accepted model's band error, as the strategy measured it
+  double error_after = 0.0;   ///< the compressed model's re-check (applied only)
+  Index candidates = 0;       ///< compressed models whose error was evaluated
+  Index verifications = 0;    ///< of them, re-checked against the full model
+  std::int64_t factorizations = 0;  ///< full-model factorisations the compression caused
+  double seconds = 0.0;
+};
+
 /// What a run reports (also written as summary.json).
 struct RunSummary {
   Termination termination = Termination::Failed;
@@ -102,6 +118,7 @@ struct RunSummary {
   std::string reducer, strategy;
   /// Every member of a portfolio in configuration order (one entry for a plain run).
   std::vector<PortfolioAttempt> attempts;
+  CompressionReport compression;
 
   /// 0: target met; 2: usable model, target not met; 1: no usable model.
   int exit_code() const;
