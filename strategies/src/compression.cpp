@@ -20,31 +20,62 @@ namespace {
 // Symmetry a Galerkin projection of symmetric matrices keeps up to rounding.
 constexpr double kSymmetric = 1e-10;
 
-struct Modes {
-  Matrix phi;                  // n x n, Mr-orthonormal columns
-  std::vector<double> lambda;  // ascending
-  std::vector<Index> order;    // columns by rank: the rigid ones first, then by band contribution
-  Index rigid = 0;             // leading entries of `order` that are always kept
+// The accepted model as a symmetric pencil: second order M q'' + D q' + K q = B u, y = C q + Cv q'
+// (mass Mr, stiffness Kr), or first order E x' = A x + B u, y = C x read as mass E and stiffness
+// -A (a stable symmetric model has -A positive semidefinite), so that one modal path serves both.
+struct Pencil {
+  bool second_order = true;
+  Matrix mass, stiffness, damping;  // damping: second order only
+  Matrix B, C, Cv;                  // Cv: second order only (may be empty)
 };
+
+Pencil pencil_of(const ReducedModel& model) {
+  Pencil p;
+  if (const auto* r = std::get_if<ReducedSecondOrderModel>(&model)) {
+    p = {true, r->M, r->K, r->D, r->B, r->C, r->Cv};
+  } else {
+    const auto& d = std::get<ReducedDescriptorModel>(model);
+    p = {false, d.E, -d.A, Matrix(), d.B, d.C, Matrix()};
+  }
+  return p;
+}
+
+struct Modes {
+  Pencil pencil;
+  Matrix phi;  // n x n, mass-orthonormal columns
+  std::vector<double>
+      lambda;                // ascending: K phi = lambda M phi (first order: -A phi = lambda E phi)
+  std::vector<Index> order;  // columns by rank: the rigid ones first, then by band contribution
+  Index rigid = 0;           // leading entries of `order` that are always kept
+};
+
+// A mode's term of the response at w: c_i(w) b_i' / den_i(w), den = lambda - w^2 + i w d_i (second
+// order) or lambda + i w (first order: i w - a_i with a_i = -lambda).
+Complex denominator(const Modes& m, Index i, double w, double d) {
+  const double l = m.lambda[static_cast<std::size_t>(i)];
+  return m.pencil.second_order ? Complex(l - w * w, w * d) : Complex(l, w);
+}
 
 // The largest contribution of each mode to the response over the band, relative to the
 // response there (the error measure is relative: near an antiresonance a small term matters):
 // max over the samples and the modes' own resonances in the band of
-// |c_i(w)| |b_i| / |lambda_i - w^2 + i w d_i| / ||Hr(w)||_F, Hr the sum of the modal terms.
-std::vector<double> band_contributions(const ReducedSecondOrderModel& r, const Matrix& phi,
-                                       const std::vector<double>& lambda,
-                                       std::vector<double> f_hz) {
-  const Index n = phi.cols();
+// |c_i(w)| |b_i| / |den_i(w)| / ||Hr(w)||_F, Hr the sum of the modal terms.
+std::vector<double> band_contributions(const Modes& m, std::vector<double> f_hz) {
+  const Pencil& p = m.pencil;
+  const Index n = m.phi.cols();
   const double f_lo = f_hz.front(), f_hi = f_hz.back();
-  for (double l : lambda) {
-    const double f = l > 0.0 ? std::sqrt(l) / kTwoPi : -1.0;
-    if (f >= f_lo && f <= f_hi) f_hz.push_back(f);
+  if (p.second_order) {
+    for (double l : m.lambda) {
+      const double f = l > 0.0 ? std::sqrt(l) / kTwoPi : -1.0;
+      if (f >= f_lo && f <= f_hi) f_hz.push_back(f);
+    }
   }
-  const Matrix b = phi.transpose() * r.B;  // row i: b_i
-  const Matrix c = r.C * phi;              // column i: c_i
-  const Matrix cv = r.has_velocity_output() ? Matrix(r.Cv * phi) : Matrix::Zero(c.rows(), n);
-  Eigen::VectorXd d(n);
-  for (Index i = 0; i < n; ++i) d(i) = phi.col(i).dot(r.D * phi.col(i));
+  const Matrix b = m.phi.transpose() * p.B;  // row i: b_i
+  const Matrix c = p.C * m.phi;              // column i: c_i
+  const Matrix cv = p.Cv.size() > 0 ? Matrix(p.Cv * m.phi) : Matrix::Zero(c.rows(), n);
+  Eigen::VectorXd d = Eigen::VectorXd::Zero(n);
+  if (p.second_order)
+    for (Index i = 0; i < n; ++i) d(i) = m.phi.col(i).dot(p.damping * m.phi.col(i));
   std::vector<double> score(static_cast<std::size_t>(n), 0.0);
   ComplexMatrix H(c.rows(), b.cols());
   std::vector<double> term(static_cast<std::size_t>(n));
@@ -52,7 +83,7 @@ std::vector<double> band_contributions(const ReducedSecondOrderModel& r, const M
     const double w = kTwoPi * f;
     H.setZero();
     for (Index i = 0; i < n; ++i) {
-      const Complex den(lambda[static_cast<std::size_t>(i)] - w * w, w * d(i));
+      const Complex den = denominator(m, i, w, d(i));
       const Eigen::VectorXcd ci = c.col(i).cast<Complex>() + Complex(0.0, w) * cv.col(i);
       H += ci * b.row(i).cast<Complex>() / den;
       term[static_cast<std::size_t>(i)] = ci.norm() * b.row(i).norm() / std::abs(den);
@@ -71,34 +102,34 @@ std::vector<double> band_contributions(const ReducedSecondOrderModel& r, const M
 // this compression keeps the structure of.
 std::optional<Modes> ranked_modes(const ReducerResult& accepted, const RigidBodyModes& rigid,
                                   const std::vector<double>& f_hz, std::string& why) {
-  const auto* r = std::get_if<ReducedSecondOrderModel>(&accepted.model);
-  if (r == nullptr) {
-    why = "a first-order reduced model (compressed so far: second-order Galerkin models)";
-    return std::nullopt;
-  }
   if (accepted.W.size() != 0 && accepted.W != accepted.V) {
     why = "a Petrov-Galerkin model, W != V (compressed so far: W = V)";
     return std::nullopt;
   }
-  if (relative_asymmetry(r->M) > kSymmetric || relative_asymmetry(r->K) > kSymmetric ||
-      relative_asymmetry(r->D) > kSymmetric) {
-    why = "Mr, Dr or Kr is not symmetric (a reduced modal truncation needs symmetric matrices)";
+  Modes m;
+  m.pencil = pencil_of(accepted.model);
+  const Pencil& p = m.pencil;
+  if (relative_asymmetry(p.mass) > kSymmetric || relative_asymmetry(p.stiffness) > kSymmetric ||
+      (p.second_order && relative_asymmetry(p.damping) > kSymmetric)) {
+    why = p.second_order
+              ? "Mr, Dr or Kr is not symmetric (a reduced modal truncation needs symmetric "
+                "matrices)"
+              : "Er or Ar is not symmetric (a reduced modal truncation needs symmetric matrices)";
     return std::nullopt;
   }
-  const Matrix Ms = 0.5 * (r->M + r->M.transpose());
-  const Matrix Ks = 0.5 * (r->K + r->K.transpose());
+  const Matrix Ms = 0.5 * (p.mass + p.mass.transpose());
+  const Matrix Ks = 0.5 * (p.stiffness + p.stiffness.transpose());
   Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> eig(Ks, Ms);
   if (eig.info() != Eigen::Success) {
-    why = "Mr is not positive definite";
+    why = p.second_order ? "Mr is not positive definite" : "Er is not positive definite";
     return std::nullopt;
   }
-  Modes m;
   m.phi = eig.eigenvectors();
   const Index n = m.phi.cols();
   for (Index i = 0; i < n; ++i) m.lambda.push_back(eig.eigenvalues()(i));
   // A free body's reduced model keeps its rigid-body modes: the lowest rigid.count eigenvalues.
-  m.rigid = rigid.count > 0 ? std::min<Index>(rigid.count, n) : 0;
-  const std::vector<double> score = band_contributions(*r, m.phi, m.lambda, f_hz);
+  m.rigid = p.second_order && rigid.count > 0 ? std::min<Index>(rigid.count, n) : 0;
+  const std::vector<double> score = band_contributions(m, f_hz);
   std::vector<Index> rest(static_cast<std::size_t>(n - m.rigid));
   std::iota(rest.begin(), rest.end(), m.rigid);
   std::stable_sort(rest.begin(), rest.end(), [&](Index a, Index b) {
@@ -116,19 +147,19 @@ std::optional<Modes> ranked_modes(const ReducerResult& accepted, const RigidBody
 // to the modes kept): modal truncation with static correction, at the reduced level. The reduced
 // matrices come from the accepted ones, V' = V S.
 ReducerResult truncated(const ReducerResult& accepted, const Modes& m, Index count, bool residual) {
-  const auto& r = std::get<ReducedSecondOrderModel>(accepted.model);
+  const Pencil& p = m.pencil;
   std::vector<Index> keep(m.order.begin(), m.order.begin() + count);
   std::sort(keep.begin(), keep.end());
   Matrix S(m.phi.rows(), count);
   for (Index j = 0; j < count; ++j) S.col(j) = m.phi.col(keep[static_cast<std::size_t>(j)]);
   if (residual && count < m.phi.cols()) {
-    Matrix R = Matrix::Zero(m.phi.rows(), r.B.cols());
+    Matrix R = Matrix::Zero(m.phi.rows(), p.B.cols());
     for (auto it = m.order.begin() + count; it != m.order.end(); ++it) {
       const double l = m.lambda[static_cast<std::size_t>(*it)];
-      if (l > 0.0) R += m.phi.col(*it) * (m.phi.col(*it).transpose() * r.B) / l;
+      if (l > 0.0) R += m.phi.col(*it) * (m.phi.col(*it).transpose() * p.B) / l;
     }
-    // Mr-orthonormal columns by a Cholesky QR of R' Mr R with rank truncation (eigen-based).
-    const Matrix G = R.transpose() * r.M * R;
+    // Mass-orthonormal columns from the eigenvectors of R' M R, with rank truncation.
+    const Matrix G = R.transpose() * p.mass * R;
     Eigen::SelfAdjointEigenSolver<Matrix> eig(0.5 * (G + G.transpose()));
     const double top = eig.eigenvalues().size() > 0 ? eig.eigenvalues().maxCoeff() : 0.0;
     std::vector<Index> cols;
@@ -144,13 +175,25 @@ ReducerResult truncated(const ReducerResult& accepted, const Modes& m, Index cou
       S = std::move(T);
     }
   }
-  ReducedSecondOrderModel c;
-  c.M = S.transpose() * r.M * S;
-  c.D = S.transpose() * r.D * S;
-  c.K = S.transpose() * r.K * S;
-  c.B = S.transpose() * r.B;
-  c.C = r.C * S;
-  if (r.has_velocity_output()) c.Cv = r.Cv * S;
+  ReducedModel c;
+  if (const auto* r = std::get_if<ReducedSecondOrderModel>(&accepted.model)) {
+    ReducedSecondOrderModel so;
+    so.M = S.transpose() * r->M * S;
+    so.D = S.transpose() * r->D * S;
+    so.K = S.transpose() * r->K * S;
+    so.B = S.transpose() * r->B;
+    so.C = r->C * S;
+    if (r->has_velocity_output()) so.Cv = r->Cv * S;
+    c = std::move(so);
+  } else {
+    const auto& ds = std::get<ReducedDescriptorModel>(accepted.model);
+    ReducedDescriptorModel d;
+    d.E = S.transpose() * ds.E * S;
+    d.A = S.transpose() * ds.A * S;
+    d.B = S.transpose() * ds.B;
+    d.C = ds.C * S;
+    c = std::move(d);
+  }
   ReducerResult out;
   out.model = std::move(c);
   out.V = accepted.V * S;

@@ -18,6 +18,7 @@
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/model/model.hpp"
+#include "ecmor/model/model_io.hpp"
 #include "ecmor/plugin/registry.hpp"
 #include "ecmor/response/frequency_response.hpp"
 #include "ecmor/strategies/config.hpp"
@@ -155,6 +156,44 @@ compress: true
   Index at_zero = 0;
   for (const Complex& p : poles(result.model->model)) at_zero += std::abs(p) <= 1e-3 ? 1 : 0;
   EXPECT_EQ(at_zero, 6);
+}
+
+// A heat model (rail_371: first order, E and A symmetric) through modal truncation: compressed as
+// a first-order model (with the static correction of the modes left out), still first order and
+// symmetric, meeting the target against the test's own solves.
+TEST(Compression, SymmetricFirstOrderModelShrinksAndMeetsTheTarget) {
+  const Model model = load_model(fs::path("models") / "rail_371");
+  const auto& heat = std::get<DescriptorModel>(model);
+  const RunResult result = run(model, R"(
+band:     {f_min_hz: 1.6e-7, f_max_hz: 1.6e-3}
+target:   {tolerance: 1.0e-2}
+reducer:  {name: modal}
+strategy: {name: grow_order, max_order: 371}
+compress: true
+)");
+  ASSERT_EQ(result.summary.termination, Termination::Converged) << result.summary.message;
+  const CompressionReport& c = result.summary.compression;
+  ASSERT_TRUE(c.applied) << c.note;
+  EXPECT_LT(c.order_after, c.order_before);
+  const auto* r = std::get_if<ReducedDescriptorModel>(&result.model->model);
+  ASSERT_NE(r, nullptr) << "first order stays first order";
+  EXPECT_LE(relative_asymmetry(r->E), 1e-12);
+  EXPECT_LE(relative_asymmetry(r->A), 1e-12);
+  const Matrix& V = result.model->V;
+  EXPECT_LE(relative_difference(V.transpose() * (heat.A * V), r->A), 1e-10);
+  EXPECT_LE(relative_difference(V.transpose() * (heat.E * V), r->E), 1e-10);
+  double sup = 0.0;
+  for (double f : log_grid(1.6e-7, 1.6e-3, 300)) {
+    const Complex s(0.0, kTwoPi * f);
+    const ComplexSparseMatrix P = s * heat.E.cast<Complex>() - heat.A.cast<Complex>();
+    Eigen::SparseLU<ComplexSparseMatrix> lu(P);
+    const ComplexMatrix H = heat.C.cast<Complex>() * lu.solve(heat.B.cast<Complex>());
+    const ComplexMatrix Pr = s * r->E.cast<Complex>() - r->A.cast<Complex>();
+    const ComplexMatrix Hr = r->C.cast<Complex>() * Pr.partialPivLu().solve(r->B.cast<Complex>());
+    const Eigen::JacobiSVD<ComplexMatrix> e(H - Hr), h(H);
+    sup = std::max(sup, e.singularValues()(0) / h.singularValues()(0));
+  }
+  EXPECT_LE(sup, 1.0e-2) << "order " << result.summary.order;
 }
 
 TEST(Compression, TheKeyIsTrueOrFalse) {
