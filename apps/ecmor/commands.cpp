@@ -12,6 +12,7 @@
 
 #include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
+#include "ecmor/base/threads.hpp"
 #include "ecmor/linalg/eigensolver.hpp"
 #include "ecmor/linalg/parallel.hpp"
 #include "ecmor/linalg/rigid_body.hpp"
@@ -299,10 +300,22 @@ void print_undamped_eigenfrequencies(const Model& model, const SecondOrderModel&
   }
 }
 
+// The thread budget and the BLAS (threads.hpp): what a run on this machine will use.
+void print_threads() {
+  const ThreadBudget t = thread_budget();
+  const BlasInfo blas = blas_info();
+  fmt::print("threads: at most {} of {} core(s), {}; BLAS: {} ({} threading)\n", t.limit, t.cores,
+             t.adaptive ? "fewer while other processes keep cores busy (ECMOR_THREADS=n fixes n)"
+                        : "fixed by " + t.source,
+             blas.name, blas.threading);
+}
+
 }  // namespace
 
 int info(const std::filesystem::path& model_path, int eigenfrequencies, const CommonOptions&) {
   return guarded([&] {
+    print_threads();
+    if (model_path.empty()) return 0;
     const Model model = load_model(model_path);
     const ModelSummary s = summarize(model);
     fmt::print("{}: {} model, N = {}, {} input(s), {} output(s){}\n", model_path.string(),

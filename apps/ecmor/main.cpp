@@ -113,11 +113,10 @@ CLI::App* add_info(CLI::App& cli, Arguments& a) {
   auto* info = cli.add_subcommand(
       "info",
       "describe a model (directory or .mat file): sizes, nnz, symmetry, definiteness, "
-      "lowest eigenfrequencies");
+      "lowest eigenfrequencies; and the threads and BLAS ecmor runs on (alone without a model)");
   info->add_option("model", a.model_path,
                    "directory with M,D,K,B,C[,Cv].mtx or E,A,B,C.mtx, or a .mat file with "
-                   "variables of those names")
-      ->required();
+                   "variables of those names");
   info->add_option("--eigenfrequencies", a.eigenfrequencies,
                    "how many of the lowest eigenfrequencies to compute (0: none)")
       ->check(CLI::Range(0, 1000));

@@ -15,7 +15,12 @@ import signal
 import threading
 import warnings as _warnings
 
-import numpy as np
+# Idle OpenMP threads sleep instead of spinning, as in the `ecmor` executable (docs/user-guide.md,
+# "Threads"). OpenMP reads this when it starts: it has effect only when neither NumPy nor anything
+# else has loaded the OpenMP runtime yet, i.e. when ecmor is imported first. A user's setting wins.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+import numpy as np  # noqa: E402  (after the wait policy, see above)
 
 from . import _ecmor
 from ._paths import PLUGIN_DIR_FROM_PACKAGE

@@ -7,6 +7,7 @@
 
 #include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
+#include "ecmor/base/threads.hpp"
 #include "ecmor/gramians/lyapunov.hpp"
 #include "ecmor/linalg/parallel.hpp"
 #include "ecmor/measures/hinf_norm.hpp"
@@ -305,6 +306,17 @@ nlohmann::json summary_json(const RunSummary& summary, const RunConfig& config, 
   j["counters"] = counters_json(summary.counters);
   j["full_evaluations"] = summary.full_evaluations;
   j["peak_memory_mb"] = summary.peak_memory_mb;
+  const ThreadBudget& t = summary.threads;
+  const BlasInfo blas = blas_info();
+  j["threads"] = {{"cores", t.cores},
+                  {"limit", t.limit},
+                  {"source", t.source},
+                  {"adaptive", t.adaptive},
+                  {"fewest_used", t.fewest_used},
+                  {"most_used", t.most_used},
+                  {"load_reductions", t.load_reductions},
+                  {"blas", blas.name},
+                  {"blas_threading", blas.threading}};
   return j;
 }
 

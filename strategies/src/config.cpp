@@ -167,7 +167,10 @@ const OptionSpecs<RunConfig>& solver_specs() {
     });
     std::vector<Option<C>> options = {
         option("threads", &C::threads,
-               "threads for the full model's frequency response; 0 = OpenMP default")
+               "the run's threads, ecmor's loops and the BLAS together: 0 = the process's "
+               "budget (`ECMOR_THREADS`, else `OMP_NUM_THREADS`, else the cores it may use, "
+               "fewer while other processes keep cores busy), n = exactly n "
+               "([user-guide.md](user-guide.md#threads))")
             .range(Range::closed(0, 65536)),
     };
     for (const auto& o : solver.options()) options.push_back(o.nested(&C::solver));

@@ -13,6 +13,7 @@
 #include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/interrupt.hpp"
+#include "ecmor/base/threads.hpp"
 #include "ecmor/linalg/parallel.hpp"
 #include "ecmor/linalg/recent_factorizations.hpp"
 #include "ecmor/model/model_io.hpp"
@@ -69,6 +70,9 @@ RunResult run_loaded(const RunConfig& given, const Model& model, Registry& regis
                      double load_seconds) {
   using driver::seconds_since;
   RunConfig config = given;
+  // solver.threads > 0 fixes the run's thread count; 0 leaves the process's budget (threads.hpp).
+  const ThreadLimitScope threads(config.threads, "solver.threads");
+  reset_thread_use();
   if (config.is_portfolio() && config.portfolio.empty())
     config.portfolio = default_portfolio(model, registry);
   if (observer) observer->on_model_loaded(config, model, load_seconds);
@@ -221,6 +225,7 @@ RunResult run_loaded(const RunConfig& given, const Model& model, Registry& regis
   summary.full_evaluations = cache.size();
   summary.seconds = seconds_since(start);
   summary.peak_memory_mb = peak_memory_mb();
+  summary.threads = thread_budget();
   j.update(driver::summary_json(summary, config, model, solver->backend(), winner));
   out.summary_json = j.dump(2) + "\n";
   if (writer) write_text_atomically(config.output_dir / "summary.json", out.summary_json);

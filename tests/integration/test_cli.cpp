@@ -479,6 +479,26 @@ TEST_F(Cli, InfoDescribesLf10) {
   EXPECT_TRUE(found_m) << r.out;
 }
 
+// The thread budget and the BLAS (threads.hpp), with or without a model; a bad ECMOR_THREADS is a
+// named error, a valid one is reported as the budget's source.
+TEST_F(Cli, InfoReportsTheThreadBudget) {
+  const Result plain = test::run_ecmor({"info"}, m_dir, "-u ECMOR_THREADS -u OMP_NUM_THREADS");
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_NE(plain.out.find("fewer while other processes keep cores busy"), std::string::npos)
+      << plain.out;
+  EXPECT_NE(plain.out.find("BLAS: "), std::string::npos) << plain.out;
+  const Result fixed = test::run_ecmor({"info", kLf10.string()}, m_dir, "ECMOR_THREADS=3");
+  ASSERT_EQ(fixed.exit_code, 0) << fixed.err;
+  EXPECT_NE(fixed.out.find("threads: at most 3 of"), std::string::npos) << fixed.out;
+  EXPECT_NE(fixed.out.find("fixed by ECMOR_THREADS"), std::string::npos) << fixed.out;
+  EXPECT_NE(fixed.out.find("N = 18"), std::string::npos) << fixed.out;
+  const Result bad = test::run_ecmor({"info"}, m_dir, "ECMOR_THREADS=two");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.err.find("ECMOR_THREADS=\"two\": the thread count must be a whole number"),
+            std::string::npos)
+      << bad.err;
+}
+
 // A first-order model that is a second-order one (iss: E = I, A = [0 I; -K -D]) is said to be one;
 // a first-order model without that structure (rail_371: E SPD, A symmetric) is not.
 TEST_F(Cli, InfoNamesTheSecondOrderStructureOfAFirstOrderModel) {
@@ -771,6 +791,18 @@ TEST_F(Cli, MetTargetWritesEveryOutput) {
   if (s["error_control"]["mode"].get<std::string>() == "estimate") {
     EXPECT_GT(t["reference_model"].get<double>(), 0.0);
   }
+  // The thread budget (threads.hpp): the counts chosen lie within the limit, which lies within
+  // the cores unless set explicitly.
+  const nlohmann::json& threads = s["threads"];
+  EXPECT_GE(threads["cores"].get<int>(), 1);
+  EXPECT_GE(threads["fewest_used"].get<int>(), 1);
+  EXPECT_LE(threads["fewest_used"].get<int>(), threads["most_used"].get<int>());
+  EXPECT_LE(threads["most_used"].get<int>(), threads["limit"].get<int>());
+  if (threads["adaptive"].get<bool>()) {
+    EXPECT_EQ(threads["source"].get<std::string>(), "cores");
+    EXPECT_EQ(threads["limit"].get<int>(), threads["cores"].get<int>());
+  }
+  EXPECT_FALSE(threads["blas"].get<std::string>().empty());
   const Index order = s["final_order"].get<Index>();
   EXPECT_GE(order, 1);
   EXPECT_LE(order, 18);

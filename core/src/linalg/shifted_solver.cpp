@@ -34,7 +34,6 @@
 #include "ecmor/linalg/shifted_solver.hpp"
 
 #include <cholmod.h>
-#include <omp.h>
 #include <umfpack.h>
 #include <unistd.h>
 
@@ -51,6 +50,7 @@
 
 #include "base/parallel_for.hpp"
 #include "ecmor/base/error.hpp"
+#include "ecmor/base/threads.hpp"
 #include "linalg/mumps_ldlt.hpp"
 #include "linalg/petsc_solver.hpp"
 #include "linalg/term_products.hpp"
@@ -98,6 +98,7 @@ Factorization::~Factorization() = default;
 ShiftedSolver::~ShiftedSolver() = default;
 
 std::shared_ptr<const Factorization> ShiftedSolver::factorize(Complex s) {
+  parallel_threads();  // the BLAS threads of a factorisation made outside a parallel region
   std::vector<Complex> w(static_cast<std::size_t>(terms()));
   Complex p(1.0, 0.0);
   for (auto& wk : w) {
@@ -954,7 +955,7 @@ class SuiteSparseSolver final : public detail::TermProducts<SuiteSparseSolver> {
     const SharedState& S = *m_shared;
     if (S.options.complex_symmetric != "auto") return S.options.complex_symmetric == "ldlt";
     std::call_once(m_ldlt_decided, [&] {
-      const double threads = std::max(1, omp_get_max_threads());
+      const double threads = std::max(1, thread_budget().limit);
       const double physical =
           static_cast<double>(sysconf(_SC_PHYS_PAGES)) * static_cast<double>(sysconf(_SC_PAGESIZE));
       const double budget = S.options.ldlt_memory_fraction * physical;

@@ -1,7 +1,6 @@
 #include "ecmor/measures/band_error.hpp"
 
 #include <fmt/format.h>
-#include <omp.h>
 
 #include <algorithm>
 #include <cmath>
@@ -9,9 +8,11 @@
 #include <numeric>
 #include <sstream>
 
+#include "base/parallel_for.hpp"
 #include "base/wall_timer.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/parameters.hpp"
+#include "ecmor/base/threads.hpp"
 #include "ecmor/linalg/parallel.hpp"
 #include "ecmor/response/reduced_response.hpp"
 #include "measures/band_error_estimate.hpp"
@@ -215,36 +216,13 @@ std::vector<Sample> sample(const detail::ReferenceSource& source,
   // then spinning at the barrier) than a few reduced evaluations: measured on cdplayer in estimate
   // mode, where the refinement samples a handful of frequencies per round, 65 % of the run was
   // OpenMP spinning with regions for as few as 4 samples. Below 32 samples the loop is serial.
+  // Anything but the NumericalError handled per sample (say, bad_alloc) leaves through
+  // parallel_for, which carries it out of the parallel region.
   const auto count = static_cast<Index>(f_hz.size());
-  const int threads =
-      count < 32 ? 1
-                 : static_cast<int>(std::min<Index>(
-                       threads_wanted > 0 ? threads_wanted : omp_get_max_threads(), count / 2));
-  auto keep_new = [&] {
-    for (std::size_t k = 0; k < f_hz.size(); ++k)
-      if (!was_known[k]) candidate.keep(f_hz[k], std::move(known[k]));
-  };
-  if (threads <= 1) {
-    for (std::size_t k = 0; k < f_hz.size(); ++k) evaluate(k);
-    keep_new();
-    return out;
-  }
-  // Anything but the NumericalError handled per sample (say, bad_alloc) must not leave the
-  // parallel region: the first one is kept and rethrown after it.
-  std::exception_ptr error;
-#pragma omp parallel for schedule(dynamic, 4) num_threads(threads)
-  for (Index k = 0; k < count; ++k) {
-    try {
-      evaluate(static_cast<std::size_t>(k));
-    } catch (...) {
-#pragma omp critical(ecmor_band_error_sample)
-      {
-        if (!error) error = std::current_exception();
-      }
-    }
-  }
-  if (error) std::rethrow_exception(error);
-  keep_new();
+  detail::parallel_for(count, count < 32 ? 1 : threads_wanted,
+                       [&](Index k) { evaluate(static_cast<std::size_t>(k)); });
+  for (std::size_t k = 0; k < f_hz.size(); ++k)
+    if (!was_known[k]) candidate.keep(f_hz[k], std::move(known[k]));
   return out;
 }
 

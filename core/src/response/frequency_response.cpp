@@ -2,8 +2,6 @@
 // parallel across frequencies, poles of reduced models, and the full model's response cache.
 #include "ecmor/response/frequency_response.hpp"
 
-#include <omp.h>
-
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
@@ -358,7 +356,7 @@ std::vector<ComplexMatrix> ResponseCache::evaluate(const std::vector<double>& f_
     // Rounds of two frequencies per thread: large enough to keep the threads busy, small enough
     // that a stop request is seen within about one factorisation per thread (the issue this
     // answers: a SIGTERM during the first sweep of a 59 400-DOF model went unheard for minutes).
-    const int threads = m_threads > 0 ? m_threads : omp_get_max_threads();
+    const int threads = m_threads > 0 ? m_threads : thread_budget().limit;
     const auto round = static_cast<std::size_t>(2 * std::max(threads, 1));
     const auto total = static_cast<Index>(missing.size());
     for (std::size_t first = 0; first < missing.size(); first += round) {

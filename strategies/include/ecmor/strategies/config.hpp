@@ -84,7 +84,7 @@ struct RunConfig {
   /// else from the inertia of K and D (second order) or not at all. About 1 s at 1000.
   Index stability_dense_states = 1000;
   SolverOptions solver;
-  int threads = 0;  ///< 0: OpenMP default
+  int threads = 0;  ///< the run's thread count; 0: the process's budget (threads.hpp)
   std::filesystem::path output_dir;
   OutputFormat output_format = OutputFormat::Mtx;  ///< output.format: mtx (default), mat, both
   std::vector<std::filesystem::path> plugins;

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "ecmor/base/threads.hpp"
 #include "ecmor/measures/stability.hpp"
 #include "ecmor/plugin/registry.hpp"
 #include "ecmor/strategies/config.hpp"
@@ -111,6 +112,8 @@ struct RunSummary {
   SolverCounters counters;
   Index full_evaluations = 0;
   double peak_memory_mb = 0.0;
+  /// The thread budget at the end of the run and the counts it chose (threads.hpp).
+  ThreadBudget threads;
   Index iterations = 0;
   std::filesystem::path output_dir;
   /// Reducer and strategy that produced the reported model (a portfolio's winner; for a plain run
