@@ -160,8 +160,8 @@ TEST_F(ThreadEnvironment, BusyProcessesBesideItLowerTheCount) {
     const pid_t pid = fork();
     ASSERT_GE(pid, 0);
     if (pid == 0) {
-      for (volatile unsigned long k = 0;; k = k + 1) {
-      }
+      volatile unsigned long k = 0;
+      while (true) k = k + 1;
     }
     busy.push_back(pid);
   }

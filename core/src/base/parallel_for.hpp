@@ -43,6 +43,7 @@ inline void parallel_for(Index n, int threads, Body&& body) {
   }
   std::exception_ptr error;
   std::atomic<bool> failed{false};
+  const SerialBlasScope serial_blas(true);
 #pragma omp parallel for schedule(dynamic) num_threads(nt)
   for (Index i = 0; i < n; ++i) {
     if (failed.load(std::memory_order_relaxed)) continue;

@@ -115,8 +115,7 @@ int own_runnable_threads() {
     if (e->d_name[0] == '.') continue;
     const std::string stat = read_file(std::string("/proc/self/task/") + e->d_name + "/stat");
     const auto paren = stat.rfind(')');
-    if (paren != std::string::npos && paren + 2 < stat.size() && stat[paren + 2] == 'R')
-      ++running;
+    if (paren != std::string::npos && paren + 2 < stat.size() && stat[paren + 2] == 'R') ++running;
   }
   closedir(dir);
   return std::max(running, 1);
@@ -130,7 +129,9 @@ struct OpenBlas {
   char* (*get_config)() = nullptr;
   int (*get_parallel)() = nullptr;  // 0 sequential, 1 pthreads, 2 OpenMP
   void (*set_num_threads)(int) = nullptr;
+  int (*get_num_threads)() = nullptr;
   OpenBlas() {
+    get_num_threads = reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"));
     get_config = reinterpret_cast<char* (*)()>(dlsym(RTLD_DEFAULT, "openblas_get_config"));
     get_parallel = reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "openblas_get_parallel"));
     set_num_threads =
@@ -201,8 +202,8 @@ class Budget {
   }
 
   // Sets an explicit limit (threads > 0) or restores a saved one; returns the previous state.
-  void set(int limit, bool adaptive, const std::string& source, int* old_limit,
-           bool* old_adaptive, std::string* old_source) {
+  void set(int limit, bool adaptive, const std::string& source, int* old_limit, bool* old_adaptive,
+           std::string* old_source) {
     std::lock_guard<std::mutex> lock(m_mutex);
     init();
     *old_limit = m_budget.limit;
@@ -291,6 +292,20 @@ ThreadLimitScope::~ThreadLimitScope() {
   bool adaptive = false;
   std::string source;
   Budget::instance().set(m_limit, m_adaptive, m_source, &limit, &adaptive, &source);
+}
+
+SerialBlasScope::SerialBlasScope(bool active) {
+  const OpenBlas& o = openblas();
+  if (!active || !o.pthreads() || !o.set_num_threads || !o.get_num_threads) return;
+  m_saved = o.get_num_threads();
+  if (m_saved > 1)
+    o.set_num_threads(1);
+  else
+    m_saved = 0;
+}
+
+SerialBlasScope::~SerialBlasScope() {
+  if (m_saved > 0) openblas().set_num_threads(m_saved);
 }
 
 BlasInfo blas_info() {

@@ -31,10 +31,10 @@ struct ThreadBudget {
   bool adaptive = true;
   /// Where the limit came from: "cores", "ECMOR_THREADS", "OMP_NUM_THREADS" or "solver.threads".
   std::string source = "cores";
-  int current = 1;          ///< the count chosen most recently
-  int fewest_used = 0;      ///< the smallest count chosen since reset_thread_use() (0: none yet)
-  int most_used = 0;        ///< the largest
-  long load_reductions = 0; ///< choices below the limit because other processes kept cores busy
+  int current = 1;           ///< the count chosen most recently
+  int fewest_used = 0;       ///< the smallest count chosen since reset_thread_use() (0: none yet)
+  int most_used = 0;         ///< the largest
+  long load_reductions = 0;  ///< choices below the limit because other processes kept cores busy
 };
 
 /// The budget as it stands. The first call reads the environment.
@@ -63,6 +63,20 @@ class ECMOR_API ThreadLimitScope {
   int m_limit = 0;
   bool m_adaptive = true;
   std::string m_source;
+};
+
+/// Around a parallel region of ecmor's own (active = true): BLAS calls made inside it run on their
+/// calling thread. OpenBLAS's OpenMP build does so by itself inside an active region; its pthreads
+/// build has one thread count for the whole process, which the scope sets to 1 and restores.
+class ECMOR_API SerialBlasScope {
+ public:
+  explicit SerialBlasScope(bool active);
+  ~SerialBlasScope();
+  SerialBlasScope(const SerialBlasScope&) = delete;
+  SerialBlasScope& operator=(const SerialBlasScope&) = delete;
+
+ private:
+  int m_saved = 0;  // the pthreads build's count before the scope; 0: nothing to restore
 };
 
 /// The BLAS this process runs on, as it reports itself.
