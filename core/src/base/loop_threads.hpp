@@ -17,7 +17,7 @@ namespace ecmor::detail {
 /// on two cores, two threads get half of it; but two threads that meet at a join wait for the one
 /// the scheduler has just taken off its core. Coarse loops (a factorisation per iteration) gain
 /// from the second thread, fine ones (a small dense solve per iteration) lose
-/// (docs/benchmarks.md, "Under load").
+/// (docs/benchmarks.md, "Under load (issue 50)").
 class LoopThreads {
  public:
   /// The thread count for this loop's next run.

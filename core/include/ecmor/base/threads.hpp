@@ -7,10 +7,11 @@
 /// ECMOR_THREADS, OMP_NUM_THREADS, or else the cores this process may use (its CPU affinity
 /// mask, capped by a cgroup CPU quota). A limit from the cores is adaptive: before each parallel
 /// region ecmor counts the runnable threads of other processes (at most every 0.2 s, from
-/// /proc) and uses only the cores they leave free, at least one. Why: on a 2-core machine beside
-/// two busy processes, a parallel region of two threads waits at every join for the thread the
-/// scheduler has just taken off a core, and a run made 10^4 short BLAS and OpenMP regions; it was
-/// 2-23x slower than idle, one thread 1.5-2x (docs/benchmarks.md, "Under load"). A limit set
+/// /proc) and uses only the cores they leave free, at least one, for the BLAS; its own loops
+/// choose between that and the limit by measuring (loop_threads.hpp). Why: on a 2-core machine
+/// beside two busy processes, a parallel region of two threads waits at every join for the thread
+/// the scheduler has just taken off a core; the shipped configs took up to 45x their idle time, and
+/// 1.9x at the median with the budget (docs/benchmarks.md, "Under load (issue 50)"). A limit set
 /// explicitly is kept as given.
 ///
 /// Nested parallelism: ecmor's regions do not nest, and BLAS calls made inside them run on
