@@ -96,8 +96,10 @@ nlohmann::json accept_model(const StrategyResult& result, const RunConfig& confi
   nlohmann::json j;
   const ReducerResult& best = *result.best;
   // The reported model is always re-checked independently, converged or not (a stop request
-  // no longer applies here: the check of the model being written is part of writing it).
-  verified = estimator.verify(best.model, config.verify_factor);
+  // no longer applies here: the check of the model being written is part of writing it). A
+  // compressed model was re-checked by its compression, which is not repeated.
+  verified =
+      result.best_checked ? result.best_error : estimator.verify(best.model, config.verify_factor);
   summary.has_model = true;
   summary.order = best.V.cols();
   // Estimate mode: the reported error is the re-check's, measured against the full model at

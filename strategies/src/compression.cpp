@@ -4,13 +4,16 @@
 #include <fmt/format.h>
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <functional>
 #include <numeric>
 #include <vector>
 
+#include "ecmor/base/error.hpp"
 #include "ecmor/measures/stability.hpp"
 #include "ecmor/model/model.hpp"
 
@@ -19,6 +22,9 @@ namespace {
 
 // Symmetry a Galerkin projection of symmetric matrices keeps up to rounding.
 constexpr double kSymmetric = 1e-10;
+// Full solves the re-checks of one compression may add (issue 51: at most 5 factorisations):
+// BandErrorEstimator::verify_near spends them at the largest departures from the accepted model.
+constexpr Index kCheckSolves = 5;
 
 // The accepted model as a symmetric pencil: second order M q'' + D q' + K q = B u, y = C q + Cv q'
 // (mass Mr, stiffness Kr), or first order E x' = A x + B u, y = C x read as mass E and stiffness
@@ -204,6 +210,187 @@ ReducerResult truncated(const ReducerResult& accepted, const Modes& m, Index cou
   return out;
 }
 
+// A family of compressed models, nested by `count`: make(count) for count in [min_count,
+// max_count) is smaller than the accepted model (max_count: it has all of it).
+struct Family {
+  std::string method;
+  // A projection that need not keep stability (one- or two-sided onto directions of an
+  // unsymmetric model): its candidates are checked for it in the search too.
+  bool may_lose_stability = false;
+  Index min_count = 1, max_count = 0;
+  std::function<ReducerResult(Index)> make;
+  std::function<std::string(Index count, Index order)> describe;
+};
+
+// The accepted model's response-weighted subspaces: the reduced states Pr(s)^-1 Br of the band's
+// samples (right) and the dual states Pr(s)^-H (Cr + s Cv)' (left), each sample divided by
+// ||Hr(s)||_F (the error measure is relative), real and imaginary parts, ranked by their singular
+// values (a truncated SVD of the basis weighted by the band's responses). Second order: the
+// position parts, so that the compression keeps the second-order form. Computed through the
+// complex Schur form of E1^-1 A1 of a first-order realisation (one O(n^3) decomposition, then a
+// triangular solve per frequency). std::nullopt with `why` when E1 (Mr or Er) is singular.
+struct PodBases {
+  Matrix right, left;  // orthonormal columns, leading first
+  Matrix both;         // of the right and left samples together (each set scaled to norm 1)
+};
+
+// Orthonormal leading left singular vectors of [Re S, Im S] (through the eigenvectors of its Gram
+// matrix: columns with singular values above 1e-7 of the largest).
+Matrix leading_directions(const ComplexMatrix& S) {
+  const Matrix re = S.real(), im = S.imag();
+  const Matrix G = re * re.transpose() + im * im.transpose();
+  Eigen::SelfAdjointEigenSolver<Matrix> eig(0.5 * (G + G.transpose()));
+  const Index n = G.rows();
+  const double top = n > 0 ? eig.eigenvalues()(n - 1) : 0.0;
+  Index rank = 0;
+  while (rank < n && top > 0.0 && eig.eigenvalues()(n - 1 - rank) > 1e-14 * top) ++rank;
+  Matrix U(n, rank);
+  for (Index j = 0; j < rank; ++j) U.col(j) = eig.eigenvectors().col(n - 1 - j);
+  return U;
+}
+
+std::optional<PodBases> pod_bases(const ReducedModel& model, const std::vector<double>& f_hz,
+                                  std::string& why) {
+  Matrix E1, A1, B1, C1;
+  Index n = 0;
+  bool second = false;
+  if (const auto* r = std::get_if<ReducedSecondOrderModel>(&model)) {
+    second = true;
+    n = r->M.rows();
+    E1 = Matrix::Identity(2 * n, 2 * n);
+    E1.bottomRightCorner(n, n) = r->M;
+    A1 = Matrix::Zero(2 * n, 2 * n);
+    A1.topRightCorner(n, n).setIdentity();
+    A1.bottomLeftCorner(n, n) = -r->K;
+    A1.bottomRightCorner(n, n) = -r->D;
+    B1 = Matrix::Zero(2 * n, r->B.cols());
+    B1.bottomRows(n) = r->B;
+    C1 = Matrix::Zero(r->C.rows(), 2 * n);
+    C1.leftCols(n) = r->C;
+    if (r->has_velocity_output()) C1.rightCols(n) = r->Cv;
+  } else {
+    const auto& d = std::get<ReducedDescriptorModel>(model);
+    n = d.E.rows();
+    E1 = d.E;
+    A1 = d.A;
+    B1 = d.B;
+    C1 = d.C;
+  }
+  const Eigen::PartialPivLU<Matrix> lu(E1);
+  if (!(lu.rcond() > 1e-12)) {
+    why = second ? "Mr is singular" : "Er is singular (a descriptor model with algebraic states)";
+    return std::nullopt;
+  }
+  const Eigen::PartialPivLU<Matrix> lu_t(E1.transpose());
+  const Eigen::ComplexSchur<ComplexMatrix> schur(lu.solve(A1).cast<Complex>());
+  if (schur.info() != Eigen::Success) {
+    why = "the Schur form of the accepted model did not converge";
+    return std::nullopt;
+  }
+  const ComplexMatrix& Q = schur.matrixU();
+  const ComplexMatrix& R = schur.matrixT();
+  const ComplexMatrix G = Q.adjoint() * lu.solve(B1).cast<Complex>();
+  const ComplexMatrix L = Q.adjoint() * C1.transpose().cast<Complex>();
+  const Index m = B1.cols(), p = C1.rows();
+  const auto F = static_cast<Index>(f_hz.size());
+  ComplexMatrix X(n, F * m), Z(n, F * p);
+  Index used = 0;
+  for (double f : f_hz) {
+    const Complex s(0.0, kTwoPi * f);
+    ComplexMatrix Rs = -R;
+    Rs.diagonal().array() += s;
+    const ComplexMatrix x = Q * Rs.triangularView<Eigen::Upper>().solve(G);
+    const double scale = (C1.cast<Complex>() * x).norm();
+    if (!(scale > 0.0) || !std::isfinite(scale)) continue;  // at a pole, or H vanishes
+    const ComplexMatrix w = Q * Rs.adjoint().triangularView<Eigen::Lower>().solve(L);
+    const ComplexMatrix z = lu_t.solve(w.real()).cast<Complex>() +
+                            Complex(0.0, 1.0) * lu_t.solve(w.imag()).cast<Complex>();
+    X.middleCols(used * m, m) = x.topRows(n) / scale;
+    Z.middleCols(used * p, p) = z.bottomRows(n) / scale;
+    ++used;
+  }
+  if (used == 0) {
+    why = "the accepted model's response vanishes on the band's samples";
+    return std::nullopt;
+  }
+  PodBases b;
+  b.right = leading_directions(X.leftCols(used * m));
+  b.left = leading_directions(Z.leftCols(used * p));
+  ComplexMatrix XZ(n, used * (m + p));
+  XZ << X.leftCols(used * m) / X.leftCols(used * m).norm(),
+      Z.leftCols(used * p) / std::max(Z.leftCols(used * p).norm(), 1e-300);
+  b.both = leading_directions(XZ);
+  return b;
+}
+
+// The accepted model projected onto S_V (right) and S_W (left) at the reduced level: V' = V S_V,
+// W' = W S_W (W' empty where W was empty and S_W = S_V: still Galerkin).
+ReducerResult projected(const ReducerResult& accepted, const Matrix& SV, const Matrix& SW,
+                        bool galerkin) {
+  ReducedModel c;
+  if (const auto* r = std::get_if<ReducedSecondOrderModel>(&accepted.model)) {
+    ReducedSecondOrderModel so;
+    so.M = SW.transpose() * r->M * SV;
+    so.D = SW.transpose() * r->D * SV;
+    so.K = SW.transpose() * r->K * SV;
+    so.B = SW.transpose() * r->B;
+    so.C = r->C * SV;
+    if (r->has_velocity_output()) so.Cv = r->Cv * SV;
+    c = std::move(so);
+  } else {
+    const auto& ds = std::get<ReducedDescriptorModel>(accepted.model);
+    ReducedDescriptorModel d;
+    d.E = SW.transpose() * ds.E * SV;
+    d.A = SW.transpose() * ds.A * SV;
+    d.B = SW.transpose() * ds.B;
+    d.C = ds.C * SV;
+    c = std::move(d);
+  }
+  ReducerResult out;
+  out.model = std::move(c);
+  out.V = accepted.V * SV;
+  if (accepted.W.size() == 0)
+    out.W = galerkin ? Matrix() : Matrix(accepted.V * SW);
+  else
+    out.W = accepted.W * SW;
+  out.points = accepted.points;
+  out.diagnostics = accepted.diagnostics;
+  out.note = accepted.note;
+  return out;
+}
+
+// The response-weighted family: one-sided (S_W = S_V, from the right and left samples together)
+// for a Galerkin model, so that it stays one; two-sided for a Petrov-Galerkin one.
+std::optional<Family> pod_family(const ReducerResult& accepted, const std::vector<double>& f_hz,
+                                 std::string& why) {
+  const bool galerkin = accepted.W.size() == 0 || accepted.W == accepted.V;
+  auto bases = pod_bases(accepted.model, f_hz, why);
+  if (!bases) return std::nullopt;
+  Family fam;
+  fam.may_lose_stability = true;
+  const Index n = accepted.V.cols();
+  if (galerkin) {
+    const Matrix S = bases->both;
+    fam.method = "reduced response-weighted projection (one-sided)";
+    fam.max_count = std::min<Index>(n, S.cols());
+    fam.make = [&accepted, S](Index k) {
+      return projected(accepted, S.leftCols(k), S.leftCols(k), true);
+    };
+  } else {
+    const Matrix SV = bases->right, SW = bases->left;
+    fam.method = "reduced response-weighted projection (two-sided)";
+    fam.max_count = std::min<Index>({n, SV.cols(), SW.cols()});
+    fam.make = [&accepted, SV, SW](Index k) {
+      return projected(accepted, SV.leftCols(k), SW.leftCols(k), false);
+    };
+  }
+  fam.describe = [n](Index, Index order) {
+    return fmt::format("{} -> {}: the {} leading directions of the accepted model's band responses",
+                       n, order, order);
+  };
+  return fam;
+}
+
 }  // namespace
 
 std::optional<ReducerResult> compress_accepted(const ReducerResult& accepted,
@@ -219,102 +406,169 @@ std::optional<ReducerResult> compress_accepted(const ReducerResult& accepted,
     report.factorizations = static_cast<std::int64_t>(cache.size()) - factorizations_before;
   };
   report.attempted = true;
-  report.method = "reduced modal truncation";
   const Index n = accepted.V.cols();
   report.order_before = report.order_after = n;
   const Band& band = estimator.band();
   // Where the band error of a candidate is known without new full solves: the estimator's grid
-  // (dense mode: solved there; estimate mode: the reference's values) and, in estimate mode, the
-  // frequencies where the full model was solved. (Dense mode has solved many more, the re-check
-  // grid among them; the grid is enough to rank candidates, and the re-check sees the rest.)
+  // (dense mode: solved there; estimate mode: the reference's values) and the accepted model's
+  // resonances in the band, where a truncation departs first (estimate mode: the reference's
+  // values there; dense mode: a frequency already solved within a 32nd of the resonance's
+  // relative half-width, as the band error's pole samples take them, else none). The frequencies
+  // solved so far (thousands, after a grown Krylov run) are left to the re-check.
   std::vector<double> f_hz = estimator.grid();
-  if (estimator.mode() == ErrorVerify::Estimate)
-    for (double f : cache.frequencies())
-      if (f >= band.f_min_hz && f <= band.f_max_hz) f_hz.push_back(f);
+  try {
+    const ComplexVector p = poles(accepted.model);
+    for (Index i = 0; i < p.size(); ++i) {
+      const double f = p(i).imag() / kTwoPi;
+      if (!(f >= band.f_min_hz && f <= band.f_max_hz)) continue;
+      if (estimator.mode() == ErrorVerify::Estimate) {
+        f_hz.push_back(f);
+      } else if (const auto near =
+                     cache.nearest_cached(f, std::abs(p(i).real()) / std::abs(p(i)) / 32.0)) {
+        f_hz.push_back(*near);
+      }
+    }
+  } catch (const NumericalError&) {
+    // No poles: the grid alone ranks the candidates.
+  }
   std::sort(f_hz.begin(), f_hz.end());
   f_hz.erase(std::unique(f_hz.begin(), f_hz.end()), f_hz.end());
   if (f_hz.size() < 2) f_hz = log_grid(band.f_min_hz, band.f_max_hz, 2);
 
+  // The families of smaller models inside the accepted one: its modes (ranked, without and with
+  // the static correction of the rest) where it is a symmetric Galerkin model, else its
+  // response-weighted directions.
+  std::vector<Family> families;
   std::string why;
   const std::optional<Modes> modes = ranked_modes(accepted, rigid, f_hz, why);
-  if (!modes) {
+  if (modes) {
+    for (bool residual : {true, false}) {
+      Family fam;
+      fam.method =
+          residual ? "reduced modal truncation with static correction" : "reduced modal truncation";
+      fam.min_count = std::max<Index>(1, modes->rigid);
+      fam.max_count = n;
+      fam.make = [&accepted, &modes, residual](Index count) {
+        return truncated(accepted, *modes, count, residual);
+      };
+      fam.describe = [n, rigid_kept = modes->rigid, residual](Index count, Index order) {
+        return fmt::format(
+            "{} -> {}: {} of {} modes of the accepted model kept{}{}", n, order, count, n,
+            rigid_kept > 0 ? fmt::format(", its {} rigid-body modes among them", rigid_kept)
+                           : std::string(),
+            residual
+                ? fmt::format(", and {} static correction vector(s) for the rest", order - count)
+                : std::string());
+      };
+      families.push_back(std::move(fam));
+    }
+  } else if (rigid.count > 0) {
+    // A free body's rigid-body modes are kept by the modal family only.
     report.note = "kept the accepted model: " + why;
     finish();
     return std::nullopt;
+  } else {
+    std::string pod_why;
+    if (auto fam = pod_family(accepted, f_hz, pod_why)) {
+      families.push_back(std::move(*fam));
+    } else {
+      report.note = "kept the accepted model: " + why + "; " + pod_why;
+      finish();
+      return std::nullopt;
+    }
   }
-  const Index keep_min = std::max<Index>(1, modes->rigid);
-  auto meets = [&](Index count, bool residual) {
+  report.method = families.front().method;
+  // A candidate counts when it meets the target on f_hz and, where its family may lose it, is
+  // stable (no full solve is spent on either; a modal family of a symmetric definite model keeps
+  // stability, which the re-check confirms).
+  Index unstable = 0;
+  auto meets = [&](const Family& fam, Index count) {
     ++report.candidates;
-    return estimator.evaluate_on(truncated(accepted, *modes, count, residual).model, f_hz)
-        .within(tolerance);
+    const ReducerResult candidate = fam.make(count);
+    if (fam.may_lose_stability && !reduced_model_stability(candidate.model, rigid).accepted()) {
+      ++unstable;
+      return false;
+    }
+    return estimator.evaluate_on(candidate.model, f_hz).within(tolerance);
   };
-  // The smallest leading set meeting the target on f_hz, by bisection (all n modes meet it),
-  // without and with the static correction of the modes left out; the smaller model is tried.
-  auto smallest = [&](bool residual) {
-    Index lo = keep_min, hi = n;
+  // The smallest count meeting the target on f_hz, by bisection between lo and hi (hi meets it:
+  // the whole accepted model when hi = n, else checked first).
+  auto smallest = [&](const Family& fam, Index lo, Index hi) {
+    if (lo > hi || lo >= n) return n;
+    if (hi < n && !meets(fam, hi)) return n;
     while (lo < hi) {
       const Index mid = lo + (hi - lo) / 2;
-      if (meets(mid, residual))
+      if (meets(fam, mid))
         hi = mid;
       else
         lo = mid + 1;
     }
     return lo;
   };
-  const Index plain = smallest(false);
-  const Index corrected = smallest(true);
-  const bool residual =
-      corrected < n && truncated(accepted, *modes, corrected, true).V.cols() < plain;
-  const Index lo = residual ? corrected : plain;
-  // Before a re-check (which costs full solves), every frequency already solved in the band
-  // screens the candidate (dense mode: the re-check grids of earlier models among them); a
-  // candidate failing there moves up by an eighth of the distance to n, without a re-check.
-  std::vector<double> solved;
-  for (double f : cache.frequencies())
-    if (f >= band.f_min_hz && f <= band.f_max_hz) solved.push_back(f);
-  auto screened = [&](Index count) {
-    if (solved.size() < 2) return true;
-    ++report.candidates;
-    return estimator.evaluate_on(truncated(accepted, *modes, count, residual).model, solved)
-        .within(tolerance);
-  };
-  // The re-check against the full model; on failure, step halfway back to n (three at most).
-  for (Index count = lo, attempt = 0; count < n && attempt < 3; ++attempt) {
-    while (count < n && !screened(count)) count += std::max<Index>(1, (n - count) / 8);
-    if (count >= n) break;
-    ReducerResult candidate = truncated(accepted, *modes, count, residual);
+  // The family whose smallest model is smallest. After the first family, a family only matters
+  // below the order found so far: the modal family without the static correction needs at least
+  // the modes the corrected one kept, so it is searched between those and that order (a few
+  // candidates instead of a bisection from the start).
+  const Family* chosen = nullptr;
+  Index lo = n, best_order = n;
+  for (const Family& fam : families) {
+    const bool first = chosen == nullptr;
+    const Index count = first ? smallest(fam, fam.min_count, std::min(fam.max_count, n))
+                              : smallest(fam, std::max(fam.min_count, std::min(lo, best_order - 1)),
+                                         std::min({fam.max_count, n, best_order - 1}));
+    if (count >= n) continue;
+    const Index order = fam.make(count).V.cols();
+    if (order < best_order) {
+      chosen = &fam;
+      lo = count;
+      best_order = order;
+    }
+  }
+  // The re-check against the full model (verify_near: every frequency solved so far, and new
+  // solves at the candidate's largest departures from the accepted model, within the budget); on
+  // failure, step up by an eighth of the distance to n, then halfway (four re-checks at most).
+  const Index top = chosen ? std::min(chosen->max_count, n) : n;
+  for (Index count = lo, attempt = 0; chosen && count < top && attempt < 4; ++attempt) {
+    ReducerResult candidate = chosen->make(count);
     if (candidate.V.cols() >= n) break;
-    ++report.verifications;
-    BandError check = estimator.verify(candidate.model, verify_factor);
+    // Stability first: it costs no full solve.
     const bool stable = reduced_model_stability(candidate.model, rigid).accepted();
-    if (check.within(tolerance) && stable) {
+    BandError check;
+    if (stable) {
+      ++report.verifications;
+      const Index spent = static_cast<Index>(cache.size()) - factorizations_before;
+      check = estimator.verify_near(candidate.model, accepted.model, report.error_before, tolerance,
+                                    verify_factor, std::max<Index>(0, kCheckSolves - spent));
+    }
+    if (stable && check.within(tolerance)) {
       const Index order = candidate.V.cols();
       report.applied = true;
+      report.method = chosen->method;
       report.order_after = order;
       report.error_after = check.sup_relative;
-      if (residual) report.method = "reduced modal truncation with static correction";
-      report.note = fmt::format(
-          "{} -> {}: {} of {} modes of the accepted model kept{}{} (re-checked: {:.3e} at {:.4g} "
-          "Hz)",
-          n, order, count, n,
-          modes->rigid > 0 ? fmt::format(", its {} rigid-body modes among them", modes->rigid)
-                           : std::string(),
-          residual ? fmt::format(", and {} static correction vector(s) for the rest", order - count)
-                   : std::string(),
-          check.sup_relative, check.f_peak_hz);
+      report.note =
+          fmt::format("{} (re-checked: {:.3e} at {:.4g} Hz)", chosen->describe(count, order),
+                      check.sup_relative, check.f_peak_hz);
       candidate.note = accepted.note.empty() ? "compressed: " + report.note
                                              : accepted.note + "; compressed " + report.note;
       verified = std::move(check);
       finish();
       return candidate;
     }
-    count += std::max<Index>(1, (n - count + 1) / 2);
+    count += std::max<Index>(1, attempt == 0 ? (top - count) / 8 : (top - count + 1) / 2);
   }
-  report.note = lo >= n ? "kept the accepted model: no smaller set of its modes meets the target"
-                        : fmt::format(
-                              "kept the accepted model: the re-check refused the "
-                              "{} compressed model(s) tried",
-                              report.verifications);
+  if (chosen) report.method = chosen->method;
+  report.note =
+      !chosen
+          ? "kept the accepted model: no smaller model of its " +
+                std::string(modes ? "modes" : "band responses' directions") + " meets the target" +
+                (unstable > 0
+                     ? fmt::format(" ({} of the {} tried unstable)", unstable, report.candidates)
+                     : std::string())
+          : fmt::format(
+                "kept the accepted model: the re-check refused the "
+                "{} compressed model(s) tried",
+                report.verifications);
   finish();
   return std::nullopt;
 }

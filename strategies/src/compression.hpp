@@ -13,21 +13,21 @@
 
 namespace ecmor::driver {
 
-/// Reduced modal truncation of an accepted Galerkin model (W = V) with symmetric reduced matrices:
-/// second order (Mr positive definite; modes Kr phi = lambda Mr phi) or first order (Er positive
-/// definite; modes -Ar phi = lambda Er phi). The modes are ranked by their largest contribution to
-/// the response over the band relative to the response there, and the smallest leading set whose
-/// band error meets the tolerance, without and with the static correction of the modes left out,
-/// is found by bisection on the estimator's grid (and, in estimate mode, the frequencies where the
-/// full model was solved: no new full solves). The smaller candidate is then re-checked as any
-/// accepted model (estimator.verify and its stability), and the search steps back towards the
-/// accepted order when the re-check fails (at most three re-checks). The modes at the full
-/// model's rigid-body eigenvalue (rigid.count of the lowest, second order) are always kept. The
-/// compressed model is the Galerkin projection onto V S (S: the kept modes and the correction
-/// columns): V, W and the reduced matrices stay consistent (W' M V = S' Mr S), in the accepted
-/// model's form, symmetric and definite. `report.factorizations` counts the full-model responses
-/// computed meanwhile (one factorisation each). Returns the compressed model with its re-check in
-/// `verified`, or std::nullopt (the accepted model stays; report.note says why).
+/// The smallest model inside an accepted one (docs/strategies.md, "Compression after
+/// acceptance"). Families nested by a count: for a Galerkin model (W = V) with symmetric reduced
+/// matrices, its modes ranked by their band contribution, without and with the static correction of
+/// the rest (second order: Kr phi = lambda Mr phi; first order: -Ar phi = lambda Er phi; the lowest
+/// rigid.count modes always kept); for any other model without rigid-body modes, the leading
+/// directions of its band responses (one-sided for a Galerkin model, two-sided for a
+/// Petrov-Galerkin one; the position parts for second order). The smallest stable count meeting
+/// the tolerance on the estimator's grid and the accepted model's resonances is found by bisection
+/// (no full solve); it is re-checked by BandErrorEstimator::verify_near against the accepted model
+/// (`report.error_before`: its verified error), at most five new full solves per compression, and
+/// on failure the count steps up (four re-checks at most). The compressed model is the projection
+/// onto V S_V and W S_W, in the accepted model's form: V, W and the reduced matrices stay
+/// consistent. `report.factorizations` counts the full-model responses computed meanwhile (one
+/// factorisation each). Returns the compressed model with its re-check in `verified`, or
+/// std::nullopt (the accepted model stays; report.note says why).
 std::optional<ReducerResult> compress_accepted(const ReducerResult& accepted,
                                                BandErrorEstimator& estimator,
                                                const ResponseCache& cache, double tolerance,

@@ -151,6 +151,7 @@ RunResult run_loaded(const RunConfig& given, const Model& model, Registry& regis
                                         config.verify_factor, rigid, compression, check)) {
         member.best = std::move(smaller);
         member.best_error = std::move(check);
+        member.best_checked = true;
         member.message += "; compressed " + compression.note;
         PortfolioAttempt& attempt = runs.attempts[k];
         attempt.order = member.best->V.cols();

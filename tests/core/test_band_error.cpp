@@ -149,6 +149,48 @@ TEST(BandError, LocalisesANarrowResonancePeak) {
   EXPECT_NEAR(est2.evaluate(reduced).sup_relative, exact_sup, 1e-3 * exact_sup);
 }
 
+// verify_near on the narrow resonance above, with the full model itself as the neighbour (so the
+// departure is the candidate's true relative error): the re-check's own grid misses the peak, one
+// full solve at the departure's refined maximum finds it exactly, and a tolerance the triangle
+// bound settles costs no solve at all.
+TEST(BandError, VerifyNearSolvesAtTheDeparturePeaksWithinItsBudget) {
+  const double m = 1.0, d = 1e-4, k = 4.0, dk = 1e-3;
+  const Model full = oscillator(m, d, k);
+  const ReducedSecondOrderModel neighbour = dense(std::get<SecondOrderModel>(full));
+  ReducedSecondOrderModel candidate = neighbour;
+  candidate.K(0, 0) = k + dk;
+  const double kr = k + dk;
+  const double w2 = kr / m - d * d / (2.0 * m * m);
+  const double exact_sup = dk / std::sqrt(std::pow(kr - m * w2, 2) + d * d * w2);
+  auto check = [&](double tolerance, Index budget) {
+    auto solver = make_shifted_solver(full);
+    ResponseCache cache(full, *solver);
+    BandErrorEstimator est(cache, Band{0.01, 10.0}, dense_mode());
+    est.verify(neighbour, 4);  // as the neighbour was: verify()'s grid is solved
+    const Index before = cache.size();
+    BandError e = est.verify_near(candidate, neighbour, 0.0, tolerance, 4, budget);
+    EXPECT_EQ(e.new_full_solves, cache.size() - before);
+    return e;
+  };
+  const BandError blind = check(1e-6, 0);
+  EXPECT_EQ(blind.new_full_solves, 0);
+  EXPECT_LT(blind.sup_relative, 0.1 * exact_sup) << "verify()'s grid alone misses the peak";
+  const BandError found = check(1e-6, 3);
+  EXPECT_EQ(found.new_full_solves, 1) << "one departure maximum above the bound";
+  EXPECT_NEAR(found.sup_relative, exact_sup, 1e-6 * exact_sup);
+  EXPECT_FALSE(found.within(1e-6));
+  const BandError settled = check(10.0 * exact_sup, 3);
+  EXPECT_EQ(settled.new_full_solves, 0) << "e_n + (1 + e_n) d <= tolerance everywhere";
+  EXPECT_TRUE(settled.within(10.0 * exact_sup));
+
+  auto solver = make_shifted_solver(full);
+  ResponseCache cache(full, *solver);
+  BandErrorEstimator est(cache, Band{0.01, 10.0}, dense_mode());
+  EXPECT_THROW(est.verify_near(candidate, neighbour, 0.0, 1e-3, 0, 1), ConfigError);
+  EXPECT_THROW(est.verify_near(candidate, neighbour, 0.0, 1e-3, 4, -1), ConfigError);
+  EXPECT_THROW(est.verify_near(candidate, neighbour, 0.0, 0.0, 4, 1), ConfigError);
+}
+
 // H = diag(1/(s + a1), 1/(s + a2)); the reduced model keeps the first state only, so
 // H - Hr = diag(0, 1/(s + a2)): spectral and Frobenius relative errors in closed form.
 struct DiagonalCase {

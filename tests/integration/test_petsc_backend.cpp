@@ -130,12 +130,16 @@ class PetscBackend : public ::testing::Test {
     return nlohmann::json::parse(in);
   }
 
+  // The note of the last iteration of the strategy (the compression's own row skipped).
   std::string last_note(const std::string& tag) {
     std::ifstream in(m_dir / ("out_" + tag) / "history.jsonl");
-    std::string line, last;
-    while (std::getline(in, line))
-      if (!line.empty()) last = line;
-    return nlohmann::json::parse(last).value("note", std::string());
+    std::string line, note;
+    while (std::getline(in, line)) {
+      if (line.empty()) continue;
+      const nlohmann::json j = nlohmann::json::parse(line);
+      if (j.value("phase", std::string()) != "compress") note = j.value("note", std::string());
+    }
+    return note;
   }
 
   fs::path m_dir;

@@ -639,14 +639,7 @@ BandError BandErrorEstimator::evaluate_on(const ReducedModel& reduced,
   return assemble(reduced, f_hz, static_cast<Index>(f_hz.size()), 0, false, false);
 }
 
-BandError BandErrorEstimator::verify(const ReducedModel& reduced, Index factor) {
-  if (factor < 1) throw ConfigError("verify factor = " + std::to_string(factor) + ": must be >= 1");
-  const detail::WallTimer timer(m_seconds, m_timing);
-  consider_switch(factor);
-  if (m_engine) {
-    const double overhead = m_engine->overhead_flops();
-    return rented(m_engine->verify(reduced), overhead);
-  }
+std::vector<double> BandErrorEstimator::verify_grid(Index factor) const {
   // Midpoints (in log f) of a grid `factor` times finer than the estimator's: with
   // M = factor (G - 1) intervals, (k + 1/2)/M = j/(G - 1) would need an odd number to equal an even
   // one, so no point coincides with the estimator's grid. The band edges are added: the supremum
@@ -661,7 +654,76 @@ BandError BandErrorEstimator::verify(const ReducedModel& reduced, Index factor) 
     f.push_back(std::exp(x0 + (static_cast<double>(k) + 0.5) * (x1 - x0) / static_cast<double>(M)));
   }
   f.push_back(m_band.f_max_hz);
-  return assemble(reduced, std::move(f), M + 2, 0, true, true);
+  return f;
+}
+
+BandError BandErrorEstimator::verify(const ReducedModel& reduced, Index factor) {
+  if (factor < 1) throw ConfigError("verify factor = " + std::to_string(factor) + ": must be >= 1");
+  const detail::WallTimer timer(m_seconds, m_timing);
+  consider_switch(factor);
+  if (m_engine) {
+    const double overhead = m_engine->overhead_flops();
+    return rented(m_engine->verify(reduced), overhead);
+  }
+  std::vector<double> f = verify_grid(factor);
+  const auto grid = static_cast<Index>(f.size());
+  return assemble(reduced, std::move(f), grid, 0, true, true);
+}
+
+BandError BandErrorEstimator::verify_near(const ReducedModel& reduced,
+                                          const ReducedModel& neighbour, double neighbour_error,
+                                          double tolerance, Index factor, Index max_new_solves) {
+  if (factor < 1) throw ConfigError("verify factor = " + std::to_string(factor) + ": must be >= 1");
+  if (max_new_solves < 0)
+    throw ConfigError("max_new_solves = " + std::to_string(max_new_solves) + ": must be >= 0");
+  if (!(tolerance > 0.0))
+    throw ConfigError("tolerance = " + std::to_string(tolerance) + ": must be > 0");
+  const detail::WallTimer timer(m_seconds, m_timing);
+  consider_switch(factor);
+  std::vector<double> f = verify_grid(factor);
+  const auto grid = static_cast<Index>(f.size());
+
+  // The departure from the neighbour, at the reduced level only: the neighbour stands where the
+  // full model stands in verify(), refinement included. Its local maxima sit at the two models'
+  // resonances: the options' grid and both models' pole frequencies in the band locate them.
+  std::vector<double> near_f = m_grid;
+  for (const ReducedModel* m : {&reduced, &neighbour}) {
+    try {
+      for (const auto& [zeta, fp] :
+           detail::pole_frequencies(poles(*m), m_band, m_options.max_pole_samples))
+        near_f.push_back(fp);
+    } catch (const NumericalError&) {
+      // Its poles unknown: the grid and the refinement still see its resonances.
+    }
+  }
+  const ReducedResponse near(neighbour);
+  const detail::ReferenceSource source = [&near](const std::vector<double>& fs) {
+    detail::ReferenceValues v;
+    v.H.reserve(fs.size());
+    for (double fk : fs) v.H.push_back(near(s_from_hz(fk)));
+    v.exact.assign(fs.size(), 1);
+    return v;
+  };
+  detail::CandidateResponse candidate(reduced);
+  const auto near_grid = static_cast<Index>(m_grid.size());
+  const BandError departure = detail::assemble_band_error(
+      candidate, std::move(near_f), source, detail::SamplingPlan{near_grid, 0, true, false},
+      m_options, m_band, 0.0, 0.0, m_full.threads());
+  const double settled = (tolerance - std::max(neighbour_error, 0.0)) / (1.0 + neighbour_error);
+  std::vector<double> solve;
+  for (double fp :
+       largest_local_maxima_hz(departure, static_cast<Index>(departure.f_hz.size()), settled)) {
+    if (static_cast<Index>(solve.size()) >= max_new_solves) break;
+    if (!m_full.contains(fp)) solve.push_back(fp);
+  }
+  if (m_engine) {
+    const double overhead = m_engine->overhead_flops();
+    return rented(m_engine->verify_at(reduced, solve), overhead);
+  }
+  for (double fc : m_full.frequencies())
+    if (fc >= m_band.f_min_hz && fc <= m_band.f_max_hz) f.push_back(fc);
+  f.insert(f.end(), solve.begin(), solve.end());
+  return assemble(reduced, std::move(f), grid, 0, false, true);
 }
 
 }  // namespace ecmor

@@ -416,4 +416,16 @@ BandError EstimateEngine::verify(const ReducedModel& model) {
   return e;
 }
 
+BandError EstimateEngine::verify_at(const ReducedModel& model, const std::vector<double>& solve) {
+  CandidateResponse reduced(model);
+  const Index solves = solve_full(solve);
+  Index pole_count = 0, unstable = -1;
+  std::vector<double> f = sample_set(reduced, &pole_count, &unstable);
+  BandError e =
+      assemble(reduced, std::move(f), static_cast<Index>(m_grid.size()), pole_count, true, true);
+  finish(e, true, {}, solves);
+  e.unstable_poles = unstable;
+  return e;
+}
+
 }  // namespace ecmor::detail

@@ -27,6 +27,9 @@ class EstimateEngine {
   /// and the band edges. sup_relative is the largest error against the full model's own H;
   /// estimate_sup the largest estimate elsewhere.
   BandError verify(const ReducedModel& reduced);
+  /// The re-check of BandErrorEstimator::verify_near: full solves at exactly `solve` (those not
+  /// yet solved), then the estimate over the band with refinement; sup_relative as for verify().
+  BandError verify_at(const ReducedModel& reduced, const std::vector<double>& solve);
   void offer_basis(const Matrix& basis);
   const ReferenceModel& reference() const { return m_reference; }
   /// Floating-point operations spent on the reference model itself (its reduced forms, poles and

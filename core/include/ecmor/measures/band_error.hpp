@@ -172,6 +172,23 @@ class ECMOR_API BandErrorEstimator {
   /// no frequency coincides with it, plus refinement of its own local maxima; the largest errors
   /// are re-evaluated with a dense LU of P_r(s), independently of the fast Hessenberg path.
   BandError verify(const ReducedModel& reduced, Index factor = 4);
+  /// The re-check of a model derived from `neighbour`, a model that passed verify() with the
+  /// error `neighbour_error` (a compression of it, say), at no more than `max_new_solves` new
+  /// full solves. The candidate's departure from the neighbour, d(f) = ||Hn - Hc|| / ||Hn||, is
+  /// sampled at the reduced level on the options' grid and both models' pole frequencies in the
+  /// band, and its local maxima are refined (golden section, no full solve). Where
+  /// e_n + (1 + e_n) d(f) <= tolerance, the triangle inequality bounds the candidate's error by
+  /// the tolerance. At the largest maxima above that (largest first, at most max_new_solves) the
+  /// full model is solved. The candidate is then compared with the full model as in verify():
+  /// dense mode on verify()'s grid, the frequencies solved so far and those new ones (no
+  /// refinement of the true error: that is what the departure's maxima stand in for); estimate
+  /// mode as EstimateEngine::verify_at. `new_full_solves` counts the solves made: at most
+  /// max_new_solves once verify()'s grid is solved (a verify() of the neighbour solved it; dense
+  /// mode solves what is missing of it, as verify() would).
+  /// \throws ConfigError for factor < 1, max_new_solves < 0 or a tolerance that is not > 0.
+  BandError verify_near(const ReducedModel& reduced, const ReducedModel& neighbour,
+                        double neighbour_error, double tolerance, Index factor,
+                        Index max_new_solves);
 
   /// Estimate mode: adds the columns of a candidate's basis (V or W, N rows) to the reference
   /// model, so that the reference is at least as rich as the candidates it judges. Ignored in
@@ -204,6 +221,8 @@ class ECMOR_API BandErrorEstimator {
  private:
   BandError assemble(const ReducedModel& reduced, std::vector<double> f_hz, Index grid, Index poles,
                      bool refine, bool dense_peaks);
+  // verify()'s grid: the band edges and the midpoints of a grid `factor` times the options'.
+  std::vector<double> verify_grid(Index factor) const;
   std::function<detail::ReferenceValues(const std::vector<double>&)> full_source();
   // Dense mode from here on: the full model on the whole grid, and the scales taken from it.
   void start_dense();

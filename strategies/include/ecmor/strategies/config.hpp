@@ -13,7 +13,7 @@
 ///   output:   {dir: out/tc451, format: mtx}            # format: mtx (default) | mat | both
 ///   plugins:  [path/to/libmy_plugin.so, path/to/dir]     # optional: extra plugins
 ///   check:    {max_order: 48, max_seconds: 600}          # optional: budgets for `ecmor check`
-///   compress: false                                      # optional: keep the accepted model as is
+///   compress: true                                       # optional; false: the model as accepted
 ///
 /// A portfolio run tries several reducer/strategy pairs on the same model, one after another, and
 /// keeps the smallest passing model (no top-level `reducer` section then). Without `members` it
@@ -97,8 +97,8 @@ struct RunConfig {
   /// the target so far without meeting it (it can then no longer win).
   bool portfolio_prune = true;
   /// After a run meets its target, search the accepted model for the smallest model inside it
-  /// that still meets it (YAML `compress: true | false`, default false for now; driver.hpp).
-  bool compress = false;
+  /// that still meets it (YAML `compress: true | false`, default true; driver.hpp).
+  bool compress = true;
   /// Regression budgets checked by `ecmor check` (YAML `check: {max_order, max_seconds}`; 0: none).
   /// `ecmor reduce` ignores them.
   Index check_max_order = 0;

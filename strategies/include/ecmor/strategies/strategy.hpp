@@ -58,6 +58,9 @@ struct StrategyResult {
   std::string message;  ///< with numbers: "band error 8.1e-05 <= tolerance 1e-04 at order 24"
   std::optional<ReducerResult> best;  ///< smallest model meeting the target, else the most accurate
   BandError best_error;
+  /// best_error is already the independent re-check of `best` (a compressed model's
+  /// BandErrorEstimator::verify_near): the acceptance reports it instead of checking again.
+  bool best_checked = false;
   std::vector<IterationRecord> history;  ///< always complete, whatever the verbosity
   bool met() const { return termination == Termination::Converged; }
 };
