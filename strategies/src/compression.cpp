@@ -146,6 +146,42 @@ std::optional<Modes> ranked_modes(const ReducerResult& accepted, const RigidBody
   return m;
 }
 
+// The accepted model projected onto S_V (right) and S_W (left) at the reduced level: V' = V S_V,
+// W' = W S_W (W' empty where W was empty and S_W = S_V: still Galerkin).
+ReducerResult projected(const ReducerResult& accepted, const Matrix& SV, const Matrix& SW,
+                        bool galerkin) {
+  ReducedModel c;
+  if (const auto* r = std::get_if<ReducedSecondOrderModel>(&accepted.model)) {
+    ReducedSecondOrderModel so;
+    so.M = SW.transpose() * r->M * SV;
+    so.D = SW.transpose() * r->D * SV;
+    so.K = SW.transpose() * r->K * SV;
+    so.B = SW.transpose() * r->B;
+    so.C = r->C * SV;
+    if (r->has_velocity_output()) so.Cv = r->Cv * SV;
+    c = std::move(so);
+  } else {
+    const auto& ds = std::get<ReducedDescriptorModel>(accepted.model);
+    ReducedDescriptorModel d;
+    d.E = SW.transpose() * ds.E * SV;
+    d.A = SW.transpose() * ds.A * SV;
+    d.B = SW.transpose() * ds.B;
+    d.C = ds.C * SV;
+    c = std::move(d);
+  }
+  ReducerResult out;
+  out.model = std::move(c);
+  out.V = accepted.V * SV;
+  if (accepted.W.size() == 0)
+    out.W = galerkin ? Matrix() : Matrix(accepted.V * SW);
+  else
+    out.W = accepted.W * SW;
+  out.points = accepted.points;
+  out.diagnostics = accepted.diagnostics;
+  out.note = accepted.note;
+  return out;
+}
+
 // The Galerkin projection of the accepted model onto its leading `count` ranked modes (in
 // ascending eigenvalue order) and, with `residual`, the static response of the modes left out to
 // the inputs, R = sum_j phi_j phi_j' Br / lambda_j over them (at most m columns, orthonormalised
@@ -181,33 +217,7 @@ ReducerResult truncated(const ReducerResult& accepted, const Modes& m, Index cou
       S = std::move(T);
     }
   }
-  ReducedModel c;
-  if (const auto* r = std::get_if<ReducedSecondOrderModel>(&accepted.model)) {
-    ReducedSecondOrderModel so;
-    so.M = S.transpose() * r->M * S;
-    so.D = S.transpose() * r->D * S;
-    so.K = S.transpose() * r->K * S;
-    so.B = S.transpose() * r->B;
-    so.C = r->C * S;
-    if (r->has_velocity_output()) so.Cv = r->Cv * S;
-    c = std::move(so);
-  } else {
-    const auto& ds = std::get<ReducedDescriptorModel>(accepted.model);
-    ReducedDescriptorModel d;
-    d.E = S.transpose() * ds.E * S;
-    d.A = S.transpose() * ds.A * S;
-    d.B = S.transpose() * ds.B;
-    d.C = ds.C * S;
-    c = std::move(d);
-  }
-  ReducerResult out;
-  out.model = std::move(c);
-  out.V = accepted.V * S;
-  out.W = accepted.W.size() == 0 ? Matrix() : Matrix(out.V);
-  out.points = accepted.points;
-  out.diagnostics = accepted.diagnostics;
-  out.note = accepted.note;
-  return out;
+  return projected(accepted, S, S, true);
 }
 
 // A family of compressed models, nested by `count`: make(count) for count in [min_count,
@@ -321,42 +331,6 @@ std::optional<PodBases> pod_bases(const ReducedModel& model, const std::vector<d
       Z.leftCols(used * p) / std::max(Z.leftCols(used * p).norm(), 1e-300);
   b.both = leading_directions(XZ);
   return b;
-}
-
-// The accepted model projected onto S_V (right) and S_W (left) at the reduced level: V' = V S_V,
-// W' = W S_W (W' empty where W was empty and S_W = S_V: still Galerkin).
-ReducerResult projected(const ReducerResult& accepted, const Matrix& SV, const Matrix& SW,
-                        bool galerkin) {
-  ReducedModel c;
-  if (const auto* r = std::get_if<ReducedSecondOrderModel>(&accepted.model)) {
-    ReducedSecondOrderModel so;
-    so.M = SW.transpose() * r->M * SV;
-    so.D = SW.transpose() * r->D * SV;
-    so.K = SW.transpose() * r->K * SV;
-    so.B = SW.transpose() * r->B;
-    so.C = r->C * SV;
-    if (r->has_velocity_output()) so.Cv = r->Cv * SV;
-    c = std::move(so);
-  } else {
-    const auto& ds = std::get<ReducedDescriptorModel>(accepted.model);
-    ReducedDescriptorModel d;
-    d.E = SW.transpose() * ds.E * SV;
-    d.A = SW.transpose() * ds.A * SV;
-    d.B = SW.transpose() * ds.B;
-    d.C = ds.C * SV;
-    c = std::move(d);
-  }
-  ReducerResult out;
-  out.model = std::move(c);
-  out.V = accepted.V * SV;
-  if (accepted.W.size() == 0)
-    out.W = galerkin ? Matrix() : Matrix(accepted.V * SW);
-  else
-    out.W = accepted.W * SW;
-  out.points = accepted.points;
-  out.diagnostics = accepted.diagnostics;
-  out.note = accepted.note;
-  return out;
 }
 
 // The response-weighted family: one-sided (S_W = S_V, from the right and left samples together)
