@@ -53,7 +53,7 @@ class TablePrinter final : public RunObserver {
       fmt::print("portfolio  {}    output {}\n\n", fmt::join(labels, ", "),
                  config.output_dir.string());
     }
-    fmt::print("{:>4}  {:<7} {:>6}  {:>10}  {:>11}  {:>4}  {:>8}  {:>6}  {:>7}  {}\n", "iter",
+    fmt::print("{:>4}  {:<8} {:>5}  {:>10}  {:>11}  {:>4}  {:>8}  {:>6}  {:>7}  {}\n", "iter",
                "phase", "order", "band err", "f_peak Hz", "met", "time s", "facts", "solves",
                "note");
     std::fflush(stdout);
@@ -67,7 +67,7 @@ class TablePrinter final : public RunObserver {
 
   bool on_iteration(const IterationRecord& r) override {
     if (!m_quiet) {
-      fmt::print("{:>4}  {:<7} {:>6}  {:>10.3e}  {:>11.4e}  {:>4}  {:>8.2f}  {:>6}  {:>7}  {}\n",
+      fmt::print("{:>4}  {:<8} {:>5}  {:>10.3e}  {:>11.4e}  {:>4}  {:>8.2f}  {:>6}  {:>7}  {}\n",
                  r.iteration, r.phase, r.order, r.band_error, r.f_peak_hz,
                  r.meets_tolerance ? "yes" : "no", r.seconds, r.counters.factorizations,
                  r.counters.solves, r.note);
