@@ -42,7 +42,8 @@ struct PortfolioAttempt {
 struct CompressionReport {
   bool attempted = false;  ///< a converged run's model was offered to it
   bool applied = false;    ///< a smaller model replaced the accepted one
-  std::string method;      ///< "reduced modal truncation"
+  std::string method;      ///< "reduced modal truncation [with static correction]" or "reduced
+                           ///< response-weighted projection (one-sided | two-sided)"
   std::string note;        ///< what it did, or why it kept the accepted model
   Index order_before = 0, order_after = 0;
   double error_before = 0.0;  ///< the accepted model's band error, as the strategy measured it
