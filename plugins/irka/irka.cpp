@@ -17,6 +17,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "ecmor/base/error.hpp"
@@ -177,6 +178,93 @@ const OptionSpecs<Options>& option_specs() {
   return specs;
 }
 
+/// A stable model in real block-diagonal modal form, x' = A x + B u, y = C x, built from its
+/// pole-residue form G(s) = sum_i c_i b_i^T / (s - lambda_i): a real pole is a 1 x 1 block
+/// [lambda] with B row Re b', C column Re c; a pair lambda = a + i w, conj(lambda) (w > 0) is the
+/// 2 x 2 block [a -w; w a] with B rows Re b', Im b' and C columns 2 Re c, -2 Im c (the complex
+/// state z = x1 + i x2 of the pair has z' = lambda z + b' u, and its output c z + conj(c z)).
+/// Solves with s I - A are divisions by blocks: the IRKA surrogate's steps are O(k r).
+struct RealModal {
+  Vector diagonal;         ///< a (block diagonal)
+  Vector coupling;         ///< w at the first row of a pair, 0 elsewhere
+  std::vector<bool> pair;  ///< true at the first row of a 2 x 2 block
+  Matrix B, C;
+
+  /// \throws NumericalError when the poles are not closed under conjugation.
+  explicit RealModal(const PoleResidues& g) {
+    const Index n = g.poles.size();
+    Index upper = 0, lower = 0;
+    for (const Complex& z : g.poles) {
+      upper += z.imag() > 0.0 ? 1 : 0;
+      lower += z.imag() < 0.0 ? 1 : 0;
+    }
+    if (upper != lower) {
+      throw NumericalError(fmt::format(
+          "{} poles with Im > 0 but {} with Im < 0: not a real model's poles", upper, lower));
+    }
+    diagonal.resize(n);
+    coupling = Vector::Zero(n);
+    pair.assign(static_cast<std::size_t>(n), false);
+    B.resize(n, g.b.rows());
+    C.resize(g.c.rows(), n);
+    Index k = 0;
+    for (Index i = 0; i < n; ++i) {
+      const Complex z = g.poles(i);
+      if (z.imag() < 0.0) continue;  // the conjugate of a pair taken with its partner
+      diagonal(k) = z.real();
+      B.row(k) = g.b.col(i).real().transpose();
+      if (z.imag() == 0.0) {
+        C.col(k) = g.c.col(i).real();
+        k += 1;
+        continue;
+      }
+      pair[static_cast<std::size_t>(k)] = true;
+      coupling(k) = z.imag();
+      diagonal(k + 1) = z.real();
+      B.row(k + 1) = g.b.col(i).imag().transpose();
+      C.col(k) = 2.0 * g.c.col(i).real();
+      C.col(k + 1) = -2.0 * g.c.col(i).imag();
+      k += 2;
+    }
+  }
+
+  Index size() const { return diagonal.size(); }
+
+  /// (s I - A)^-1 x, or (s I - A)^-T x when `transposed`.
+  ComplexVector solve(Complex s, const ComplexVector& x, bool transposed) const {
+    ComplexVector y(x.size());
+    for (Index k = 0; k < size(); ++k) {
+      const Complex d = s - diagonal(k);
+      if (!pair[static_cast<std::size_t>(k)]) {
+        y(k) = x(k) / d;
+        continue;
+      }
+      // s I - [a -w; w a] = [d w; -w d], inverse [d -w; w d] / (d^2 + w^2).
+      const double w = transposed ? -coupling(k) : coupling(k);
+      const Complex det = d * d + w * w;
+      y(k) = (d * x(k) - w * x(k + 1)) / det;
+      y(k + 1) = (w * x(k) + d * x(k + 1)) / det;
+      ++k;
+    }
+    return y;
+  }
+
+  /// A X.
+  Matrix apply(const Matrix& X) const {
+    Matrix Y(X.rows(), X.cols());
+    for (Index k = 0; k < size(); ++k) {
+      if (!pair[static_cast<std::size_t>(k)]) {
+        Y.row(k) = diagonal(k) * X.row(k);
+        continue;
+      }
+      Y.row(k) = diagonal(k) * X.row(k) - coupling(k) * X.row(k + 1);
+      Y.row(k + 1) = coupling(k) * X.row(k) + diagonal(k + 1) * X.row(k + 1);
+      ++k;
+    }
+    return Y;
+  }
+};
+
 /// A reduced model built from one interpolation data set, with its bases and the pole-residue
 /// form of its (first-order realisation's) transfer function.
 struct Built {
@@ -270,6 +358,7 @@ class IrkaReducer final : public Reducer {
           "reducer 'irka': structure = second_order needs a second-order model (M, D, K); this "
           "model is first order (E, A): use structure: first_order");
     }
+    classify(*context.model);
     check_model(*context.model);
     choose_projection(*context.model);
     symmetric_defaults();
@@ -277,7 +366,8 @@ class IrkaReducer final : public Reducer {
       throw ConfigError(
           "reducer 'irka': surrogate = true needs a first-order run (structure: first_order, "
           "projection: two_sided, frequency_limited: false) on a descriptor model with E "
-          "symmetric positive definite and A symmetric negative definite; this run is not one");
+          "symmetric positive definite and A symmetric negative definite, or a second-order "
+          "model with M, D and K symmetric positive definite; this run is not one");
     }
     if (m_options.frequency_limited) {
       if (m_options.start == Options::Start::Best) {
@@ -401,23 +491,35 @@ class IrkaReducer final : public Reducer {
   /// in V at ceil(r/2) shifts 96 on rail_1357, its shifts never settled), so two-sided stays the
   /// default even for those models.
   void choose_projection(const Model& model) {
-    const auto* ds = std::get_if<DescriptorModel>(&model);
-    const bool symmetric =
-        ds != nullptr && is_positive_definite(ds->E) && is_positive_definite(SparseMatrix(-ds->A));
-    m_symmetric = symmetric;
     if (second_order_variant()) {
       m_one_sided_so = m_options.projection == Projection::OneSided;
       return;
     }
-    if (m_options.projection == Projection::OneSided && !symmetric) {
+    if (m_options.projection == Projection::OneSided && !m_symmetric) {
       throw ConfigError(
           "reducer 'irka': projection = one_sided with structure first_order needs a descriptor "
           "model with E symmetric positive definite and A symmetric negative definite (then W = V "
           "keeps every reduced model stable); this model is not: use projection: two_sided");
     }
+    (void)model;
     m_one_sided = m_options.projection == Projection::OneSided;
     // A symmetric definite pencil has real poles: real shifts throughout.
     if (m_one_sided) m_real_poles = true;
+  }
+
+  /// Whether the model is symmetric definite: a descriptor model with E SPD and A symmetric
+  /// negative definite (m_symmetric), or a second-order one with M, D, K SPD (m_definite_so).
+  /// Either is stable (certified, check_model()) and keeps a Galerkin projection stable.
+  void classify(const Model& model) {
+    if (const auto* ds = std::get_if<DescriptorModel>(&model)) {
+      m_symmetric = is_positive_definite(ds->E) && is_positive_definite(SparseMatrix(-ds->A));
+      m_definite_so = false;
+    } else {
+      const auto& so = std::get<SecondOrderModel>(model);
+      m_symmetric = false;
+      m_definite_so =
+          is_positive_definite(so.M) && is_positive_definite(so.D) && is_positive_definite(so.K);
+    }
   }
 
   /// Defaults for a symmetric definite descriptor model (E SPD, A symmetric negative definite),
@@ -431,7 +533,9 @@ class IrkaReducer final : public Reducer {
   /// model_tolerance 1e-3 stops them too early (cdplayer order 22 -> 26, iss_flirka's basis
   /// breaks down at r = 93).
   void symmetric_defaults() {
-    if (!m_symmetric) return;
+    // Second-order definite models take them with the surrogate, whose prediction test needs
+    // model_tolerance > 0 (issue 46: the solid family).
+    if (!m_symmetric && !surrogate_active()) return;
     if (!m_given.model_tolerance_given) m_options.model_tolerance = kSymmetricModelTolerance;
     if (!m_given.restarts_given) m_options.restarts = 0;
   }
@@ -463,17 +567,9 @@ class IrkaReducer final : public Reducer {
       if (!singular_e.empty()) refuse_dae("");
       return;
     }
-    bool certified = false;
-    if (const auto* ds = std::get_if<DescriptorModel>(&model)) {
-      // E SPD and A symmetric negative definite: every pole is real and negative.
-      const SparseMatrix minus_a = -ds->A;
-      certified = is_positive_definite(ds->E) && is_positive_definite(minus_a);
-    } else {
-      const auto& so = std::get<SecondOrderModel>(model);
-      // M, D, K SPD: for an eigenvector x, x^H (s^2 M + s D + K) x = 0 has roots with Re < 0.
-      certified =
-          is_positive_definite(so.M) && is_positive_definite(so.D) && is_positive_definite(so.K);
-    }
+    // E SPD and A symmetric negative definite: every pole is real and negative. M, D, K SPD:
+    // for an eigenvector x, x^H (s^2 M + s D + K) x = 0 has roots with Re < 0.
+    const bool certified = m_symmetric || m_definite_so;
     if (certified) {
       m_stability = "certified (symmetric definite)";
       // E SPD and A symmetric: every pole is real, and so are the H2-optimal shifts.
@@ -611,123 +707,240 @@ class IrkaReducer final : public Reducer {
     return out;
   }
 
-  /// The surrogate accelerates two-sided IRKA on symmetric definite descriptor models (E SPD,
-  /// A symmetric negative definite), unless `surrogate: false`. Elsewhere it is off: a Galerkin
-  /// surrogate of a general model need not be stable, and the other configurations were not
-  /// measured slow.
+  /// The surrogate accelerates two-sided first-order IRKA on symmetric definite models, unless
+  /// `surrogate: false`: descriptor models with E SPD and A symmetric negative definite (rail),
+  /// and second-order models with M, D, K SPD (structural models with Rayleigh damping; issue 46:
+  /// a 2 400-DOF solid took 3 786 factorisations to order 93). Elsewhere it is off: a Galerkin
+  /// surrogate of a general model need not be stable.
   bool surrogate_active() const {
-    return m_options.surrogate && m_symmetric && !m_one_sided && !second_order_variant() &&
-           !m_options.frequency_limited;
+    return m_options.surrogate && (m_symmetric || m_definite_so) && !m_one_sided &&
+           !second_order_variant() && !m_options.frequency_limited;
   }
 
-  /// Adds the columns of X (real, N x q) to the surrogate's pending vectors; the projection is
-  /// updated when the surrogate is next used (surrogate_poles()).
-  void surrogate_add(const Matrix& X) {
-    if (!surrogate_active() || X.cols() == 0) return;
-    Matrix& P = m_surrogate.pending;
-    const Index old = P.cols();
-    P.conservativeResize(X.rows(), old + X.cols());
-    P.rightCols(X.cols()) = X;
+  /// The vectors of a build() join the surrogate's pending vectors (the projection is updated
+  /// when the surrogate is next used, surrogate_poles()): all of V and W for a descriptor model;
+  /// for a second-order one the position rows q of the right vectors [q; s q] and the rows y of
+  /// the left vectors [(s M' + D') y - Cv' c; y], which span P(s)^-1 B b and
+  /// P(s)^-T (C + s Cv)' c.
+  void surrogate_add(const Built& built) {
+    if (!surrogate_active()) return;
+    const bool so = m_view->second_order();
+    const Index n = m_view->size();
+    for (const Matrix* X : {&built.V, &built.W}) {
+      if (X->cols() == 0) continue;
+      Matrix& P = m_surrogate.pending;
+      const Index old = P.cols();
+      P.conservativeResize(n, old + X->cols());
+      P.rightCols(X->cols()) = !so             ? *X
+                               : X == &built.V ? Matrix(X->topRows(n))
+                                               : Matrix(X->bottomRows(n));
+    }
   }
 
-  /// The pole-residue form of the surrogate: the Galerkin projection of the full model onto the
-  /// span U of every right and left vector IRKA has computed since setup() (since this reduce()
-  /// with warm_start: false; from the newest ones when kSurrogateMaxColumns would be passed). The
-  /// idea of running IRKA on a projected problem and expanding the projection space at its shifts
-  /// is not ours (e.g. Lin and Simoncini, "A reduced-IRKA method for large-scale H2-optimal model
-  /// order reduction", arXiv:2508.00242, 2025); the Galerkin projection onto both sides' vectors,
-  /// the prediction test and the stopping rule are our choices for symmetric models. W = V = U
-  /// keeps U'EU SPD and U'AU symmetric negative definite (stable, real poles), and because U holds
-  /// both (sE - A)^-1 B b and (sE - A)^-T C' c at each shift used, the surrogate interpolates G
-  /// tangentially, with the derivative, at every one of them (Hermite, as the two-sided
-  /// projection does). New vectors are orthogonalised against U (twice) and dropped when less than
-  /// kSurrogateDrop of their norm lies outside it.
-  const PoleResidues& surrogate_poles() {
+  /// The operators the surrogate projects: E, A of a descriptor model; M, D, K of a second-order
+  /// one (all symmetric, so U' X U is updated by blocks and their transposes).
+  std::vector<const SparseMatrix*> surrogate_operators() const {
+    if (const auto* ds = std::get_if<DescriptorModel>(m_model)) return {&ds->E, &ds->A};
+    const auto& so = std::get<SecondOrderModel>(*m_model);
+    return {&so.M, &so.D, &so.K};
+  }
+
+  /// The surrogate in its real modal realisation (null when it is unusable: its eigenproblem
+  /// failed or a pole has Re >= 0, which the definite matrices exclude but rounding might not):
+  /// the Galerkin projection of the full model onto the span U of every right and left vector
+  /// IRKA has computed since setup() (since this reduce() with warm_start: false; from the newest
+  /// ones when the column limit would be passed). The idea of running IRKA on a projected problem
+  /// and expanding the projection space at its shifts is not ours (e.g. Lin and Simoncini, "A
+  /// reduced-IRKA method for large-scale H2-optimal model order reduction", arXiv:2508.00242,
+  /// 2025); the Galerkin projection onto both sides' vectors, the prediction test and the
+  /// stopping rule are our choices for symmetric models. W = V = U keeps the projected matrices
+  /// definite, hence the surrogate stable (real poles for a descriptor model), and because U
+  /// holds both sides' vectors at each shift used, the surrogate interpolates G tangentially,
+  /// with the derivative, at every one of them (Hermite, as the two-sided projection does; for
+  /// second-order models by the structure-preserving form of that theorem, Beattie and Gugercin,
+  /// Systems & Control Letters 58, 2009). New vectors are orthogonalised against U (twice) and
+  /// dropped when less than kSurrogateDrop of their norm lies outside it.
+  const RealModal* surrogate_model() {
     Surrogate& g = m_surrogate;
     if (g.pending.cols() > 0) {
-      const auto& ds = std::get<DescriptorModel>(*m_model);
-      Matrix Y = std::move(g.pending);
-      g.pending = Matrix();
-      for (Index j = 0; j < Y.cols(); ++j) {
-        const double norm = Y.col(j).norm();
-        if (norm > 0.0) Y.col(j) /= norm;
-      }
-      if (!Y.allFinite()) Y.resize(Y.rows(), 0);
-      if (g.U.cols() + Y.cols() > kSurrogateMaxColumns) {
-        // Bounded memory (N x kSurrogateMaxColumns doubles) and dense cost: start again from the
-        // newest vectors. Not reached on the rail models (the span stops growing near 250-280).
-        g = Surrogate{};
-      }
-      if (g.U.cols() > 0) {
-        // First pass on every column; the columns already in span U to kSurrogateDrop (most of
-        // them once the surrogate has seen the band: rail_5177 stops growing near 250) are
-        // dropped before the second pass, which is then cheap.
-        Y -= g.U * (g.U.transpose() * Y);
-        Index kept = 0;
-        for (Index j = 0; j < Y.cols(); ++j) {
-          if (Y.col(j).norm() > kSurrogateDrop) Y.col(kept++) = Y.col(j);
+      surrogate_extend();
+      g.modal.reset();
+      g.evaluated = false;
+    }
+    if (!g.evaluated && g.U.cols() > 0) {
+      g.evaluated = true;
+      try {
+        PoleResidues poles;
+        if (m_view->second_order()) {
+          poles = scaled_modal_poles(g.P, g.Bs, g.Cs, g.Cvs, m_proportional);
+        } else {
+          poles = symmetric_pole_residues(g.P[0], g.P[1], g.Bs, g.Cs);
         }
-        Y.conservativeResize(Eigen::NoChange, kept);
-        if (kept > 0) Y -= g.U * (g.U.transpose() * Y);
-      }
-      // Eigen's column-pivoting QR does not accept a matrix without columns.
-      Eigen::ColPivHouseholderQR<Matrix> qr;
-      if (Y.cols() > 0) qr.compute(Y);
-      Index q = 0;
-      const Index diag = std::min(Y.rows(), Y.cols());
-      while (q < diag && std::abs(qr.matrixQR()(q, q)) > kSurrogateDrop) ++q;
-      if (q > 0) {
-        Matrix Q = qr.householderQ() * Matrix::Identity(Y.rows(), q);
-        if (g.U.cols() > 0) Q -= g.U * (g.U.transpose() * Q);
-        Q = Eigen::HouseholderQR<Matrix>(Q).householderQ() * Matrix::Identity(Q.rows(), q);
-        const Index k = g.U.cols();
-        const Matrix EQ = ds.E * Q, AQ = ds.A * Q;
-        Matrix Es(k + q, k + q), As(k + q, k + q);
-        Es.topLeftCorner(k, k) = g.Es;
-        As.topLeftCorner(k, k) = g.As;
-        if (k > 0) {
-          Es.topRightCorner(k, q) = g.U.transpose() * EQ;
-          As.topRightCorner(k, q) = g.U.transpose() * AQ;
-          Es.bottomLeftCorner(q, k) = Es.topRightCorner(k, q).transpose();
-          As.bottomLeftCorner(q, k) = As.topRightCorner(k, q).transpose();
-        }
-        Es.bottomRightCorner(q, q) = Q.transpose() * EQ;
-        As.bottomRightCorner(q, q) = Q.transpose() * AQ;
-        Matrix Bs(k + q, ds.B.cols()), Cs(ds.C.rows(), k + q);
-        Bs.topRows(k) = g.Bs;
-        Bs.bottomRows(q) = Q.transpose() * ds.B;
-        Cs.leftCols(k) = g.Cs;
-        Cs.rightCols(q) = ds.C * Q;
-        g.U.conservativeResize(Q.rows(), k + q);
-        g.U.rightCols(q) = Q;
-        g.Es = std::move(Es);
-        g.As = std::move(As);
-        g.Bs = std::move(Bs);
-        g.Cs = std::move(Cs);
-        g.poles.reset();
+        if (unstable_count(poles.poles) == 0) g.modal.emplace(poles);
+      } catch (const NumericalError&) {
+        // Unusable until new vectors change it: IRKA steps on the full model meanwhile.
       }
     }
-    if (!g.poles) g.poles = symmetric_pole_residues(g.Es, g.As, g.Bs, g.Cs);
-    return *g.poles;
+    return g.modal ? &*g.modal : nullptr;
+  }
+
+  /// The pole-residue form of the second-order surrogate (Ms, Ds, Ks SPD), computed where it is
+  /// well scaled: in its undamped modes K phi = w^2 M phi (phi' M phi = 1). With proportional
+  /// damping (phi' D phi diagonal to 1e-9, as Rayleigh damping gives) each mode is a scalar
+  /// oscillator eta'' + d eta' + w^2 eta = b' u with the poles of s^2 + d s + w^2 and residues
+  /// (c + lambda cv) b' / (lambda - lambda'): O(k^3) for the symmetric eigenproblem only, and
+  /// `proportional` is set. Otherwise the state z = [W eta; eta'] (W = diag(w)),
+  /// z' = [0 W; -W -phi' D phi] z + [0; phi' B] u, y = [C phi W^-1, Cv phi] z: entries of the size
+  /// of the frequencies and a nearly normal matrix for light damping. (The plain realisation
+  /// [0 I; -K -D] mixes w and w^2, 1e5 and 1e11 on a solid; its unbalanced eigenproblem lost the
+  /// surrogate's poles to about 1e-7 relative, where IRKA on it stagnated.)
+  static PoleResidues scaled_modal_poles(const std::vector<Matrix>& P, const Matrix& Bs,
+                                         const Matrix& Cs, const Matrix& Cvs, bool& proportional) {
+    const Matrix Ms = 0.5 * (P[0] + P[0].transpose());
+    const Matrix Ds = 0.5 * (P[1] + P[1].transpose());
+    const Matrix Ks = 0.5 * (P[2] + P[2].transpose());
+    const Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> eig(Ks, Ms);
+    if (eig.info() != Eigen::Success || !(eig.eigenvalues().minCoeff() > 0.0)) {
+      throw NumericalError("the surrogate's stiffness is not positive definite");
+    }
+    const Matrix& phi = eig.eigenvectors();
+    const Vector w = eig.eigenvalues().cwiseSqrt();
+    const Index k = w.size();
+    const Matrix damping = phi.transpose() * Ds * phi;
+    const Matrix b = phi.transpose() * Bs;  // row j: b_j'
+    const Matrix c = Cs * phi;              // column j: c_j
+    const Matrix cv = Cvs.size() > 0 ? Matrix(Cvs * phi) : Matrix::Zero(Cs.rows(), k);
+    const Vector d = damping.diagonal();
+    proportional = (damping - Matrix(d.asDiagonal())).norm() <= 1e-9 * damping.norm();
+    bool distinct = proportional;
+    for (Index j = 0; distinct && j < k; ++j) {
+      distinct = std::abs(d(j) * d(j) - 4.0 * w(j) * w(j)) > 1e-12 * w(j) * w(j);
+    }
+    if (distinct) {
+      PoleResidues out;
+      out.poles.resize(2 * k);
+      out.b.resize(Bs.cols(), 2 * k);
+      out.c.resize(Cs.rows(), 2 * k);
+      for (Index j = 0; j < k; ++j) {
+        const Complex root = std::sqrt(Complex(d(j) * d(j) - 4.0 * w(j) * w(j), 0.0));
+        const Complex l1 = 0.5 * (-d(j) + root), l2 = 0.5 * (-d(j) - root);
+        for (const auto& [i, l, other] :
+             {std::tuple{2 * j, l1, l2}, std::tuple{2 * j + 1, l2, l1}}) {
+          out.poles(i) = l;
+          out.b.col(i) = b.row(j).transpose().cast<Complex>();
+          out.c.col(i) = (c.col(j).cast<Complex>() + l * cv.col(j).cast<Complex>()) / (l - other);
+        }
+      }
+      out.eigenvector_rcond = 1.0;
+      return out;
+    }
+    Matrix A = Matrix::Zero(2 * k, 2 * k);
+    A.topRightCorner(k, k) = w.asDiagonal();
+    A.bottomLeftCorner(k, k) = -Matrix(w.asDiagonal());
+    A.bottomRightCorner(k, k) = -damping;
+    Matrix B = Matrix::Zero(2 * k, Bs.cols());
+    B.bottomRows(k) = b;
+    Matrix C(Cs.rows(), 2 * k);
+    C.leftCols(k) = c * w.cwiseInverse().asDiagonal();
+    C.rightCols(k) = cv;
+    return pole_residues(Matrix::Identity(2 * k, 2 * k), A, B, C);
+  }
+
+  /// Orthonormalises the pending vectors against U and extends U and the projections by them.
+  void surrogate_extend() {
+    Surrogate& g = m_surrogate;
+    Matrix Y = std::move(g.pending);
+    g.pending = Matrix();
+    for (Index j = 0; j < Y.cols(); ++j) {
+      const double norm = Y.col(j).norm();
+      if (norm > 0.0) Y.col(j) /= norm;
+    }
+    if (!Y.allFinite()) Y.resize(Y.rows(), 0);
+    const double drop = kSurrogateDrop;
+    if (g.U.cols() + Y.cols() > surrogate_max_columns()) {
+      // Bounded memory (N x the limit doubles) and dense cost: start again from the newest
+      // vectors. Not reached on the rail models (the span stops growing near 250-280).
+      g = Surrogate{};
+    }
+    if (g.U.cols() > 0) {
+      // First pass on every column; the columns already in span U to kSurrogateDrop (most of
+      // them once the surrogate has seen the band: rail_5177 stops growing near 250) are
+      // dropped before the second pass, which is then cheap.
+      Y -= g.U * (g.U.transpose() * Y);
+      Index kept = 0;
+      for (Index j = 0; j < Y.cols(); ++j) {
+        if (Y.col(j).norm() > drop) Y.col(kept++) = Y.col(j);
+      }
+      Y.conservativeResize(Eigen::NoChange, kept);
+      if (kept > 0) Y -= g.U * (g.U.transpose() * Y);
+    }
+    // Eigen's column-pivoting QR does not accept a matrix without columns.
+    Eigen::ColPivHouseholderQR<Matrix> qr;
+    if (Y.cols() > 0) qr.compute(Y);
+    Index q = 0;
+    const Index diag = std::min(Y.rows(), Y.cols());
+    while (q < diag && std::abs(qr.matrixQR()(q, q)) > drop) ++q;
+    if (q == 0) return;
+    Matrix Q = qr.householderQ() * Matrix::Identity(Y.rows(), q);
+    if (g.U.cols() > 0) Q -= g.U * (g.U.transpose() * Q);
+    Q = Eigen::HouseholderQR<Matrix>(Q).householderQ() * Matrix::Identity(Q.rows(), q);
+    const Index k = g.U.cols();
+    const std::vector<const SparseMatrix*> ops = surrogate_operators();
+    g.P.resize(ops.size());
+    for (std::size_t i = 0; i < ops.size(); ++i) {
+      const Matrix XQ = *ops[i] * Q;
+      Matrix P(k + q, k + q);
+      P.topLeftCorner(k, k) = g.P[i];
+      if (k > 0) {
+        P.topRightCorner(k, q) = g.U.transpose() * XQ;
+        P.bottomLeftCorner(q, k) = P.topRightCorner(k, q).transpose();
+      }
+      P.bottomRightCorner(q, q) = Q.transpose() * XQ;
+      g.P[i] = std::move(P);
+    }
+    auto append_rows = [&](Matrix& X, const Matrix& rows) {
+      X.conservativeResize(k + q, rows.cols());
+      X.bottomRows(q) = rows;
+    };
+    auto append_cols = [&](Matrix& X, const Matrix& cols) {
+      X.conservativeResize(cols.rows(), k + q);
+      X.rightCols(q) = cols;
+    };
+    if (const auto* ds = std::get_if<DescriptorModel>(m_model)) {
+      append_rows(g.Bs, Q.transpose() * ds->B);
+      append_cols(g.Cs, ds->C * Q);
+    } else {
+      const auto& so = std::get<SecondOrderModel>(*m_model);
+      append_rows(g.Bs, Q.transpose() * so.B);
+      append_cols(g.Cs, so.C * Q);
+      if (so.has_velocity_output()) append_cols(g.Cvs, so.Cv * Q);
+    }
+    g.U.conservativeResize(Q.rows(), k + q);
+    g.U.rightCols(q) = Q;
   }
   static constexpr double kSurrogateDrop = 1e-7;
-  static constexpr Index kSurrogateMaxColumns = 600;
 
-  /// The pole-residue form of the order-r model that the two-sided projection of the surrogate
-  /// (poles mu_j, residue directions in `g`) at `data` gives: build() for the diagonal
-  /// realisation E = I, A = diag(mu), whose solves are divisions.
-  static PoleResidues surrogate_reduced(const PoleResidues& g, const Interpolation& data) {
-    const Index k = g.poles.size(), r = data.size();
-    const ComplexMatrix Bd = g.b.transpose();  // k x m
-    const ComplexMatrix Ct = g.c.transpose();  // k x p
-    Matrix V(k, r), W(k, r);
+  /// Columns of U before the surrogate starts again: 600 where its poles come from a symmetric
+  /// eigenproblem of that size (a descriptor model, or a second-order one with proportional
+  /// damping); 300 for other second-order models, whose poles need a nonsymmetric eigenproblem of
+  /// twice the size (Eigen: 1 s at 600, 9 s at 1 200). A build at order r adds up to 2 r.
+  Index surrogate_max_columns() const {
+    return m_view->second_order() && !m_proportional ? 300 : 600;
+  }
+
+  /// The order-r model that the two-sided projection of the surrogate at `data` gives, in
+  /// pole-residue form: build() for the surrogate in its real block-diagonal modal realisation
+  /// (RealModal), whose solves are divisions by 1 x 1 and 2 x 2 blocks.
+  static PoleResidues surrogate_reduced(const RealModal& modal, const Interpolation& data) {
+    const Index r = data.size();
+    Matrix V(modal.size(), r), W(modal.size(), r);
     Index col = 0;
     for (Index i = 0; i < r; ++i) {
       const Complex s = data.shifts[static_cast<std::size_t>(i)];
       if (s.imag() < 0.0) continue;
-      const ComplexVector d = (s - g.poles.array()).inverse().matrix();
-      const ComplexVector v = d.cwiseProduct(Bd * data.b.col(i));
-      const ComplexVector w = d.cwiseProduct(Ct * data.c.col(i));
+      const ComplexVector v = modal.solve(s, modal.B.cast<Complex>() * data.b.col(i), false);
+      const ComplexVector w =
+          modal.solve(s, modal.C.transpose().cast<Complex>() * data.c.col(i), true);
       V.col(col) = v.real();
       W.col(col) = w.real();
       if (s.imag() > 0.0) {
@@ -743,9 +956,8 @@ class IrkaReducer final : public Reducer {
     }
     V = orthonormal_basis(V, "surrogate right");
     W = orthonormal_basis(W, "surrogate left");
-    const Vector mu = g.poles.real();
-    return pole_residues(W.transpose() * V, W.transpose() * mu.asDiagonal() * V,
-                         W.transpose() * Bd.real(), g.c.real() * V);
+    return pole_residues(W.transpose() * V, W.transpose() * modal.apply(V), W.transpose() * modal.B,
+                         modal.C * V);
   }
 
   /// IRKA of order r on the surrogate from `data`: plain (relaxed by alpha) iterations, each
@@ -759,10 +971,10 @@ class IrkaReducer final : public Reducer {
                                       std::optional<PoleResidues>& predicted, bool& converged) {
     const Interpolation proposed = surrogate_iterate(std::move(data), r, alpha, converged);
     predicted.reset();
-    const PoleResidues& g = surrogate_poles();
-    if (g.poles.size() >= r) {
+    const RealModal* g = surrogate_model();
+    if (g != nullptr && g->size() >= r) {
       try {
-        predicted = surrogate_reduced(g, proposed);
+        predicted = surrogate_reduced(*g, proposed);
       } catch (const NumericalError&) {
         // No prediction: convergence then needs two true builds.
       }
@@ -773,8 +985,8 @@ class IrkaReducer final : public Reducer {
   /// The surrogate iteration of surrogate_fixed_point(), without the prediction.
   Interpolation surrogate_iterate(Interpolation data, Index r, double alpha, bool& converged) {
     converged = false;
-    const PoleResidues& g = surrogate_poles();
-    if (g.poles.size() < r) return data;
+    const RealModal* g = surrogate_model();
+    if (g == nullptr || g->size() < r) return data;
     Interpolation best = data;
     double best_change = std::numeric_limits<double>::infinity();
     std::optional<PoleResidues> previous;
@@ -783,7 +995,7 @@ class IrkaReducer final : public Reducer {
       Interpolation next;
       PoleResidues reduced;
       try {
-        reduced = surrogate_reduced(g, data);
+        reduced = surrogate_reduced(*g, data);
         Index reflected = 0;
         next = next_shifts(reduced, r, reflected);
       } catch (const NumericalError&) {
@@ -962,7 +1174,7 @@ class IrkaReducer final : public Reducer {
     if (!m_options.warm_start || m_warm.empty()) return first_shifts(r);
     auto it = m_warm.lower_bound(r);
     if (it != m_warm.end() && it->first == r) return it->second.data;
-    if (it != m_warm.end() && m_symmetric) {
+    if (it != m_warm.end() && (m_symmetric || surrogate_active())) {
       // A larger order ran before (grow_order's shrink phase): the mirror images of the r
       // dominant poles of its model. Measured on the symmetric definite rail models only
       // (rail_1357 order 39 -> 34 with no restarts); on cdplayer it moved the order 22 -> 23.
@@ -1073,10 +1285,7 @@ class IrkaReducer final : public Reducer {
     Interpolation next;
     try {
       built = build(a.data, second_order, r);
-      if (surrogate_active()) {
-        surrogate_add(built.V);
-        surrogate_add(built.W);
-      }
+      surrogate_add(built);
       next = next_shifts(built.poles, r, state.reflected);
     } catch (const NumericalError& e) {
       state.reason = fmt::format("breakdown at iteration {}: {}", state.iterations, e.what());
@@ -1250,6 +1459,8 @@ class IrkaReducer final : public Reducer {
   std::string m_stability;
   bool m_real_poles = false;    // certified real poles (E SPD, A symmetric): real starting shifts
   bool m_symmetric = false;     // descriptor model with E SPD, A symmetric negative definite
+  bool m_definite_so = false;   // second-order model with M, D, K SPD
+  bool m_proportional = false;  // ... whose surrogate's damping was proportional when last seen
   bool m_one_sided = false;     // first order, W = V (symmetric model; choose_projection())
   bool m_one_sided_so = false;  // second-order variant, W = V
   /// The vectors of the previous build(), per shift and directions: a warm start begins with the
@@ -1262,11 +1473,14 @@ class IrkaReducer final : public Reducer {
     PoleResidues poles;
   };
   std::map<Index, Warm> m_warm;
-  /// The Galerkin surrogate (surrogate_poles()): U orthonormal N x k, the projected matrices,
-  /// vectors not yet added, and the cached pole-residue form.
+  /// The Galerkin surrogate (surrogate_model()): U orthonormal N x k, the projections U' X U of
+  /// the operators (surrogate_operators()), U'B, C U and Cv U, the vectors not yet added, and the
+  /// cached modal realisation (none when unusable; `evaluated` once computed for this U).
   struct Surrogate {
-    Matrix U, Es, As, Bs, Cs, pending;
-    std::optional<PoleResidues> poles;
+    Matrix U, Bs, Cs, Cvs, pending;
+    std::vector<Matrix> P;
+    std::optional<RealModal> modal;
+    bool evaluated = false;
   };
   Surrogate m_surrogate;
   Index m_surrogate_iterations = 0;  // in this reduce()

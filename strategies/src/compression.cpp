@@ -2,6 +2,7 @@
 #include "compression.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
@@ -10,6 +11,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <functional>
+#include <limits>
+#include <memory>
 #include <numeric>
 #include <vector>
 
@@ -365,6 +368,206 @@ std::optional<Family> pod_family(const ReducerResult& accepted, const std::vecto
   return fam;
 }
 
+// The modes of a first-order model, Er^-1 Ar = X diag(lambda) X^-1, ranked (pole_families()).
+struct PoleModes {
+  // A real pole i (partner -1), or the member i with Im > 0 of a conjugate pair and its partner.
+  struct Mode {
+    Index i = 0, partner = -1;
+  };
+  std::vector<Mode> ordered;  // by rank
+  ComplexVector lambda;
+  ComplexMatrix X;   // right eigenvectors
+  ComplexMatrix Yh;  // X^-1 Er^-1: row i is the (conjugated) left eigenvector of pole i
+  ComplexMatrix b;   // Yh Br: row i is b_i'
+};
+
+// The projection of the accepted model onto its leading `count` modes: right and left invariant
+// subspaces (real and imaginary parts), so that its transfer function is the sum of the kept
+// poles' terms. With `residual` both bases take one more vector per input: R = sum over the modes
+// left out of x_i b_i' / (-lambda_i) (their static response, real) on the right and
+// sum y_i conj(b_i' / (-lambda_i)) on the left. In the modal coordinates a of the modes left out
+// this is the Galerkin projection of diag(lambda) onto span{diag(lambda)^-1 b}: it matches their
+// static response (a moment at s = 0), and a^H diag(lambda) a keeps their poles' real parts
+// negative, so the model stays stable. Orthonormal bases of the same spans are returned (the
+// transfer function depends on the spans only).
+ReducerResult pole_truncated(const ReducerResult& accepted, const PoleModes& m, Index count,
+                             bool residual) {
+  const Index n = m.X.rows(), inputs = m.b.cols();
+  std::vector<bool> kept(static_cast<std::size_t>(n), false);
+  Index states = 0;
+  for (Index k = 0; k < count; ++k) {
+    const PoleModes::Mode& mode = m.ordered[static_cast<std::size_t>(k)];
+    for (Index i : {mode.i, mode.partner}) {
+      if (i < 0) continue;
+      kept[static_cast<std::size_t>(i)] = true;
+      ++states;
+    }
+  }
+  const bool correct = residual && states < n;
+  const Index cols = states + (correct ? inputs : 0);
+  Matrix SV(n, cols), SW(n, cols);
+  Index col = 0;
+  for (Index k = 0; k < count; ++k) {
+    const PoleModes::Mode& mode = m.ordered[static_cast<std::size_t>(k)];
+    const ComplexVector x = m.X.col(mode.i), y = m.Yh.row(mode.i).adjoint();
+    SV.col(col) = x.real();
+    SW.col(col) = y.real();
+    if (mode.partner >= 0) {
+      SV.col(col + 1) = x.imag();
+      SW.col(col + 1) = y.imag();
+    }
+    col += mode.partner >= 0 ? 2 : 1;
+  }
+  if (correct) {
+    ComplexMatrix R = ComplexMatrix::Zero(n, inputs), L = ComplexMatrix::Zero(n, inputs);
+    for (Index i = 0; i < n; ++i) {
+      if (kept[static_cast<std::size_t>(i)]) continue;
+      const ComplexVector a = m.b.row(i).transpose() / (-m.lambda(i));
+      R += m.X.col(i) * a.transpose();
+      L += m.Yh.row(i).transpose() * a.adjoint();
+    }
+    SV.rightCols(inputs) = R.real();
+    SW.rightCols(inputs) = L.real();
+    // Scaled like the eigenvectors, so that the rank test below compares directions.
+    for (Index j = states; j < cols; ++j) {
+      for (Matrix* S : {&SV, &SW}) {
+        const double norm = S->col(j).norm();
+        if (norm > 0.0) S->col(j) /= norm;
+      }
+    }
+  }
+  Eigen::ColPivHouseholderQR<Matrix> qv(SV), qw(SW);
+  if (correct && (qv.rank() < cols || qw.rank() < cols)) {
+    // The static responses of the rest are dependent (an input that excites none of them):
+    // the plain truncation.
+    return pole_truncated(accepted, m, count, false);
+  }
+  const Matrix QV = qv.householderQ() * Matrix::Identity(n, cols);
+  const Matrix QW = qw.householderQ() * Matrix::Identity(n, cols);
+  return projected(accepted, QV, QW, false);
+}
+
+// The modal family of a first-order accepted model that is not a symmetric Galerkin one (a
+// Petrov-Galerkin model: IRKA, two-sided Krylov or balanced truncation of a second-order model
+// through its first-order realisation): Er^-1 Ar = X diag(lambda) X^-1, each mode (a real pole,
+// or a conjugate pair counted once) ranked by its largest contribution to the response over the
+// band relative to the response there, as band_contributions() ranks symmetric modes. The model
+// of the leading `count` modes is the projection onto their right invariant subspace (real and
+// imaginary parts of the eigenvectors) and their left one (of the rows of X^-1 Er^-1): its
+// transfer function is the sum of the kept poles' terms, so it is stable whenever the accepted
+// model is. std::nullopt with `why` when Er is singular or Er^-1 Ar not diagonalisable.
+std::vector<Family> pole_families(const ReducerResult& accepted, std::vector<double> f_hz,
+                                  std::string& why) {
+  const auto* d = std::get_if<ReducedDescriptorModel>(&accepted.model);
+  if (d == nullptr) {
+    why = "a second-order Petrov-Galerkin model (its modal truncation is not second order)";
+    return {};
+  }
+  const Index n = d->E.rows();
+  const Eigen::PartialPivLU<Matrix> lu(d->E);
+  if (!(lu.rcond() > 1e-12)) {
+    why = "Er is singular (a descriptor model with algebraic states)";
+    return {};
+  }
+  const Eigen::EigenSolver<Matrix> eig(Matrix(lu.solve(d->A)));
+  if (eig.info() != Eigen::Success) {
+    why = "the eigenvalues of the accepted model did not converge";
+    return {};
+  }
+  const ComplexVector lambda = eig.eigenvalues();
+  const ComplexMatrix X = eig.eigenvectors();
+  const Eigen::PartialPivLU<ComplexMatrix> xlu(X);
+  if (!(xlu.rcond() > 1e-10)) {
+    why = "the accepted model is not diagonalisable to working precision";
+    return {};
+  }
+  // Rows of X^-1 Er^-1: the left eigenvectors (conjugated); b_i, c_i the residue directions.
+  const ComplexMatrix Yh = xlu.solve(lu.solve(Matrix::Identity(n, n)).cast<Complex>());
+  const ComplexMatrix b = Yh * d->B.cast<Complex>();  // row i: b_i'
+  const ComplexMatrix c = d->C.cast<Complex>() * X;   // column i: c_i
+  std::vector<PoleModes::Mode> modes;
+  std::vector<bool> taken(static_cast<std::size_t>(n), false);
+  for (Index i = 0; i < n; ++i) {
+    if (lambda(i).imag() < 0.0) continue;
+    PoleModes::Mode m{i, -1};
+    if (lambda(i).imag() > 0.0) {
+      double nearest = std::numeric_limits<double>::infinity();
+      for (Index j = 0; j < n; ++j) {
+        const double dist = std::abs(lambda(j) - std::conj(lambda(i)));
+        if (lambda(j).imag() < 0.0 && !taken[static_cast<std::size_t>(j)] && dist < nearest) {
+          nearest = dist;
+          m.partner = j;
+        }
+      }
+      if (m.partner < 0) {
+        why = "the accepted model's poles are not closed under conjugation";
+        return {};
+      }
+      taken[static_cast<std::size_t>(m.partner)] = true;
+    }
+    modes.push_back(m);
+  }
+  for (const PoleModes::Mode& m : modes) {
+    const double f = lambda(m.i).imag() / kTwoPi;
+    if (f >= f_hz.front() && f <= f_hz.back()) f_hz.push_back(f);
+  }
+  std::vector<double> score(modes.size(), 0.0);
+  for (double f : f_hz) {
+    const Complex s(0.0, kTwoPi * f);
+    ComplexMatrix H = ComplexMatrix::Zero(c.rows(), b.cols());
+    for (Index i = 0; i < n; ++i) H += c.col(i) * b.row(i) / (s - lambda(i));
+    const double scale = H.norm();
+    if (!(scale > 0.0) || !std::isfinite(scale)) continue;
+    for (std::size_t k = 0; k < modes.size(); ++k) {
+      double term = 0.0;
+      for (Index i : {modes[k].i, modes[k].partner}) {
+        if (i >= 0)
+          term = std::max(term, c.col(i).norm() * b.row(i).norm() / std::abs(s - lambda(i)));
+      }
+      score[k] = std::max(score[k], term / scale);
+    }
+  }
+  std::vector<std::size_t> ranked(modes.size());
+  std::iota(ranked.begin(), ranked.end(), 0);
+  std::stable_sort(ranked.begin(), ranked.end(),
+                   [&](std::size_t a, std::size_t q) { return score[a] > score[q]; });
+  auto data = std::make_shared<PoleModes>();
+  for (std::size_t k : ranked) data->ordered.push_back({modes[k].i, modes[k].partner});
+  data->lambda = lambda;
+  data->X = X;
+  data->Yh = Yh;
+  data->b = b;
+  std::vector<Family> families;
+  for (bool residual : {false, true}) {
+    Family fam;
+    fam.method = residual ? "reduced modal truncation with static correction (Petrov-Galerkin)"
+                          : "reduced modal truncation (Petrov-Galerkin)";
+    fam.max_count = static_cast<Index>(data->ordered.size());
+    fam.make = [&accepted, data, residual](Index count) {
+      return pole_truncated(accepted, *data, count, residual);
+    };
+    fam.describe = [n, residual](Index count, Index order) {
+      return fmt::format(
+          "{} -> {}: {} modes (real poles or conjugate pairs) of the accepted model "
+          "kept{}",
+          n, order, count, residual ? ", and the static response of the rest" : "");
+    };
+    families.push_back(std::move(fam));
+  }
+  return families;
+}
+
+// What the families compress onto, for the note of a compression that kept the accepted model.
+std::string family_names(const std::vector<Family>& families) {
+  std::vector<std::string> names;
+  for (const Family& f : families) {
+    const std::string what =
+        f.method.find("modal") != std::string::npos ? "modes" : "band responses' directions";
+    if (std::find(names.begin(), names.end(), what) == names.end()) names.push_back(what);
+  }
+  return fmt::format("{}", fmt::join(names, " or "));
+}
+
 }  // namespace
 
 std::optional<ReducerResult> compress_accepted(const ReducerResult& accepted,
@@ -442,11 +645,13 @@ std::optional<ReducerResult> compress_accepted(const ReducerResult& accepted,
     finish();
     return std::nullopt;
   } else {
-    std::string pod_why;
-    if (auto fam = pod_family(accepted, f_hz, pod_why)) {
-      families.push_back(std::move(*fam));
-    } else {
-      report.note = "kept the accepted model: " + why + "; " + pod_why;
+    // A Petrov-Galerkin or unsymmetric model: its poles (first order), and its band responses'
+    // leading directions; the smaller model of the two.
+    std::string pole_why, pod_why;
+    for (Family& fam : pole_families(accepted, f_hz, pole_why)) families.push_back(std::move(fam));
+    if (auto fam = pod_family(accepted, f_hz, pod_why)) families.push_back(std::move(*fam));
+    if (families.empty()) {
+      report.note = "kept the accepted model: " + why + "; " + pole_why + "; " + pod_why;
       finish();
       return std::nullopt;
     }
@@ -539,17 +744,15 @@ std::optional<ReducerResult> compress_accepted(const ReducerResult& accepted,
     count += std::max<Index>(1, attempt == 0 ? (top - count) / 8 : (top - count + 1) / 2);
   }
   if (chosen) report.method = chosen->method;
-  report.note =
-      !chosen
-          ? "kept the accepted model: no smaller model of its " +
-                std::string(modes ? "modes" : "band responses' directions") + " meets the target" +
-                (unstable > 0
-                     ? fmt::format(" ({} of the {} tried unstable)", unstable, report.candidates)
-                     : std::string())
-          : fmt::format(
-                "kept the accepted model: the re-check refused the "
-                "{} compressed model(s) tried",
-                report.verifications);
+  report.note = !chosen ? "kept the accepted model: no smaller model of its " +
+                              family_names(families) + " meets the target" +
+                              (unstable > 0 ? fmt::format(" ({} of the {} tried unstable)",
+                                                          unstable, report.candidates)
+                                            : std::string())
+                        : fmt::format(
+                              "kept the accepted model: the re-check refused the "
+                              "{} compressed model(s) tried",
+                              report.verifications);
   finish();
   return std::nullopt;
 }

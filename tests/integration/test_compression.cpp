@@ -206,9 +206,11 @@ compress: true
 }
 
 // A Petrov-Galerkin model (balanced truncation of cdplayer: first order, W != V, unsymmetric)
-// has no symmetric modes to truncate: it is compressed two-sided onto its band responses'
-// leading directions. The compressed model is stable, W' E V = Er and W' A V = Ar with the
-// written bases, and it meets the target against the test's own solves (Eigen's SparseLU).
+// has no symmetric modes to truncate: it is compressed two-sided, onto the right and left
+// invariant subspaces of its most dominant poles in the band (20 -> 16; its band responses'
+// leading directions, the other family tried, reach 18). The compressed model is stable,
+// W' E V = Er and W' A V = Ar with the written bases, and it meets the target against the test's
+// own solves (Eigen's SparseLU).
 TEST(Compression, PetrovGalerkinModelShrinksTwoSidedAndMeetsTheTarget) {
   const Model model = load_model(fs::path("models") / "cdplayer");
   const auto& full = std::get<DescriptorModel>(model);
@@ -222,7 +224,8 @@ strategy: {name: grow_order, max_order: 100}
   ASSERT_EQ(result.summary.termination, Termination::Converged) << result.summary.message;
   const CompressionReport& c = result.summary.compression;
   ASSERT_TRUE(c.applied) << c.note;
-  EXPECT_EQ(c.method, "reduced response-weighted projection (two-sided)");
+  EXPECT_EQ(c.method.find("reduced modal truncation"), 0u) << c.method;
+  EXPECT_NE(c.method.find("(Petrov-Galerkin)"), std::string::npos) << c.method;
   EXPECT_LT(c.order_after, c.order_before);
   EXPECT_LE(c.factorizations, 5);
   const auto* r = std::get_if<ReducedDescriptorModel>(&result.model->model);
