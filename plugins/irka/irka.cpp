@@ -123,7 +123,8 @@ const OptionSpecs<Options>& option_specs() {
           option("model_tolerance", &Options::model_tolerance,
                  "also converged when the reduced model changes by at most this in the relative "
                  "H2 norm between iterations (scaled by 1/relaxation); 0 = off, else >= 1e-7; "
-                 "default 1e-3 for E SPD, A symmetric negative definite; computed from the "
+                 "default 1e-3 for E SPD, A symmetric negative definite, and with the surrogate "
+                 "for M, D, K SPD; computed from the "
                  "pole-residue forms, whose cancellation puts its floor near 1e-8")
               .range(Range::closed(0, 1e-1))
               .given(&Options::model_tolerance_given),
@@ -133,7 +134,8 @@ const OptionSpecs<Options>& option_specs() {
               .range(Range::closed(2, 100000)),
           option("restarts", &Options::restarts,
                  "restarts from other band shifts after cycling, stagnation or a breakdown "
-                 "(default 0 for E SPD, A symmetric negative definite); one more when no attempt "
+                 "(default 0 for E SPD, A symmetric negative definite, and with the surrogate for "
+                 "M, D, K SPD); one more when no attempt "
                  "built a model")
               .range(Range::closed(0, 100))
               .given(&Options::restarts_given),
@@ -141,8 +143,8 @@ const OptionSpecs<Options>& option_specs() {
                  "start order r from the final shifts of the largest smaller order run before "
                  "(plus new shifts in the widest frequency gaps); false: always from the band"),
           option("surrogate", &Options::surrogate,
-                 "symmetric definite descriptor models (E SPD, A symmetric negative definite), "
-                 "two-sided first order: between true builds, iterate IRKA on the Galerkin "
+                 "symmetric definite models (E SPD and A symmetric negative definite, or M, D, K "
+                 "SPD), two-sided first order: between true builds, iterate IRKA on the Galerkin "
                  "projection onto every vector computed so far (cheap, dense) and build at its "
                  "fixed point; convergence is still judged on the full model; false: plain IRKA "
                  "steps. Ignored elsewhere unless set true (refused)")
