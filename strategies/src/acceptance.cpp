@@ -277,6 +277,7 @@ nlohmann::json summary_json(const RunSummary& summary, const RunConfig& config, 
         {"winner", winner >= 0 ? nlohmann::json(summary.reducer + "/" + summary.strategy)
                                : nlohmann::json(nullptr)},
         {"prune", config.portfolio_prune},
+        {"race", config.portfolio_race},
         {"members", list}};
   }
   const CompressionReport& c = summary.compression;

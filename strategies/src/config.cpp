@@ -37,6 +37,12 @@ const OptionSpecs<RunConfig>& portfolio_specs() {
       option("prune", &RunConfig::portfolio_prune,
              "stop a grow_order member once its order reaches the smallest order that met the "
              "target so far without meeting it (it can no longer win)"),
+      option("race", &RunConfig::portfolio_race,
+             "once a member has met the target, stop each later member when it has made more "
+             "than this many times the full-model factorisations of the member ahead (the "
+             "smallest order met, ties to the faster); a model it met before stays in the race; "
+             "0 = no limit")
+          .range(Range::at_least(0)),
   });
   return specs;
 }

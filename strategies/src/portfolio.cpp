@@ -3,7 +3,10 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
+#include <functional>
 #include <limits>
+#include <optional>
 #include <string_view>
 
 #include "ecmor/base/error.hpp"
@@ -170,7 +173,33 @@ class MemberRunner {
     PortfolioAttempt attempt;
     attempt.reducer = m.member.reducer_name;
     attempt.strategy = m.member.strategy_name;
-    if (m_env.observer && m_portfolio) m_env.observer->on_member_started(k, count, attempt.label());
+    // The race: once a member has met the target, the next ones may make at most `race` times as
+    // many full-model factorisations as the member ahead made (0: no limit). Counted, not timed,
+    // so that a portfolio's result does not depend on the machine's load.
+    const std::int64_t first = m_env.solver.counters().factorizations;
+    const std::int64_t budget =
+        m_portfolio && m_leader && m_env.config.portfolio_race > 0.0
+            ? static_cast<std::int64_t>(std::ceil(
+                  m_env.config.portfolio_race *
+                  static_cast<double>(std::max<std::int64_t>(1, m_leader_factorizations))))
+            : 0;
+    std::function<bool()> over_budget;
+    if (budget > 0) {
+      over_budget = [this, first, budget] {
+        return m_env.solver.counters().factorizations - first > budget;
+      };
+    }
+    m_env.stop.begin_member(over_budget);
+    if (m_env.observer && m_portfolio) {
+      const std::string standing =
+          m_leader ? fmt::format("; ahead: {} at order {} ({} factorisations, {:.2f} s){}",
+                                 m_leader->label(), m_leader->order, m_leader_factorizations,
+                                 m_leader->seconds,
+                                 budget > 0 ? fmt::format(", race budget {} factorisations", budget)
+                                            : std::string())
+                   : std::string();
+      m_env.observer->on_member_started(k, count, attempt.label() + standing);
+    }
     const double member_start = elapsed();
     TimedReducer timed(*m.reducer, m_env.solver);
     bool pruned = false;
@@ -179,7 +208,25 @@ class MemberRunner {
     if (m_env.stop.out_of_time() && result.termination == Termination::Interrupted) {
       result.message = m_env.stop.time_limit_text() + ": " + result.message;
     }
-    attempt.termination = pruned ? std::string("pruned") : to_string(result.termination);
+    const bool outraced = !pruned && m_env.stop.member_over_budget() && !m_env.stop.out_of_time() &&
+                          !m_env.stop.user_stop();
+    const std::int64_t made = m_env.solver.counters().factorizations - first;
+    if (outraced) {
+      // A model that met the target before the budget ran out stays in the race.
+      if (result.termination == Termination::Interrupted && result.best &&
+          result.best_error.within(m_env.config.tolerance)) {
+        result.termination = Termination::Converged;
+      }
+      result.message = fmt::format(
+          "race budget used up: {} full-model factorisations, more than {} x the {} of {}, which "
+          "met the target at order {}: {}",
+          made, m_env.config.portfolio_race, m_leader_factorizations, m_leader->label(),
+          m_leader->order, result.message);
+    }
+    m_env.stop.begin_member({});
+    attempt.termination = pruned     ? std::string("pruned")
+                          : outraced ? std::string("outraced")
+                                     : to_string(result.termination);
     attempt.message = pruned
                           ? fmt::format(
                                 "stopped at order {} >= {}, the smallest order that met the target "
@@ -196,6 +243,14 @@ class MemberRunner {
     attempt.iterations = static_cast<Index>(result.history.size());
     if (attempt.met && (m_smallest_met_order == 0 || attempt.order < m_smallest_met_order)) {
       m_smallest_met_order = attempt.order;
+    }
+    // The leader: the smallest order that met the target, ties to the faster member.
+    // (Under MPI the first, as in select_winner: the ranks' clocks differ.)
+    if (attempt.met && (!m_leader || attempt.order < m_leader->order ||
+                        (attempt.order == m_leader->order && process_count() == 1 &&
+                         attempt.seconds < m_leader->seconds))) {
+      m_leader = attempt;
+      m_leader_factorizations = made;
     }
     runs.reducer_seconds += timed.seconds();
     runs.reducer_calls += timed.calls();
@@ -244,7 +299,9 @@ class MemberRunner {
         pruned = true;
         return false;
       }
-      return !any_process(env.stop.time_is_up() || !go_on);
+      if (any_process(env.stop.time_is_up() || !go_on)) return false;
+      // The race budget (run()) ends the member too; requested() decides it collectively.
+      return !(m_portfolio && m_leader && env.stop.requested());
     };
     return ctx;
   }
@@ -302,7 +359,9 @@ class MemberRunner {
 
   const MemberEnvironment& m_env;
   const bool m_portfolio;
-  Index m_smallest_met_order = 0;  // of the members so far; 0: none met yet
+  Index m_smallest_met_order = 0;            // of the members so far; 0: none met yet
+  std::optional<PortfolioAttempt> m_leader;  // the member that set the smallest met order
+  std::int64_t m_leader_factorizations = 0;  // the full-model factorisations it made
 };
 
 }  // namespace

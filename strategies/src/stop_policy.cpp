@@ -27,7 +27,14 @@ bool StopPolicy::requested() {
   const bool local = time_is_up() || m_user_stop;
   // Another rank stopped: to this rank that is a request from outside, not its own time limit.
   if (any_process(local) && !local) m_user_stop = true;
-  return m_out_of_time || m_user_stop;
+  const bool member_local = m_member_over && m_member_over();
+  if (any_process(member_local)) m_member_out = true;
+  return m_out_of_time || m_user_stop || m_member_out;
+}
+
+void StopPolicy::begin_member(std::function<bool()> over_budget) {
+  m_member_over = std::move(over_budget);
+  m_member_out = false;
 }
 
 bool StopPolicy::signalled() {

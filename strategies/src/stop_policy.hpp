@@ -5,6 +5,7 @@
 // limit or a signal seen on one rank stops every rank at the same point, since the solves are
 // collective operations entered by all ranks in the same order.
 #include <chrono>
+#include <functional>
 #include <string>
 
 namespace ecmor {
@@ -31,6 +32,13 @@ class StopPolicy {
 
   bool out_of_time() const { return m_out_of_time; }
   bool user_stop() const { return m_user_stop; }
+
+  /// A portfolio member's own budget (the race, portfolio.cpp): from now on requested() is also
+  /// true once `over_budget` returns true on any rank, until the next begin_member(); an empty
+  /// function: none.
+  void begin_member(std::function<bool()> over_budget);
+  /// The member's budget is used up (set by requested()).
+  bool member_over_budget() const { return m_member_out; }
   /// "time limit strategy.time_limit_s = T s used up", for messages.
   std::string time_limit_text() const;
 
@@ -42,6 +50,8 @@ class StopPolicy {
   RunObserver* m_observer;
   bool m_out_of_time = false;
   bool m_user_stop = false;
+  std::function<bool()> m_member_over;
+  bool m_member_out = false;
 };
 
 }  // namespace driver

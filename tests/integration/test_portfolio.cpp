@@ -302,6 +302,37 @@ TEST(Portfolio, PruningStopsMembersThatCannotWinWithoutChangingTheResult) {
   EXPECT_LT(pruned.attempts[1].iterations, full.attempts[1].iterations);
 }
 
+// The race: once a member has met the target, a later one may make at most `race` times as many
+// full-model factorisations as the member ahead. Counted, not timed: the same stops on any
+// machine. With race 0.01 (a budget of one factorisation after krylov's) modal is stopped as
+// "outraced" with the budget named, and the portfolio reports krylov's model; without the race
+// (0) modal runs to its own end.
+TEST(Portfolio, TheRaceStopsALaterMemberAtItsFactorisationBudget) {
+  test::TempDir dir;
+  Registry registry;
+  fill_registry(registry);
+  const RunSummary raced =
+      run_yaml(portfolio_yaml(kKrylov + kModal, dir / "r", "  race: 0.01\n"), registry);
+  const RunSummary free =
+      run_yaml(portfolio_yaml(kKrylov + kModal, dir / "f", "  race: 0\n"), registry);
+  ASSERT_EQ(raced.termination, Termination::Converged) << raced.message;
+  ASSERT_EQ(raced.attempts.size(), 2u);
+  EXPECT_TRUE(raced.attempts[0].met);
+  EXPECT_EQ(raced.attempts[1].termination, "outraced") << raced.attempts[1].message;
+  EXPECT_NE(raced.attempts[1].message.find("race budget used up"), std::string::npos)
+      << raced.attempts[1].message;
+  EXPECT_NE(raced.attempts[1].message.find("krylov/greedy_points"), std::string::npos);
+  EXPECT_EQ(raced.reducer, "krylov");
+  ASSERT_EQ(free.attempts.size(), 2u);
+  EXPECT_EQ(free.attempts[1].termination, "converged") << free.attempts[1].message;
+  EXPECT_LT(raced.attempts[1].iterations, free.attempts[1].iterations);
+  EXPECT_LT(raced.counters.factorizations, free.counters.factorizations);
+  const nlohmann::json j = read_json(dir / "r" / "summary.json");
+  EXPECT_EQ(j["portfolio"]["race"], 0.01);
+  EXPECT_EQ(j["portfolio"]["members"][1]["termination"], "outraced");
+  expect_config_error(portfolio_yaml(kModal, "o", "  race: -1\n"), {"race", "-1"});
+}
+
 TEST(Portfolio, AFailingMemberIsRecordedAndTheNextOneRuns) {
   test::TempDir dir;
   Registry registry;

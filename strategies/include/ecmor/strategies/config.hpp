@@ -96,6 +96,10 @@ struct RunConfig {
   /// Portfolio only: stop a grow_order member once its order reaches the smallest order that met
   /// the target so far without meeting it (it can then no longer win).
   bool portfolio_prune = true;
+  /// Portfolio runs: once a member has met the target, each later member may make at most this
+  /// many times its full-model factorisations (`race`; 0: no limit). See
+  /// docs/strategies.md#portfolio.
+  double portfolio_race = 3.0;
   /// After a run meets its target, search the accepted model for the smallest model inside it
   /// that still meets it (YAML `compress: true | false`, default true; driver.hpp).
   bool compress = true;
