@@ -435,6 +435,51 @@ TEST(Irka, SecondOrderSurrogateReachesH2OptimalModelsWithFewerFactorisations) {
                                           band_of(10.0, 3000.0), {4, 8, 12});
 }
 
+TEST(Irka, ShrinkStepsOnATrustedSurrogateMakeNoFactorisation) {
+  // grow_order's shrink phase asks for orders below the largest one built: once the surrogate has
+  // reproduced a full build to 1e-5 (relative H2), such an order is IRKA on the surrogate alone,
+  // its model built from the surrogate's vectors lifted by U. It costs no full factorisation, is
+  // a Petrov-Galerkin projection of the full model with the returned V and W (checked here
+  // against the full first-order realisation), and, the surrogate reproducing G, it meets the
+  // H2-optimality conditions of the full model closely (dense LU).
+  bench::SolidOptions o;
+  o.nx = 8;
+  o.ny = 2;
+  o.nz = 1;
+  const SecondOrderModel model = bench::solid(o);
+  auto f = make(model, params({}), band_of(10.0, 3000.0));
+  for (const Index r : {4, 8, 12, 18}) (void)f->reducer->reduce(ReductionRequest{r, {}});
+  const Index before = f->solver->counters().factorizations;
+  const ReducerResult res = f->reducer->reduce(ReductionRequest{14, {}});
+  std::cout << "[ irka ] solid N = 144, r = 14 after 18: " << res.note << "\n";
+  EXPECT_NE(res.note.find("surrogate alone"), std::string::npos) << res.note;
+  EXPECT_EQ(f->solver->counters().factorizations, before);
+  EXPECT_EQ(res.diagnostics.at("unstable_poles"), 0.0);
+  ASSERT_TRUE(std::holds_alternative<ReducedDescriptorModel>(res.model));
+  const auto& red = std::get<ReducedDescriptorModel>(res.model);
+  const Index n = model.size();
+  ASSERT_EQ(res.V.rows(), 2 * n);
+  ASSERT_EQ(res.V.cols(), 14);
+  // W' E V and W' A V of the realisation E = diag(I, M), A = [0 I; -K -D], B = [0; B], C = [C 0].
+  const Matrix M(model.M), D(model.D), K(model.K);
+  const Matrix Vq = res.V.topRows(n), Vv = res.V.bottomRows(n);
+  const Matrix Wq = res.W.topRows(n), Wv = res.W.bottomRows(n);
+  const Matrix Er = Wq.transpose() * Vq + Wv.transpose() * M * Vv;
+  const Matrix Ar = Wq.transpose() * Vv - Wv.transpose() * (K * Vq + D * Vv);
+  EXPECT_LT((Er - red.E).norm(), 1e-10 * red.E.norm());
+  EXPECT_LT((Ar - red.A).norm(), 1e-10 * red.A.norm());
+  EXPECT_LT((Wv.transpose() * model.B - red.B).norm(), 1e-10 * red.B.norm());
+  EXPECT_LT((model.C * Vq - red.C).norm(), 1e-10 * red.C.norm());
+  const Mismatch m = h2_conditions(DenseFull(Model(model)), res.model);
+  std::cout << fmt::format(
+      "[ irka ] H2 conditions of the full model: right {:.1e} left {:.1e} "
+      "derivative {:.1e}\n",
+      m.right, m.left, m.derivative);
+  EXPECT_LT(m.right, 1e-4);
+  EXPECT_LT(m.left, 1e-4);
+  EXPECT_LT(m.derivative, 1e-4);
+}
+
 TEST(Irka, SurrogateIsRefusedWhereItDoesNotApply) {
   // The Galerkin surrogate is stable only for symmetric definite descriptor models: asking for it
   // elsewhere is a configuration error that names the key; left unset it is simply off.
