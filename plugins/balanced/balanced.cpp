@@ -367,11 +367,15 @@ class BalancedReducer final : public Reducer {
   /// the low-rank ADI stopped at its budget, that the Gramians are unconverged (the case of a
   /// lightly damped model such as triplechain_mess_n1501, README "When BT stops early").
   std::string limit_text(Index r) const {
-    const Vector& s = m_main.s;
+    // Variants p and vp cap the order at the smaller rank of two balancings: name the one that
+    // caps it (quoting the main one there read "s_41 = 5.5e-06 is at or below 2.2e-08").
+    const bool left_caps = m_left && m_left->rank < m_main.rank;
+    const Balancing& b = left_caps ? *m_left : m_main;
     std::string text = fmt::format(
-        "BT LIMIT: order {} is the largest this reducer delivers (s_{} = {:.3e} is at or below "
+        "BT LIMIT: order {} is the largest this reducer delivers (s_{} = {:.3e}{} is at or below "
         "{:.3e}, the floor at which the Gramian factors resolve Hankel singular values)",
-        r, r + 1, r < s.size() ? s(r) : 0.0, m_main.floor);
+        r, r + 1, r < b.s.size() ? b.s(r) : 0.0,
+        left_caps ? " of the velocity balancing that gives W" : "", b.floor);
     if (m_adi && !(m_adi->controllability.converged && m_adi->observability.converged)) {
       text += fmt::format(
           "; cause: low-rank ADI did not converge (residuals {:.2e} / {:.2e} > adi_tolerance "

@@ -20,6 +20,7 @@
 #include <variant>
 #include <vector>
 
+#include "../../bench/solid.hpp"
 #include "balanced/gramian_factors.hpp"
 #include "common/plugin_registry.hpp"
 #include "common/test_support.hpp"
@@ -284,6 +285,39 @@ double hinf_error(const ModalResponse& full, const ReducedDescriptorModel& r) {
     }
   }
   return sup;
+}
+
+TEST(Balanced, TheOrderLimitQuotesTheBalancingThatCapsIt) {
+  // Second-order variants p and vp balance two pairs of Gramian blocks and cap the order at the
+  // smaller numerical rank of the two. At that order the note must quote a Hankel singular value
+  // at or below the floor it names: on a clamped solid (bench/solid.cpp, N = 270) vp's cap comes
+  // from the velocity balancing, where the note once quoted the main one (s_40 = 2.957e-06 "at or
+  // below" 1.182e-08).
+  bench::SolidOptions o;
+  o.nx = 10;
+  o.ny = 2;
+  o.nz = 2;
+  const Model model{bench::solid(o)};
+  for (const char* variant : {"p", "vp", "pv"}) {
+    SCOPED_TRACE(variant);
+    auto f = make(
+        model,
+        params({{"structure", std::string("second_order")}, {"variant", std::string(variant)}}),
+        band_of(10.0, 3000.0));
+    const Index cap = f->reducer->max_order();
+    const ReducerResult res = f->reducer->reduce(ReductionRequest{cap, {}});
+    const std::string& note = res.note;
+    const std::string head = fmt::format("BT LIMIT: order {} is the largest", cap);
+    ASSERT_NE(note.find(head), std::string::npos) << note;
+    const std::size_t at = note.find(fmt::format("(s_{} = ", cap + 1));
+    ASSERT_NE(at, std::string::npos) << note;
+    const double value = std::stod(note.substr(at + fmt::format("(s_{} = ", cap + 1).size()));
+    const std::string below = "is at or below ";
+    const std::size_t b = note.find(below, at);
+    ASSERT_NE(b, std::string::npos) << note;
+    const double floor = std::stod(note.substr(b + below.size()));
+    EXPECT_LE(value, floor) << note;
+  }
 }
 
 TEST(Balanced, FirstOrderErrorRespectsTheAPrioriBoundAndIsStable) {
