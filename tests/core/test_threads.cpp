@@ -209,6 +209,26 @@ TEST(LoopThreads, UnderLoadTheFasterCountWinsAndTheOtherIsRetried) {
   EXPECT_EQ(std::count(picks.begin(), picks.end(), 1), 7);
 }
 
+// A loop whose runs take less than a trial of the limit costs (a time slice at the join) keeps
+// the load's count and is never tried with more; once its runs grow past that, it is.
+TEST(LoopThreads, AShortLoopIsNotTriedWithMoreThreads) {
+  detail::LoopThreads loop;
+  const double short_run = detail::LoopThreads::kTrialSeconds / 4;
+  for (int i = 0; i < 40; ++i) {
+    ASSERT_EQ(loop.choose(1, 2), 1) << "run " << i;
+    loop.record(1, 10, short_run);
+  }
+  // The same loop over many more items: its smoothed run time passes the bar, the limit is tried.
+  std::vector<int> picks;
+  for (int i = 0; i < 12; ++i) {
+    const int n = loop.choose(1, 2);
+    picks.push_back(n);
+    loop.record(n, 1000, n == 1 ? 100 * short_run : 60 * short_run);
+  }
+  EXPECT_GE(std::count(picks.begin(), picks.end(), 2), 2);
+  EXPECT_EQ(picks.back(), 2);  // two threads were faster here
+}
+
 TEST(Threads, TheBlasSaysWhatItIs) {
   const BlasInfo blas = blas_info();
   ASSERT_FALSE(blas.name.empty());

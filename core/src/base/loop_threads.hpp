@@ -17,9 +17,15 @@ namespace ecmor::detail {
 /// on two cores, two threads get half of it; but two threads that meet at a join wait for the one
 /// the scheduler has just taken off its core. Coarse loops (a factorisation per iteration) gain
 /// from the second thread, fine ones (a small dense solve per iteration) lose
-/// (docs/benchmarks.md, "Under load (issue 50)").
+/// (docs/benchmarks.md, "Under load (issue 50)"). A trial of the limit costs about a scheduler
+/// time slice at the join when the load has taken a thread off its core, so a loop whose runs
+/// with the load's count take less than kTrialSeconds is not tried with more: it cannot gain what
+/// the trial costs (a 0.1 s run makes dozens of such loops).
 class LoopThreads {
  public:
+  /// The shortest run (seconds, smoothed, with the load's count) for which the limit is tried.
+  static constexpr double kTrialSeconds = 0.02;
+
   /// The thread count for this loop's next run.
   int choose() { return choose(parallel_threads(), thread_budget().limit); }
 
@@ -32,6 +38,8 @@ class LoopThreads {
     ++m_choices;
     int pick = 0;
     if (m_runs[0] < 2) {
+      pick = 0;
+    } else if (m_per_run[0] < kTrialSeconds && m_runs[1] == 0) {
       pick = 0;
     } else if (m_runs[1] < 2) {
       pick = 1;
@@ -50,12 +58,14 @@ class LoopThreads {
     const int k = threads == m_high ? 1 : 0;
     const double per_item = seconds / static_cast<double>(items);
     m_per_item[k] = m_runs[k] == 0 ? per_item : 0.7 * m_per_item[k] + 0.3 * per_item;
+    m_per_run[k] = m_runs[k] == 0 ? seconds : 0.7 * m_per_run[k] + 0.3 * seconds;
     ++m_runs[k];
   }
 
  private:
   std::mutex m_mutex;
   std::array<double, 2> m_per_item{};  // smoothed seconds per iteration: [0] low, [1] high
+  std::array<double, 2> m_per_run{};   // smoothed seconds per run
   std::array<long, 2> m_runs{};
   long m_choices = 0;
   int m_low = 1, m_high = 1;
