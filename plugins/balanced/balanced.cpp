@@ -180,16 +180,41 @@ struct Balancing {
 /// the floor is s_i > sqrt(n eps trace(Xr) trace(Xl)) (traces bound the 2-norms from above, so the
 /// floor errs on the safe side). Rank-deficient directions also make the square-root bases
 /// (scaled by s^-1/2) meaningless, another reason not to go below it.
-Balancing balance(const Matrix& Zl, const Matrix& Zr, Index n) {
+///
+/// Factors made of blocks with errors of their own (`block_rows` > 0: the positions and velocities
+/// of a second-order model's low-rank factors, GramianFactors::block_rows) are judged where that
+/// bound is tightest. Scaling block b of the state by t_b (Zr_b -> t_b Zr_b, Zl_b -> Zl_b / t_b)
+/// leaves Zl' Zr and so the s_i unchanged, and each block's error scales with it; the product of
+/// traces, sum_b t_b^2 ||Zr_b||^2 times sum_b ||Zl_b||^2 / t_b^2, is smallest (Cauchy-Schwarz) at
+/// (sum_b ||Zr_b|| ||Zl_b||)^2. There the floor is sqrt(eps) sum_b ||Zr_b|| ||Zl_b||, without the
+/// worst case's factor n: measured against Gramians solved exactly in the equilibrated modal
+/// realisation of clamped solids (N = 270 and 540, test
+/// LowRankFactorsOfASolidResolveTheHsvsDownToTheirBlockFloor), the low-rank HSVs agree to about
+/// 1e-10 s_1 down to 1e-7 s_1 and to 1 % down to 1e-8 s_1, while this floor is 8e-8 .. 9e-8 s_1
+/// (and the n eps one 2e-6 .. 3e-6 s_1). Why it matters: on a 3-D solid, velocities are omega
+/// times positions, so Zr is dominated by its velocity rows and Zl by its position rows; the
+/// unscaled floor stood at 5e-4 .. 1.5e-3 s_1 and capped BT at 14-16 states where plain BT needs
+/// 80-90 for a band error of 1e-2 (docs/benchmarks.md, issue 46).
+double resolution_floor(const Matrix& Zl, const Matrix& Zr, Index n, Index block_rows) {
+  if (block_rows <= 0 || block_rows >= Zr.rows() || Zr.rows() % block_rows != 0 ||
+      Zl.rows() != Zr.rows()) {
+    return std::sqrt(static_cast<double>(n) * kEps) * Zl.norm() * Zr.norm();
+  }
+  double sum = 0.0;
+  for (Index row = 0; row < Zr.rows(); row += block_rows) {
+    sum += Zl.middleRows(row, block_rows).norm() * Zr.middleRows(row, block_rows).norm();
+  }
+  return std::sqrt(kEps) * sum;
+}
+
+Balancing balance(const Matrix& Zl, const Matrix& Zr, Index n, Index block_rows = 0) {
   Balancing b;
   ThinSvd svd = thin_svd(dense_product(Zl, Zr, true, false));
   b.U = std::move(svd.U);
   b.V = std::move(svd.V);
   b.s = std::move(svd.s);
-  const double floor =
-      std::sqrt(static_cast<double>(n) * kEps * Zl.squaredNorm() * Zr.squaredNorm());
-  b.floor = floor;
-  while (b.rank < b.s.size() && b.s(b.rank) > floor) ++b.rank;
+  b.floor = resolution_floor(Zl, Zr, n, block_rows);
+  while (b.rank < b.s.size() && b.s(b.rank) > b.floor) ++b.rank;
   return b;
 }
 
@@ -422,7 +447,7 @@ class BalancedReducer final : public Reducer {
     const GramianFactors& g = *m_factors;
     const Index states = g.states;
     if (m_options.structure == Structure::FirstOrder) {
-      m_main = balance(g.Zo, g.Zc, states);
+      m_main = balance(g.Zo, g.Zc, states, g.block_rows);
       m_rank = m_main.rank;
     } else {
       const Index n = m_view->size();

@@ -76,6 +76,10 @@ struct GramianFactors {
   double residual_o = 0.0;  ///< same for Q = Zq Zq' (R_c = B B', R_o = C'C, or the band's)
   bool band_limited = false;
   Index states = 0;  ///< size of the first-order state (N or 2N)
+  /// Rows per block whose rounding errors scale with the block itself (0: one block). The low-rank
+  /// factors of a second-order model are computed through s^2 M + s D + K, positions and velocities
+  /// each to its own relative accuracy: N here (balance() in balanced.cpp says what it is for).
+  Index block_rows = 0;
 };
 
 /// ||A Z Z' E' + E Z Z' A' + R||_F / ||R||_F without forming Z Z' (n^2 k instead of n^3 flops).

@@ -99,6 +99,7 @@ inline GramianFactors lowrank_gramian_factors(FirstOrderView& view, const AdiOpt
   LowRankAdi adi(view, options);
   GramianFactors g;
   g.states = view.state_size();
+  g.block_rows = view.second_order() ? view.size() : 0;
   try {
     summary.controllability = adi.solve(GramianSide::Controllability);
     summary.observability = adi.solve(GramianSide::Observability);
@@ -143,6 +144,7 @@ inline GramianFactors lowrank_band_gramian_factors(FirstOrderView& view, const B
   }
   GramianFactors g;
   g.states = view.state_size();
+  g.block_rows = view.second_order() ? view.size() : 0;
   g.band_limited = true;
   g.Zc = std::move(bg.controllability.Z);
   g.Zq = std::move(bg.observability.Z);
