@@ -784,12 +784,10 @@ class IrkaReducer final : public Reducer {
     if (!g.evaluated && g.U.cols() > 0) {
       g.evaluated = true;
       try {
-        PoleResidues poles;
-        if (m_view->second_order()) {
-          poles = scaled_modal_poles(g.P, g.Bs, g.Cs, g.Cvs, m_proportional);
-        } else {
-          poles = symmetric_pole_residues(g.P[0], g.P[1], g.Bs, g.Cs);
-        }
+        const SurrogateSolves& e = surrogate_solves();
+        m_proportional = m_view->second_order() && !e.dense;
+        const PoleResidues poles = m_view->second_order() ? scaled_modal_poles(e, g.Bs, g.Cs, g.Cvs)
+                                                          : eigenbasis_poles(e, g.Bs, g.Cs);
         if (unstable_count(poles.poles) == 0) g.modal.emplace(poles);
       } catch (const NumericalError&) {
         // Unusable until new vectors change it: IRKA steps on the full model meanwhile.
@@ -798,35 +796,83 @@ class IrkaReducer final : public Reducer {
     return g.modal ? &*g.modal : nullptr;
   }
 
+  /// The surrogate's pencil in its eigenbasis: the one eigen-decomposition of each surrogate, for
+  /// its poles (surrogate_model()) and its solves (surrogate_solve_at()).
+  ///   descriptor: As x = lambda Es x, X' Es X = I;
+  ///   second order: Ks phi = w^2 Ms phi, X' Ms X = I, damping = X' Ds X (diagonal to 1e-9 relative
+  ///   under proportional damping, as Rayleigh damping gives; `dense` otherwise).
+  struct SurrogateSolves {
+    Matrix X;
+    Vector lambda;   // descriptor: eigenvalues of (As, Es)
+    Vector w2;       // second order: w^2
+    Matrix damping;  // second order: X' Ds X
+    bool dense = false;
+  };
+
+  /// The eigen-decomposition of the current surrogate (cached until it changes).
+  /// \throws NumericalError when Es (Ms) is not numerically positive definite, Ks not positive
+  ///         definite, or the eigensolver fails.
+  const SurrogateSolves& surrogate_solves() {
+    Surrogate& g = m_surrogate;
+    if (g.solves) return *g.solves;
+    SurrogateSolves out;
+    const Matrix P0 = 0.5 * (g.P[0] + g.P[0].transpose());
+    const Matrix P1 = 0.5 * (g.P[1] + g.P[1].transpose());
+    if (Eigen::LLT<Matrix>(P0).info() != Eigen::Success) {
+      throw NumericalError("the surrogate's Es (Ms) is not numerically positive definite");
+    }
+    if (!m_view->second_order()) {
+      const Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> eig(P1, P0);
+      if (eig.info() != Eigen::Success) throw NumericalError("surrogate eigenproblem failed");
+      out.X = eig.eigenvectors();
+      out.lambda = eig.eigenvalues();
+    } else {
+      const Matrix P2 = 0.5 * (g.P[2] + g.P[2].transpose());
+      const Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> eig(P2, P0);
+      if (eig.info() != Eigen::Success || !(eig.eigenvalues().minCoeff() > 0.0)) {
+        throw NumericalError("the surrogate's stiffness is not positive definite");
+      }
+      out.X = eig.eigenvectors();
+      out.w2 = eig.eigenvalues();
+      out.damping = out.X.transpose() * P1 * out.X;
+      const Vector d = out.damping.diagonal();
+      out.dense = (out.damping - Matrix(d.asDiagonal())).norm() > 1e-9 * out.damping.norm();
+    }
+    g.solves = std::move(out);
+    return *g.solves;
+  }
+
+  /// The pole-residue form of a symmetric descriptor surrogate from its eigenbasis: poles lambda_i,
+  /// b_i = Bs' x_i, c_i = Cs x_i (X^-1 = X' Es).
+  static PoleResidues eigenbasis_poles(const SurrogateSolves& e, const Matrix& Bs,
+                                       const Matrix& Cs) {
+    PoleResidues out;
+    out.poles = e.lambda.cast<Complex>();
+    out.b = (Bs.transpose() * e.X).cast<Complex>();
+    out.c = (Cs * e.X).cast<Complex>();
+    out.eigenvector_rcond = 1.0;  // X is Es-orthonormal; not reported for the surrogate
+    return out;
+  }
+
   /// The pole-residue form of the second-order surrogate (Ms, Ds, Ks SPD), computed where it is
   /// well scaled: in its undamped modes K phi = w^2 M phi (phi' M phi = 1). With proportional
-  /// damping (phi' D phi diagonal to 1e-9, as Rayleigh damping gives) each mode is a scalar
-  /// oscillator eta'' + d eta' + w^2 eta = b' u with the poles of s^2 + d s + w^2 and residues
-  /// (c + lambda cv) b' / (lambda - lambda'): O(k^3) for the symmetric eigenproblem only, and
-  /// `proportional` is set. Otherwise the state z = [W eta; eta'] (W = diag(w)),
+  /// damping each mode is a scalar oscillator eta'' + d eta' + w^2 eta = b' u with the poles of
+  /// s^2 + d s + w^2 and residues (c + lambda cv) b' / (lambda - lambda'): O(k^3) for the
+  /// symmetric eigenproblem only. Otherwise the state z = [W eta; eta'] (W = diag(w)),
   /// z' = [0 W; -W -phi' D phi] z + [0; phi' B] u, y = [C phi W^-1, Cv phi] z: entries of the size
   /// of the frequencies and a nearly normal matrix for light damping. (The plain realisation
   /// [0 I; -K -D] mixes w and w^2, 1e5 and 1e11 on a solid; its unbalanced eigenproblem lost the
   /// surrogate's poles to about 1e-7 relative, where IRKA on it stagnated.)
-  static PoleResidues scaled_modal_poles(const std::vector<Matrix>& P, const Matrix& Bs,
-                                         const Matrix& Cs, const Matrix& Cvs, bool& proportional) {
-    const Matrix Ms = 0.5 * (P[0] + P[0].transpose());
-    const Matrix Ds = 0.5 * (P[1] + P[1].transpose());
-    const Matrix Ks = 0.5 * (P[2] + P[2].transpose());
-    const Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> eig(Ks, Ms);
-    if (eig.info() != Eigen::Success || !(eig.eigenvalues().minCoeff() > 0.0)) {
-      throw NumericalError("the surrogate's stiffness is not positive definite");
-    }
-    const Matrix& phi = eig.eigenvectors();
-    const Vector w = eig.eigenvalues().cwiseSqrt();
+  static PoleResidues scaled_modal_poles(const SurrogateSolves& e, const Matrix& Bs,
+                                         const Matrix& Cs, const Matrix& Cvs) {
+    const Matrix& phi = e.X;
+    const Vector w = e.w2.cwiseSqrt();
     const Index k = w.size();
-    const Matrix damping = phi.transpose() * Ds * phi;
     const Matrix b = phi.transpose() * Bs;  // row j: b_j'
     const Matrix c = Cs * phi;              // column j: c_j
     const Matrix cv = Cvs.size() > 0 ? Matrix(Cvs * phi) : Matrix::Zero(Cs.rows(), k);
-    const Vector d = damping.diagonal();
-    proportional = (damping - Matrix(d.asDiagonal())).norm() <= 1e-9 * damping.norm();
-    bool distinct = proportional;
+    const Vector d = e.damping.diagonal();
+    bool distinct = !e.dense;
     for (Index j = 0; distinct && j < k; ++j) {
       distinct = std::abs(d(j) * d(j) - 4.0 * w(j) * w(j)) > 1e-12 * w(j) * w(j);
     }
@@ -851,53 +897,13 @@ class IrkaReducer final : public Reducer {
     Matrix A = Matrix::Zero(2 * k, 2 * k);
     A.topRightCorner(k, k) = w.asDiagonal();
     A.bottomLeftCorner(k, k) = -Matrix(w.asDiagonal());
-    A.bottomRightCorner(k, k) = -damping;
+    A.bottomRightCorner(k, k) = -e.damping;
     Matrix B = Matrix::Zero(2 * k, Bs.cols());
     B.bottomRows(k) = b;
     Matrix C(Cs.rows(), 2 * k);
     C.leftCols(k) = c * w.cwiseInverse().asDiagonal();
     C.rightCols(k) = cv;
     return pole_residues(Matrix::Identity(2 * k, 2 * k), A, B, C);
-  }
-
-  /// The surrogate's pencil in its eigenbasis, for surrogate_solve_at() (surrogate_solves()).
-  struct SurrogateSolves {
-    Matrix X;           // descriptor: Es-orthonormal eigenvectors; second order: Ms-orthonormal
-    Vector lambda;      // descriptor: eigenvalues of (As, Es)
-    Vector w2, d;       // second order: w^2 and the modal damping (proportional)
-    Matrix Ms, Ds, Ks;  // second order, damping not proportional: dense solves with Ps(s)
-    bool dense = false;
-  };
-
-  /// The eigen-decomposition of the current surrogate (cached until it changes).
-  const SurrogateSolves& surrogate_solves() {
-    Surrogate& g = m_surrogate;
-    if (g.solves) return *g.solves;
-    SurrogateSolves out;
-    const Matrix P0 = 0.5 * (g.P[0] + g.P[0].transpose());
-    const Matrix P1 = 0.5 * (g.P[1] + g.P[1].transpose());
-    if (!m_view->second_order()) {
-      const Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> eig(P1, P0);
-      if (eig.info() != Eigen::Success) throw NumericalError("surrogate eigenproblem failed");
-      out.X = eig.eigenvectors();
-      out.lambda = eig.eigenvalues();
-    } else {
-      const Matrix P2 = 0.5 * (g.P[2] + g.P[2].transpose());
-      const Eigen::GeneralizedSelfAdjointEigenSolver<Matrix> eig(P2, P0);
-      if (eig.info() != Eigen::Success) throw NumericalError("surrogate eigenproblem failed");
-      out.X = eig.eigenvectors();
-      out.w2 = eig.eigenvalues();
-      const Matrix damping = out.X.transpose() * P1 * out.X;
-      out.d = damping.diagonal();
-      out.dense = (damping - Matrix(out.d.asDiagonal())).norm() > 1e-9 * damping.norm();
-      if (out.dense) {
-        out.Ms = P0;
-        out.Ds = P1;
-        out.Ks = P2;
-      }
-    }
-    g.solves = std::move(out);
-    return *g.solves;
   }
 
   /// The vectors of x from the surrogate instead of the full model, lifted by U: first order,
@@ -909,40 +915,47 @@ class IrkaReducer final : public Reducer {
     const SurrogateSolves& e = surrogate_solves();
     const Surrogate& g = m_surrogate;
     const Complex s = x.s;
-    auto lift = [&](const ComplexVector& z) -> ComplexVector {
-      return g.U * z.real() + Complex(0.0, 1.0) * (g.U * z.imag());
+    const Complex i1(0.0, 1.0);
+    // Real matrices times complex vectors, part by part (no complex copy of U or X per shift).
+    auto times = [&](const Matrix& A, const ComplexVector& z) -> ComplexVector {
+      return A * z.real() + i1 * (A * z.imag());
+    };
+    auto times_t = [&](const Matrix& A, const ComplexVector& z) -> ComplexVector {
+      return A.transpose() * z.real() + i1 * (A.transpose() * z.imag());
     };
     if (!m_view->second_order()) {
       const ComplexVector d = (s - e.lambda.cast<Complex>().array()).inverse().matrix();
-      const ComplexMatrix Xc = e.X.cast<Complex>();
-      x.v = lift(Xc * d.cwiseProduct(Xc.transpose() * (g.Bs.cast<Complex>() * x.b)));
+      x.v = times(g.U, times(e.X, d.cwiseProduct(times_t(e.X, times(g.Bs, x.b)))));
       if (output) {
-        x.w = lift(Xc * d.cwiseProduct(Xc.transpose() * (g.Cs.transpose().cast<Complex>() * x.c)));
+        x.w = times(g.U, times(e.X, d.cwiseProduct(times_t(e.X, times_t(g.Cs, x.c)))));
       }
       return;
     }
+    // Ps(s)^-1 = X (s^2 I + s X'DsX + diag(w^2))^-1 X', the middle factor diagonal under
+    // proportional damping, else a dense LU of k x k.
     auto solve = [&](const ComplexVector& rhs) -> ComplexVector {
+      const ComplexVector z = times_t(e.X, rhs);
       if (e.dense) {
-        const ComplexMatrix P =
-            (s * s) * e.Ms.cast<Complex>() + s * e.Ds.cast<Complex>() + e.Ks.cast<Complex>();
-        return P.partialPivLu().solve(rhs);
+        ComplexMatrix P = s * e.damping.cast<Complex>();
+        P.diagonal() += (s * s + e.w2.cast<Complex>().array()).matrix();
+        return times(e.X, P.partialPivLu().solve(z));
       }
       const ComplexVector den =
-          (s * s + s * e.d.cast<Complex>().array() + e.w2.cast<Complex>().array()).matrix();
-      const ComplexMatrix Xc = e.X.cast<Complex>();
-      return Xc * (Xc.transpose() * rhs).cwiseQuotient(den);
+          (s * s + s * e.damping.diagonal().cast<Complex>().array() + e.w2.cast<Complex>().array())
+              .matrix();
+      return times(e.X, z.cwiseQuotient(den));
     };
     const auto& so = *m_view->so();
     const Index n = m_view->size();
-    const ComplexVector q = lift(solve(g.Bs.cast<Complex>() * x.b));
+    const ComplexVector q = times(g.U, solve(times(g.Bs, x.b)));
     x.v.resize(2 * n, 1);
     x.v.col(0) << q, s * q;
     if (!output) return;
-    ComplexMatrix out_t = g.Cs.transpose().cast<Complex>();
-    if (g.Cvs.size() > 0) out_t += s * g.Cvs.transpose().cast<Complex>();
-    const ComplexVector y = lift(solve(out_t * x.c));
-    auto apply = [](const SparseMatrix& A, const ComplexVector& z) -> ComplexVector {
-      return A * z.real() + Complex(0.0, 1.0) * (A * z.imag());
+    ComplexVector out = times_t(g.Cs, x.c);
+    if (g.Cvs.size() > 0) out += s * times_t(g.Cvs, x.c);
+    const ComplexVector y = times(g.U, solve(out));
+    auto apply = [&](const SparseMatrix& A, const ComplexVector& z) -> ComplexVector {
+      return A * z.real() + i1 * (A * z.imag());
     };
     ComplexVector top = s * apply(so.M, y) + apply(so.D, y);
     if (so.has_velocity_output()) top -= so.Cv.transpose().cast<Complex>() * x.c;
