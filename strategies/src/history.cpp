@@ -15,6 +15,7 @@
 #include <sstream>
 #include <type_traits>
 
+#include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
 
 namespace ecmor {
@@ -23,33 +24,6 @@ namespace {
 
 // ordered_json keeps the documented field order (nlohmann::json sorts keys).
 using Json = nlohmann::ordered_json;
-
-// Temporary file next to the target, then rename: rename(2) within one directory is atomic, so a
-// reader sees the old or the new complete file. (atomic_file.hpp will offer the same; this private
-// copy exists until it lands, and is replaced by write_file_atomically then.)
-void replace_file(const std::filesystem::path& path, const std::string& contents) {
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw IoError(fmt::format("cannot create {}", tmp.string()));
-    out << contents;
-    out.flush();
-    if (!out) {
-      out.close();
-      std::error_code ignored;
-      std::filesystem::remove(tmp, ignored);
-      throw IoError(fmt::format("cannot write {}", tmp.string()));
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::error_code ignored;
-    std::filesystem::remove(tmp, ignored);
-    throw IoError(
-        fmt::format("cannot rename {} to {}: {}", tmp.string(), path.string(), ec.message()));
-  }
-}
 
 // Shortest text that reads back to the same number ("0.001", "1e-13", "inf", "nan", "42").
 template <class T>
@@ -346,8 +320,10 @@ void write_history(const std::filesystem::path& dir, const std::vector<Iteration
     csv += csv_row(r);
     jsonl += history_json_line(r) + "\n";
   }
-  replace_file(dir / "history.csv", csv);
-  replace_file(dir / "history.jsonl", jsonl);
+  // Atomic (a reader sees the old or the new complete file), with a unique temporary name and an
+  // fsync before the rename (atomic_file.hpp).
+  write_text_atomically(dir / "history.csv", csv);
+  write_text_atomically(dir / "history.jsonl", jsonl);
 }
 
 std::vector<HistoryCsvRow> read_history_csv(const std::filesystem::path& path) {

@@ -259,6 +259,20 @@ TEST_F(History, FilesAreCompleteAfterEveryAppendAndNoTempFilesRemain) {
   EXPECT_EQ(files, (std::vector<std::string>{"history.csv", "history.jsonl"}));
 }
 
+// The files are replaced through uniquely named temporary files (atomic_file.hpp): whatever
+// another writer or a killed run left under a fixed name ("history.csv.tmp", here a directory
+// that cannot be opened as a file) does not stop the history. (The private writer history.cpp
+// once had used exactly that name, and failed here with "cannot create .../history.csv.tmp".)
+TEST_F(History, ALeftoverTemporaryNameDoesNotBlockTheFiles) {
+  fs::create_directories(m_dir / "history.csv.tmp");
+  fs::create_directories(m_dir / "history.jsonl.tmp");
+  HistoryWriter writer(m_dir);
+  writer.append(sample_record(1));
+  writer.append(sample_record(2));
+  EXPECT_EQ(parse_csv(read(m_dir / "history.csv")).size(), 3u);
+  EXPECT_TRUE(fs::is_directory(m_dir / "history.csv.tmp"));  // left alone
+}
+
 TEST_F(History, UnusableDirectoryIsAnIoErrorNamingIt) {
   fs::create_directories(m_dir);
   const fs::path file = m_dir / "a_file";
