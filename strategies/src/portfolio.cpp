@@ -346,6 +346,7 @@ class MemberRunner {
     IterationRecord r;
     r.iteration = m_env.recorded() + 1;
     r.phase = "failed";
+    r.stable = false;  // no model: nothing is known stable
     r.band_error = std::numeric_limits<double>::quiet_NaN();
     r.seconds = elapsed();
     r.step_seconds = elapsed() - member_start;

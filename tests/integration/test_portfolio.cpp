@@ -353,6 +353,10 @@ TEST(Portfolio, AFailingMemberIsRecordedAndTheNextOneRuns) {
   const nlohmann::json rec = nlohmann::json::parse(first);
   EXPECT_EQ(rec["phase"], "failed");
   EXPECT_NE(rec["note"].get<std::string>().find("test_fails_in_setup"), std::string::npos);
+  // No model, so nothing is known stable (the row once said stable = true) or within tolerance.
+  EXPECT_EQ(rec["stable"], false);
+  EXPECT_EQ(rec["meets_tolerance"], false);
+  EXPECT_EQ(rec["order"], 0);
 }
 
 TEST(Portfolio, NoMemberWithAModelIsAFailedRunNamingEveryFailure) {
