@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -838,20 +839,30 @@ TEST(AtomicFile, FailuresNameThePath) {
 }
 
 TEST(AtomicFile, UnwritableDirectory) {
-  if (::geteuid() == 0) GTEST_SKIP() << "permissions are not enforced for root";
   TempDir dir{"ecmor_test_mm"};
   const fs::path ro = dir / "ro";
   fs::create_directories(ro);
   write_text_atomically(ro / "keep.txt", "kept");
-  fs::permissions(ro, fs::perms::owner_read | fs::perms::owner_exec);
-  try {
-    write_text_atomically(ro / "keep.txt", "new");
-    ADD_FAILURE();
-  } catch (const IoError& e) {
-    EXPECT_NE(std::string(e.what()).find((ro / "keep.txt").string()), std::string::npos)
-        << e.what();
-  }
+  const fs::perms read_only = fs::perms::owner_read | fs::perms::owner_exec |
+                              fs::perms::group_read | fs::perms::group_exec |
+                              fs::perms::others_read | fs::perms::others_exec;
+  fs::permissions(ro, read_only);
+  // The write is attempted in a child process; root (as CI runs) ignores permissions, so there the
+  // child first becomes "nobody". Exit 0: an IoError naming the target.
+  const fs::path target = ro / "keep.txt";
+  auto attempt = [&target] {
+    if (::geteuid() == 0 && (::setgid(65534) != 0 || ::setuid(65534) != 0)) std::_Exit(3);
+    try {
+      write_text_atomically(target, "new");
+    } catch (const IoError& e) {
+      std::_Exit(std::string(e.what()).find(target.string()) != std::string::npos ? 0 : 2);
+    } catch (...) {
+      std::_Exit(4);
+    }
+    std::_Exit(1);
+  };
+  EXPECT_EXIT(attempt(), ::testing::ExitedWithCode(0), "");
   fs::permissions(ro, fs::perms::owner_all);
-  EXPECT_EQ(read_raw(ro / "keep.txt"), "kept");
-  EXPECT_EQ(count_entries(ro), 1u);
+  EXPECT_EQ(read_raw(target), "kept");
+  EXPECT_EQ(count_entries(ro), 1u);  // no temporary file left behind
 }

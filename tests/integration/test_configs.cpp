@@ -34,6 +34,12 @@ namespace {
 #ifndef ECMOR_CONFIG_DIR
 #define ECMOR_CONFIG_DIR "configs"
 #endif
+// The fewest configs the folder may hold: configs/ shipped 51 on 2026-11-29, so a folder that is
+// missing, moved or emptied fails (TheConfigFolderIsThere) instead of instantiating no test.
+// configs/slow/ may be empty.
+#ifndef ECMOR_MIN_CONFIGS
+#define ECMOR_MIN_CONFIGS 40
+#endif
 
 std::vector<std::string> config_files() {
   std::vector<std::string> out;
@@ -140,6 +146,14 @@ TEST_P(ConfigTarget, MeetsItsToleranceAndTheIndependentRecheckAgrees) {
   fs::remove(check_dir.string() + ".log");
 }
 
+#if ECMOR_MIN_CONFIGS > 0
+TEST(Configs, TheConfigFolderIsThere) {
+  EXPECT_GE(config_files().size(), static_cast<std::size_t>(ECMOR_MIN_CONFIGS))
+      << (fs::path(ECMOR_TEST_SOURCE_DIR) / ECMOR_CONFIG_DIR).string();
+}
+#endif
+
+// configs/slow/ may hold none (ECMOR_MIN_CONFIGS 0 there).
 GTEST_ALLOW_UNINSTANTIATED_PARAMETERIZED_TEST(ConfigTarget);
 INSTANTIATE_TEST_SUITE_P(Configs, ConfigTarget, ::testing::ValuesIn(config_files()),
                          [](const ::testing::TestParamInfo<std::string>& param_info) {
