@@ -287,17 +287,22 @@ double hinf_error(const ModalResponse& full, const ReducedDescriptorModel& r) {
   return sup;
 }
 
+/// The clamped solid of the floor tests: bench/solid.cpp with 10 x 2 x 2 elements (N = 270).
+bench::SolidOptions small_solid() {
+  bench::SolidOptions o;
+  o.nx = 10;
+  o.ny = 2;
+  o.nz = 2;
+  return o;
+}
+
 TEST(Balanced, TheOrderLimitQuotesTheBalancingThatCapsIt) {
   // Second-order variants p and vp balance two pairs of Gramian blocks and cap the order at the
   // smaller numerical rank of the two. At that order the note must quote a Hankel singular value
   // at or below the floor it names: on a clamped solid (bench/solid.cpp, N = 270) vp's cap comes
   // from the velocity balancing, where the note once quoted the main one (s_40 = 2.957e-06 "at or
   // below" 1.182e-08).
-  bench::SolidOptions o;
-  o.nx = 10;
-  o.ny = 2;
-  o.nz = 2;
-  const Model model{bench::solid(o)};
+  const Model model{bench::solid(small_solid())};
   for (const char* variant : {"p", "vp", "pv"}) {
     SCOPED_TRACE(variant);
     auto f = make(
@@ -381,10 +386,7 @@ TEST(Balanced, LowRankFactorsOfASolidResolveTheHsvsDownToTheirBlockFloor) {
   // far below the unscaled floor (which capped BT at 14-16 states on every solid tried,
   // s_17 ~ 5e-4 s_1). Measured 2026-11-29: cap 92 at the floor 7.7e-8 s_1, the reported HSVs
   // within 4.2e-10 s_1 (a hundredth of the floor) of the reference.
-  bench::SolidOptions o;
-  o.nx = 10;
-  o.ny = 2;
-  o.nz = 2;
+  const bench::SolidOptions o = small_solid();
   const SecondOrderModel so = bench::solid(o);
   const Vector ref = modal_block_hsv(so, o.alpha, o.beta);
   auto f = make(Model{so}, params({{"gramians", std::string("lowrank")}}), band_of(10.0, 3000.0));
