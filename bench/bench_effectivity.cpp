@@ -39,7 +39,7 @@
 #include "ecmor/model/projection.hpp"
 #include "ecmor/plugin/registry.hpp"
 #include "ecmor/response/frequency_response.hpp"
-#include "ecmor/strategies/config.hpp"
+#include "ecmor/run/config.hpp"
 #include "effectivity.hpp"
 #include "lattice.hpp"
 #include "solid.hpp"

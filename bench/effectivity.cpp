@@ -11,7 +11,7 @@
 #include "ecmor/model/matrix_market.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/response/frequency_response.hpp"
-#include "ecmor/strategies/driver.hpp"
+#include "ecmor/run/driver.hpp"
 
 namespace ecmor::bench {
 

@@ -27,7 +27,7 @@
 #include "ecmor/measures/band_error.hpp"
 #include "ecmor/model/model.hpp"
 #include "ecmor/plugin/registry.hpp"
-#include "ecmor/strategies/config.hpp"
+#include "ecmor/run/config.hpp"
 
 namespace ecmor::bench {
 

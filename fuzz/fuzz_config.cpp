@@ -1,4 +1,4 @@
-// libFuzzer target: the YAML run-configuration loader (strategies/src/config.cpp) and the parameter
+// libFuzzer target: the YAML run-configuration loader (run/src/config.cpp) and the parameter
 // map it fills (core/src/base/parameters.cpp), on arbitrary text.
 //
 // parse_run_config is the in-memory entry point of load_run_config (which only reads the file
@@ -19,7 +19,7 @@
 
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/parameters.hpp"
-#include "ecmor/strategies/config.hpp"
+#include "ecmor/run/config.hpp"
 
 using namespace ecmor;
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Checks that includes run only downwards: apps -> strategies -> core <- plugins, and inside core
+"""Checks that includes run only downwards: apps -> run -> strategies -> core <- plugins, and inside core
 base <- model <- linalg <- response <- gramians <- measures <- {plugin, body}. Prints every include
 that runs the other way and exits 1 if there is one. Run from anywhere: python3 scripts/check_layout.py
 """
@@ -34,7 +34,7 @@ def included_part(name):
 
 
 def layer(path):
-    for top in ('core', 'strategies', 'plugins', 'apps'):
+    for top in ('core', 'strategies', 'run', 'plugins', 'apps'):
         if path.startswith(top + '/'):
             return top
     return None
@@ -42,7 +42,7 @@ def layer(path):
 
 def problems():
     found = []
-    for top in ('core', 'strategies', 'plugins', 'apps'):
+    for top in ('core', 'strategies', 'run', 'plugins', 'apps'):
         for dirpath, _, files in os.walk(os.path.join(ROOT, top)):
             for f in files:
                 if not f.endswith(('.hpp', '.cpp', '.h')):
@@ -60,7 +60,9 @@ def problems():
                         where = f'{rel}:{number}: includes "{name}"'
                         if name.startswith('ecmor/strategies/') and top in ('core', 'plugins'):
                             found.append(f'{where}: {top} must not depend on strategies')
-                        if top in ('core', 'plugins', 'strategies') and ('apps/' in name or
+                        if name.startswith('ecmor/run/') and top in ('core', 'plugins', 'strategies'):
+                            found.append(f'{where}: {top} must not depend on the run layer')
+                        if top in ('core', 'plugins', 'strategies', 'run') and ('apps/' in name or
                                                                          name == 'commands.hpp'):
                             found.append(f'{where}: only apps include apps')
                         part, target = core_part(rel), included_part(name)

@@ -19,8 +19,8 @@
 #include "ecmor/base/error.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/plugin/registry.hpp"
-#include "ecmor/strategies/config.hpp"
-#include "ecmor/strategies/driver.hpp"
+#include "ecmor/run/config.hpp"
+#include "ecmor/run/driver.hpp"
 #include "signals.hpp"
 
 namespace ecmor::app {
@@ -106,8 +106,8 @@ void record_summary(const RunSummary& s, BenchRow& row) {
   row.reducer_calls = s.reducer_calls;
   row.iterations = s.iterations;
   row.peak_memory_mb = s.peak_memory_mb;
-  row.hinf_error = s.hinf_error;
-  row.hinf_scope = s.hinf_scope;
+  row.hinf_error = s.hinf.value;
+  row.hinf_scope = s.hinf.scope;
 }
 
 // Runs `config` as `ecmor reduce` would and returns its row; a run that throws is a row too

@@ -31,7 +31,7 @@ struct BenchRow {
   Index reducer_calls = 0, iterations = 0;
   double peak_memory_mb = 0.0;
   /// H-infinity norm of the error system and its scope ("all frequencies": dense level-set
-  /// method, "band": sampled supremum); see RunSummary::hinf_error.
+  /// method, "band": sampled supremum); see RunSummary::hinf.
   double hinf_error = 0.0;
   std::string hinf_scope;
 };

@@ -16,8 +16,8 @@
 #include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/plugin/registry.hpp"
-#include "ecmor/strategies/config.hpp"
-#include "ecmor/strategies/driver.hpp"
+#include "ecmor/run/config.hpp"
+#include "ecmor/run/driver.hpp"
 #include "signals.hpp"
 
 namespace ecmor::app {

@@ -20,8 +20,8 @@
 #include "ecmor/model/model.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/plugin/registry.hpp"
-#include "ecmor/strategies/config.hpp"
-#include "ecmor/strategies/driver.hpp"
+#include "ecmor/run/config.hpp"
+#include "ecmor/run/driver.hpp"
 #include "ecmor/strategies/strategy.hpp"
 #include "plot.hpp"
 #include "signals.hpp"
@@ -107,9 +107,9 @@ class TablePrinter final : public RunObserver {
     for (const std::string& w : s.warnings) fmt::print("warning: {}\n", w);
     if (s.has_model) {
       const std::string check =
-          s.error_mode == "estimate"
+          s.error_control.mode == "estimate"
               ? fmt::format("largest against the full model, at {:.4g} Hz of {} solved",
-                            s.verified_f_peak_hz, s.checked_frequencies)
+                            s.verified_f_peak_hz, s.error_control.checked_frequencies)
               : fmt::format("independent re-check {:.3e} at {:.4g} Hz", s.verified_band_error,
                             s.verified_f_peak_hz);
       fmt::print(
@@ -118,7 +118,8 @@ class TablePrinter final : public RunObserver {
           s.order, s.band_error, check,
           s.stable ? s.stability.label : "NOT stable: " + s.stability.reason, s.seconds,
           s.counters.factorizations, s.counters.solves, s.peak_memory_mb);
-      if (!s.error_mode_switch.empty()) fmt::print("error control: {}\n", s.error_mode_switch);
+      if (!s.error_control.mode_switch.empty())
+        fmt::print("error control: {}\n", s.error_control.mode_switch);
       fmt::print("outputs in {}\n", s.output_dir.string());
     }
   }
@@ -260,9 +261,9 @@ int plugins(const CommonOptions& common) {
       fmt::print("\n");
     }
     // The strategies are built in; their options come from the same kind of specs.
-    for (const auto& name : strategy_names()) {
+    for (const auto& name : run_strategy_names()) {
       fmt::print("strategy {}  (built in)\n", name);
-      print_parameters(strategy_parameters(name));
+      print_parameters(run_strategy_options(name));
       fmt::print("\n");
     }
     return 0;

@@ -15,7 +15,7 @@
 #include "ecmor/measures/band_error.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/response/reduced_response.hpp"
-#include "ecmor/strategies/history.hpp"
+#include "ecmor/run/history.hpp"
 
 namespace fs = std::filesystem;
 

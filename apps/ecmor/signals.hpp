@@ -6,7 +6,7 @@
 /// (exit 130), for a run that sits inside a step it cannot leave early (one sparse factorisation of
 /// a large model can take minutes); the history on disk then holds the iterations completed so far.
 
-#include "ecmor/strategies/driver.hpp"
+#include "ecmor/run/driver.hpp"
 
 namespace ecmor::app {
 

@@ -22,9 +22,9 @@
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/plugin/registry.hpp"
 #include "ecmor/response/frequency_response.hpp"
-#include "ecmor/strategies/config.hpp"
-#include "ecmor/strategies/driver.hpp"
-#include "ecmor/strategies/history.hpp"
+#include "ecmor/run/config.hpp"
+#include "ecmor/run/driver.hpp"
+#include "ecmor/run/history.hpp"
 #include "ecmor/version.hpp"
 
 namespace ecmor::python {
@@ -207,9 +207,8 @@ py::tuple plugins(const std::vector<std::filesystem::path>& defaults) {
         py::arg("parameters") = parameter_list(e.info.parameters)));
   }
   py::dict strategies;
-  for (const std::string& name : strategy_names())
-    strategies[py::str(name)] = parameter_list(strategy_parameters(name));
-  strategies["portfolio"] = parameter_list(portfolio_options());
+  for (const std::string& name : run_strategy_names())
+    strategies[py::str(name)] = parameter_list(run_strategy_options(name));
   py::dict sections;
   for (const char* name : {"error", "solver"})
     sections[name] = parameter_list(section_options(name));
@@ -531,7 +530,11 @@ PYBIND11_MODULE(_ecmor, m) {
       .def_property_readonly("outputs", [](const Reduced& r) { return outputs_of(*r.model); })
       .def("matrix", &reduced_matrix);
   py::class_<Run>(m, "Run")
-      .def_property_readonly("summary_json", [](const Run& r) { return r.result->summary_json; })
+      .def_property_readonly("summary_json",
+                             [](const Run& r) {
+                               return r.result->has_outputs ? r.result->summary.to_json()
+                                                            : std::string();
+                             })
       .def_property_readonly("history", &run_history)
       .def_property_readonly("has_model", [](const Run& r) { return r.result->model.has_value(); })
       .def("reduced", &run_reduced)

@@ -1,7 +1,6 @@
 #include "ecmor/strategies/strategy.hpp"
 
 #include "ecmor/base/error.hpp"
-#include "ecmor/strategies/config.hpp"
 #include "greedy_points.hpp"
 #include "grow_order.hpp"
 #include "minimax_points.hpp"
@@ -33,8 +32,7 @@ std::string to_string(Termination t) {
 }
 
 std::vector<std::string> strategy_names() {
-  return {"grow_order",     "greedy_points", "optimize_points",
-          "minimax_points", "mixed_basis",   "portfolio"};
+  return {"grow_order", "greedy_points", "optimize_points", "minimax_points", "mixed_basis"};
 }
 
 std::vector<ParameterDoc> strategy_parameters(const std::string& name) {
@@ -43,7 +41,6 @@ std::vector<ParameterDoc> strategy_parameters(const std::string& name) {
   if (name == "optimize_points") return OptimizePointsOptions::specs().docs();
   if (name == "minimax_points") return MinimaxPointsOptions::specs().docs();
   if (name == "mixed_basis") return MixedBasisOptions::specs().docs();
-  if (name == "portfolio") return portfolio_options();
   throw ConfigError("unknown strategy '" + name + "'" + suggestion(name, strategy_names()));
 }
 
@@ -59,11 +56,6 @@ std::unique_ptr<Strategy> make_strategy(const std::string& name, const Parameter
     s = std::make_unique<MinimaxPoints>(MinimaxPointsOptions::from(params));
   } else if (name == "mixed_basis") {
     s = std::make_unique<MixedBasis>(MixedBasisOptions::from(params));
-  } else if (name == "portfolio") {
-    // The driver runs a portfolio (portfolio.hpp); each of its members has a strategy of its own.
-    throw ConfigError(
-        "strategy 'portfolio' cannot be created as a single strategy: it runs the members of "
-        "strategy.members, each with its own strategy");
   } else {
     throw ConfigError("unknown strategy '" + name + "'" + suggestion(name, strategy_names()));
   }

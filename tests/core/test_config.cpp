@@ -9,7 +9,7 @@
 
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/strategies/config.hpp"
+#include "ecmor/run/config.hpp"
 
 namespace fs = std::filesystem;
 using namespace ecmor;
@@ -231,7 +231,7 @@ TEST(RunConfig, CheckSectionAndHinfDenseStates) {
 TEST(RunConfig, ExampleInTheHeaderParses) {
   // Read the example from config.hpp itself, so the documentation cannot drift from the parser.
   std::ifstream header(fs::path(ECMOR_TEST_SOURCE_DIR) /
-                       "strategies/include/ecmor/strategies/config.hpp");
+                       "run/include/ecmor/run/config.hpp");
   ASSERT_TRUE(header) << "cannot open config.hpp";
   std::string line, yaml;
   bool in_example = false;

@@ -11,7 +11,8 @@
 #include <sstream>
 
 #include "ecmor/base/error.hpp"
-#include "ecmor/strategies/history.hpp"
+#include "ecmor/run/driver.hpp"
+#include "ecmor/run/history.hpp"
 
 namespace fs = std::filesystem;
 using namespace ecmor;
@@ -111,15 +112,62 @@ TEST(FormatPoints, ImaginaryRealAndComplexPoints) {
             "0+i0.001Hz, s=2 x4, 0+i250Hz");
 }
 
-TEST_F(History, ConstructorCreatesDirectoryButWritesNothing) {
-  HistoryWriter writer(m_dir / "nested" / "out");
-  EXPECT_TRUE(fs::is_directory(m_dir / "nested" / "out"));
-  EXPECT_FALSE(fs::exists(m_dir / "nested" / "out" / "history.csv"));
-  EXPECT_TRUE(writer.records().empty());
+// The directory appears with the first record: a run refused before any record leaves none.
+TEST_F(History, TheDirectoryIsCreatedAtTheFirstRecord) {
+  RunHistory history(m_dir / "nested" / "out", true, nullptr);
+  EXPECT_FALSE(fs::exists(m_dir / "nested"));
+  EXPECT_TRUE(history.records().empty());
+  history.append(sample_record(1));
+  EXPECT_TRUE(fs::is_regular_file(m_dir / "nested" / "out" / "history.csv"));
+  EXPECT_TRUE(fs::is_regular_file(m_dir / "nested" / "out" / "history.jsonl"));
+}
+
+// Without a directory (or on a rank that does not write) the records are kept, not written.
+TEST_F(History, WithoutADirectoryTheRecordsAreOnlyKept) {
+  RunHistory in_memory({}, true, nullptr);
+  in_memory.append(sample_record(1));
+  RunHistory not_writing(m_dir / "quiet", false, nullptr);
+  not_writing.append(sample_record(1));
+  EXPECT_EQ(in_memory.size(), 1);
+  EXPECT_EQ(not_writing.size(), 1);
+  EXPECT_FALSE(fs::exists(m_dir / "quiet"));
+}
+
+namespace {
+/// Keeps what it is shown and says stop at the record numbered `stop_at`.
+class Watcher : public RunObserver {
+ public:
+  explicit Watcher(Index stop_at) : m_stop_at(stop_at) {}
+  bool on_iteration(const IterationRecord& r) override {
+    seen.push_back(r.iteration);
+    return r.iteration != m_stop_at;
+  }
+  std::vector<Index> seen;
+
+ private:
+  Index m_stop_at;
+};
+}  // namespace
+
+// One path: every record is numbered over the whole run (whatever the strategy numbered it),
+// kept, written and shown to the observer, whose answer append() returns.
+TEST_F(History, RecordsAreNumberedOverTheRunAndShownToTheObserver) {
+  Watcher watcher(2);
+  RunHistory history(m_dir, true, &watcher);
+  EXPECT_TRUE(history.append(sample_record(7)));   // a second member's first record
+  EXPECT_FALSE(history.append(sample_record(1)));  // the observer stops at the second
+  EXPECT_TRUE(history.append(sample_record(1)));
+  EXPECT_EQ(watcher.seen, (std::vector<Index>{1, 2, 3}));
+  ASSERT_EQ(history.size(), 3);
+  for (Index i = 0; i < 3; ++i) EXPECT_EQ(history.records()[i].iteration, i + 1);
+  EXPECT_EQ(parse_csv(read(m_dir / "history.csv")).size(), 4u);
+  const std::vector<IterationRecord> released = history.release();
+  EXPECT_EQ(released.size(), 3u);
+  EXPECT_EQ(history.size(), 0);
 }
 
 TEST_F(History, CsvReadsBackExactly) {
-  HistoryWriter writer(m_dir);
+  RunHistory writer(m_dir, true, nullptr);
   writer.append(sample_record(1));
   writer.append(sample_record(2));
   const auto rows = parse_csv(read(m_dir / "history.csv"));
@@ -168,7 +216,7 @@ TEST_F(History, CsvReadsBackExactly) {
 }
 
 TEST_F(History, JsonLinesCarryEveryField) {
-  HistoryWriter writer(m_dir);
+  RunHistory writer(m_dir, true, nullptr);
   writer.append(sample_record(1));
   writer.append(sample_record(2));
   std::ifstream in(m_dir / "history.jsonl");
@@ -212,7 +260,7 @@ TEST_F(History, JsonLinesCarryEveryField) {
 }
 
 TEST_F(History, NonFiniteValuesAreNamedNotNull) {
-  HistoryWriter writer(m_dir);
+  RunHistory writer(m_dir, true, nullptr);
   IterationRecord r = sample_record(1);
   r.band_error = std::numeric_limits<double>::infinity();  // reduced model hit a pole
   r.f_peak_hz = std::numeric_limits<double>::quiet_NaN();
@@ -236,7 +284,7 @@ TEST_F(History, NonFiniteValuesAreNamedNotNull) {
 }
 
 TEST_F(History, FilesAreCompleteAfterEveryAppendAndNoTempFilesRemain) {
-  HistoryWriter writer(m_dir);
+  RunHistory writer(m_dir, true, nullptr);
   for (Index i = 1; i <= 5; ++i) {
     IterationRecord r = sample_record(i);
     r.note = "line one\nline two";  // a newline inside a quoted field
@@ -266,7 +314,7 @@ TEST_F(History, FilesAreCompleteAfterEveryAppendAndNoTempFilesRemain) {
 TEST_F(History, ALeftoverTemporaryNameDoesNotBlockTheFiles) {
   fs::create_directories(m_dir / "history.csv.tmp");
   fs::create_directories(m_dir / "history.jsonl.tmp");
-  HistoryWriter writer(m_dir);
+  RunHistory writer(m_dir, true, nullptr);
   writer.append(sample_record(1));
   writer.append(sample_record(2));
   EXPECT_EQ(parse_csv(read(m_dir / "history.csv")).size(), 3u);
@@ -277,18 +325,19 @@ TEST_F(History, UnusableDirectoryIsAnIoErrorNamingIt) {
   fs::create_directories(m_dir);
   const fs::path file = m_dir / "a_file";
   std::ofstream(file) << "x";
+  RunHistory history(file / "sub", true, nullptr);
   try {
-    HistoryWriter writer(file / "sub");
+    history.append(sample_record(1));
     FAIL() << "no IoError";
   } catch (const IoError& e) {
     EXPECT_NE(std::string(e.what()).find((file / "sub").string()), std::string::npos) << e.what();
   }
 }
 
-// What HistoryWriter writes, read_history_csv reads back: every field the CSV carries, doubles
+// What RunHistory writes, read_history_csv reads back: every field the CSV carries, doubles
 // bit for bit, text with commas, quotes and newlines intact.
 TEST_F(History, CsvRoundTripsThroughTheReader) {
-  HistoryWriter writer(m_dir);
+  RunHistory writer(m_dir, true, nullptr);
   std::vector<IterationRecord> written;
   for (Index i = 1; i <= 3; ++i) written.push_back(sample_record(i));
   written[1].note = "line one\nline two, \"quoted\"";
@@ -345,9 +394,9 @@ std::string read_error(const fs::path& path, const std::string& text) {
   return {};
 }
 
-// The text of a history.csv of one record, as HistoryWriter writes it into `dir`.
+// The text of a history.csv of one record, as RunHistory writes it into `dir`.
 std::string one_record_csv(const fs::path& dir) {
-  HistoryWriter writer(dir);
+  RunHistory writer(dir, true, nullptr);
   writer.append(sample_record(1));
   return read(dir / "history.csv");
 }
@@ -386,7 +435,7 @@ TEST_F(History, ReaderNamesFileLineAndRule) {
 }
 
 TEST_F(History, ReaderCountsLinesInsideQuotedFieldsAndSkipsBlankLines) {
-  HistoryWriter writer(m_dir);
+  RunHistory writer(m_dir, true, nullptr);
   IterationRecord r = sample_record(1);
   r.note = "one\ntwo\nthree";
   writer.append(r);

@@ -21,7 +21,7 @@
 #include "ecmor/model/matrix_market.hpp"
 #include "ecmor/model/model.hpp"
 #include "ecmor/model/model_io.hpp"
-#include "ecmor/strategies/config.hpp"
+#include "ecmor/run/config.hpp"
 
 namespace fs = std::filesystem;
 

@@ -1,4 +1,4 @@
-// The compression of an accepted model (compress: true; strategies/src/compression.hpp), through
+// The compression of an accepted model (compress: true; run/src/compression.hpp), through
 // the driver on models held in memory.
 //
 // Independent references: the full model's response by Eigen's SparseLU (not ecmor's solvers, cache
@@ -21,8 +21,8 @@
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/plugin/registry.hpp"
 #include "ecmor/response/frequency_response.hpp"
-#include "ecmor/strategies/config.hpp"
-#include "ecmor/strategies/driver.hpp"
+#include "ecmor/run/config.hpp"
+#include "ecmor/run/driver.hpp"
 
 namespace fs = std::filesystem;
 

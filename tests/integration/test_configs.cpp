@@ -22,7 +22,7 @@
 #include "ecmor/measures/band_error.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/response/frequency_response.hpp"
-#include "ecmor/strategies/config.hpp"
+#include "ecmor/run/config.hpp"
 
 namespace fs = std::filesystem;
 

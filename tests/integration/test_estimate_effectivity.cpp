@@ -17,7 +17,7 @@
 #include "common/test_support.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/plugin/registry.hpp"
-#include "ecmor/strategies/config.hpp"
+#include "ecmor/run/config.hpp"
 
 namespace ecmor {
 namespace {

@@ -12,8 +12,8 @@
 
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/strategies/config.hpp"
-#include "ecmor/strategies/driver.hpp"
+#include "ecmor/run/config.hpp"
+#include "ecmor/run/driver.hpp"
 
 namespace fs = std::filesystem;
 

@@ -13,7 +13,7 @@
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/options.hpp"
-#include "ecmor/strategies/config.hpp"
+#include "ecmor/run/config.hpp"
 #include "ecmor/strategies/strategy.hpp"
 #include "greedy_points.hpp"
 #include "grow_order.hpp"
@@ -140,7 +140,7 @@ TEST(OptionDocs, StrategyGuidePrintsTheSpecs) {
     EXPECT_EQ(own.size() + shared.size(), docs.size()) << name;
     expect_table(file, name, own);
   }
-  expect_table(file, "portfolio", strategy_parameters("portfolio"));
+  expect_table(file, "portfolio", run_strategy_options("portfolio"));
 }
 
 // The configuration's sections of plain options: their tables in the user guide, and each
@@ -173,7 +173,6 @@ TEST(OptionDocs, EveryDocumentedReducerKeyIsRead) {
 
 TEST(OptionDocs, EveryDocumentedStrategyKeyIsRead) {
   for (const auto& name : strategy_names()) {
-    if (name == "portfolio") continue;  // the configuration reads it: the next test
     expect_documented_keys_read("strategy '" + name + "'", strategy_parameters(name),
                                 [&](const ParameterMap& p) { make_strategy(name, p); });
   }
@@ -183,7 +182,7 @@ TEST(OptionDocs, EveryDocumentedPortfolioKeyIsRead) {
   const std::string head =
       "model: {dir: m}\nband: {f_min_hz: 1, f_max_hz: 10}\ntarget: {tolerance: 1.0e-3}\n"
       "output: {dir: o}\nstrategy:\n  name: portfolio\n";
-  const auto docs = strategy_parameters("portfolio");
+  const auto docs = run_strategy_options("portfolio");
   ASSERT_FALSE(docs.empty());
   for (const auto& doc : docs) {
     EXPECT_NO_THROW(

@@ -24,8 +24,8 @@
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/plugin/registry.hpp"
 #include "ecmor/response/frequency_response.hpp"
-#include "ecmor/strategies/config.hpp"
-#include "ecmor/strategies/driver.hpp"
+#include "ecmor/run/config.hpp"
+#include "ecmor/run/driver.hpp"
 
 namespace fs = std::filesystem;
 

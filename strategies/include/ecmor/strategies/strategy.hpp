@@ -15,7 +15,7 @@
 #include "ecmor/linalg/rigid_body.hpp"
 #include "ecmor/measures/band_error.hpp"
 #include "ecmor/plugin/reducer.hpp"
-#include "ecmor/strategies/history.hpp"
+#include "ecmor/strategies/iteration_record.hpp"
 
 namespace ecmor {
 
@@ -81,10 +81,10 @@ class Strategy {
 };
 
 /// Creates a strategy by name ("grow_order", ...), reading its parameters.
-/// \throws ConfigError for unknown names (listing the valid ones) or invalid/unknown parameters,
-///         and for "portfolio", which the driver runs (portfolio.hpp) and is no single strategy.
+/// \throws ConfigError for unknown names (listing the valid ones) or invalid/unknown parameters.
 std::unique_ptr<Strategy> make_strategy(const std::string& name, const ParameterMap& params);
-/// The strategies a configuration can name, "portfolio" last.
+/// The strategies. A configuration may also name "portfolio", which the run layer runs
+/// (ecmor/run/config.hpp, run_strategy_names()).
 std::vector<std::string> strategy_names();
 /// The documented options of a strategy (key, type, default, meaning with unit and range), from
 /// its option specs; what `ecmor plugins` prints. \throws ConfigError for unknown names.

@@ -17,7 +17,7 @@
 ///
 /// A portfolio run tries several reducer/strategy pairs on the same model, one after another, and
 /// keeps the smallest passing model (no top-level `reducer` section then). Without `members` it
-/// tries the bundled reducers suited to the model (driver.hpp, default_portfolio):
+/// tries the bundled reducers suited to the model (run/src/portfolio.hpp, default_portfolio):
 ///
 ///   strategy:
 ///     name: portfolio
@@ -132,6 +132,13 @@ struct ConfigRequirements {
 /// Same from a string; `name` is used in messages.
 RunConfig parse_run_config(const std::string& yaml, const std::string& name,
                            const ConfigRequirements& requirements = {});
+
+/// The names strategy.name takes: every strategy (strategy_names()) and "portfolio", last.
+std::vector<std::string> run_strategy_names();
+
+/// The documented options of strategy.name `name`: a strategy's (strategy_parameters()) or the
+/// portfolio's (portfolio_options()). \throws ConfigError for unknown names.
+std::vector<ParameterDoc> run_strategy_options(const std::string& name);
 
 /// The documented options of the portfolio strategy's own keys (`prune`; `members` and
 /// `time_limit_s` are described above), from the option specs the reader uses: what

@@ -20,7 +20,7 @@
 #include "ecmor/measures/stability.hpp"
 #include "ecmor/model/model.hpp"
 
-namespace ecmor::driver {
+namespace ecmor::run {
 namespace {
 
 // Symmetry a Galerkin projection of symmetric matrices keeps up to rounding.
@@ -757,4 +757,4 @@ std::optional<ReducerResult> compress_accepted(const ReducerResult& accepted,
   return std::nullopt;
 }
 
-}  // namespace ecmor::driver
+}  // namespace ecmor::run

@@ -1,7 +1,7 @@
 // config.cpp: the YAML run configuration. Everything the user can get wrong is reported with the
 // file, the line and the key, because a run that starts with a silently misread setting wastes
 // hours (a misspelt `tolerence` would otherwise leave the default tolerance in force).
-#include "ecmor/strategies/config.hpp"
+#include "ecmor/run/config.hpp"
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>

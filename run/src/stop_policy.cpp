@@ -3,9 +3,9 @@
 #include <fmt/format.h>
 
 #include "ecmor/linalg/parallel.hpp"
-#include "ecmor/strategies/driver.hpp"
+#include "ecmor/run/driver.hpp"
 
-namespace ecmor::driver {
+namespace ecmor::run {
 
 StopPolicy::StopPolicy(std::chrono::steady_clock::time_point start, double time_limit_s,
                        RunObserver* observer)
@@ -47,4 +47,4 @@ std::string StopPolicy::time_limit_text() const {
   return fmt::format("time limit strategy.time_limit_s = {} s used up", m_limit_s);
 }
 
-}  // namespace ecmor::driver
+}  // namespace ecmor::run

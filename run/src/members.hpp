@@ -1,10 +1,9 @@
 #pragma once
-// portfolio.hpp: the members of a run (a plain run is a portfolio of one), created before any
-// heavy work, run one after another against one solver, cache and estimator, and the choice of
-// the reported one.
+// members.hpp: the members of a run (a plain run is a portfolio of one), created before any heavy
+// work and run one after another against one solver, cache and estimator. The choice among them
+// is the portfolio's (portfolio.hpp).
 #include <chrono>
 #include <cstdint>
-#include <functional>
 #include <memory>
 #include <vector>
 
@@ -13,10 +12,11 @@
 #include "ecmor/measures/band_error.hpp"
 #include "ecmor/plugin/registry.hpp"
 #include "ecmor/response/frequency_response.hpp"
-#include "ecmor/strategies/driver.hpp"
+#include "ecmor/run/driver.hpp"
+#include "ecmor/run/history.hpp"
 #include "stop_policy.hpp"
 
-namespace ecmor::driver {
+namespace ecmor::run {
 
 /// A member ready to run: created (and its parameters validated) before any heavy work.
 struct PreparedMember {
@@ -42,10 +42,7 @@ struct MemberEnvironment {
   std::chrono::steady_clock::time_point start;
   StopPolicy& stop;
   RunObserver* observer;
-  /// Appends one record to the history (collective under MPI; throws IoError).
-  std::function<void(const IterationRecord&)> record;
-  /// Records written so far, over all members.
-  std::function<Index()> recorded;
+  RunHistory& history;  ///< every member's records go here
 };
 
 /// One attempt and one result per member, and the reducers' totals over all members.
@@ -63,8 +60,4 @@ struct MemberRuns {
 /// pruned once its order reaches the smallest that met the target without meeting it.
 MemberRuns run_members(std::vector<PreparedMember>& members, const MemberEnvironment& env);
 
-/// The run's result: the winner's (smallest order meeting the target, ties to the faster; else
-/// the smallest band error), with the portfolio's message; `winner` is its index, -1 for none.
-StrategyResult conclude(MemberRuns& runs, bool portfolio, const StopPolicy& stop, int& winner);
-
-}  // namespace ecmor::driver
+}  // namespace ecmor::run

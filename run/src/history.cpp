@@ -1,7 +1,7 @@
 // history.cpp: the convergence history as CSV (for spreadsheets and gnuplot) and JSON lines (for
 // scripts: every field, nothing rounded). Both files are rewritten whole after every iteration,
 // atomically, so a run killed at any moment leaves complete files up to its last iteration.
-#include "ecmor/strategies/history.hpp"
+#include "ecmor/run/history.hpp"
 
 #include <fmt/format.h>
 
@@ -17,6 +17,8 @@
 
 #include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
+#include "ecmor/linalg/parallel.hpp"
+#include "ecmor/run/driver.hpp"
 
 namespace ecmor {
 
@@ -298,17 +300,33 @@ Json to_json(const IterationRecord& r) {
 
 }  // namespace
 
-HistoryWriter::HistoryWriter(std::filesystem::path dir) : m_dir(std::move(dir)) {
-  std::error_code ec;
-  std::filesystem::create_directories(m_dir, ec);
-  if (ec || !std::filesystem::is_directory(m_dir))
-    throw IoError(fmt::format("cannot create the history directory {}: {}", m_dir.string(),
-                              ec ? ec.message() : "not a directory"));
-}
+RunHistory::RunHistory(std::filesystem::path dir, bool write, RunObserver* observer)
+    : m_dir(std::move(dir)), m_write(write && !m_dir.empty()), m_observer(observer) {}
 
-void HistoryWriter::append(const IterationRecord& record) {
-  m_records.push_back(record);
-  write_history(m_dir, m_records);
+bool RunHistory::append(IterationRecord record) {
+  record.iteration = size() + 1;
+  m_records.push_back(std::move(record));
+  std::string failure;
+  if (m_write) {
+    try {
+      if (!m_created) {
+        std::error_code ec;
+        std::filesystem::create_directories(m_dir, ec);
+        if (ec || !std::filesystem::is_directory(m_dir))
+          throw IoError(fmt::format("cannot create the history directory {}: {}", m_dir.string(),
+                                    ec ? ec.message() : "not a directory"));
+        m_created = true;
+      }
+      write_history(m_dir, m_records);
+    } catch (const Error& e) {
+      failure = e.what();
+    }
+  }
+  // A write error is one rank's alone: made collective, so that every rank leaves the strategy at
+  // the same record instead of the others waiting in the next collective solve.
+  if (any_process(!failure.empty()))
+    throw IoError(failure.empty() ? std::string("rank 0 could not write the history") : failure);
+  return m_observer ? m_observer->on_iteration(m_records.back()) : true;
 }
 
 std::string history_json_line(const IterationRecord& record) { return to_json(record).dump(); }

@@ -1,4 +1,4 @@
-#include "portfolio.hpp"
+#include "members.hpp"
 
 #include <fmt/format.h>
 
@@ -12,91 +12,9 @@
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/interrupt.hpp"
 #include "ecmor/linalg/parallel.hpp"
+#include "timed_reducer.hpp"
 
-namespace ecmor {
-namespace driver {
-namespace {
-
-/// Wraps the configured reducer to measure the reduction proper: wall time and solver work inside
-/// setup() and reduce(), apart from the error estimation around them. setup() counts: the low-rank
-/// ADI of balanced truncation factorises there (rail_5177_bt: 123 Cholesky factorisations that the
-/// summary once left out of the reducer's count).
-class TimedReducer final : public Reducer {
- public:
-  TimedReducer(Reducer& inner, const RecentFactorizations& solver)
-      : m_inner(inner), m_solver(solver) {}
-  void setup(const ReductionContext& context) override {
-    const Account account{*this};
-    m_inner.setup(context);
-  }
-  ReducerResult reduce(const ReductionRequest& request) override {
-    const Account account{*this};
-    ++m_calls;
-    return m_inner.reduce(request);
-  }
-  Index max_order() const override { return m_inner.max_order(); }
-  Index order_step() const override { return m_inner.order_step(); }
-
-  double seconds() const { return m_seconds; }
-  Index calls() const { return m_calls; }
-  const SolverCounters& counters() const { return m_counters; }
-  /// Factorisations the reducer asked for and got from the error control's full solves.
-  std::int64_t reuses() const { return m_reuses; }
-
- private:
-  // Counts the time and solver work of one call, also when it throws: the work was done.
-  struct Account {
-    explicit Account(TimedReducer& reducer)
-        : self(reducer),
-          start(std::chrono::steady_clock::now()),
-          before(reducer.m_solver.counters()),
-          reuses_before(reducer.m_solver.reuses()) {}
-    ~Account() {
-      self.m_seconds +=
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      self.m_counters += self.m_solver.counters() - before;
-      self.m_reuses += self.m_solver.reuses() - reuses_before;
-    }
-    Account(const Account&) = delete;
-    Account& operator=(const Account&) = delete;
-    TimedReducer& self;
-    std::chrono::steady_clock::time_point start;
-    SolverCounters before;
-    std::int64_t reuses_before;
-  };
-
-  Reducer& m_inner;
-  const RecentFactorizations& m_solver;
-  double m_seconds = 0.0;
-  Index m_calls = 0;
-  SolverCounters m_counters;
-  std::int64_t m_reuses = 0;
-};
-
-/// Index of the reported attempt: the smallest order meeting the target (ties: less time), else
-/// the smallest band error among members with a model; -1 when no member has one.
-int select_winner(const std::vector<PortfolioAttempt>& attempts) {
-  int best = -1;
-  for (std::size_t k = 0; k < attempts.size(); ++k) {
-    const PortfolioAttempt& a = attempts[k];
-    if (!a.has_model) continue;
-    if (best < 0) {
-      best = static_cast<int>(k);
-      continue;
-    }
-    const PortfolioAttempt& b = attempts[static_cast<std::size_t>(best)];
-    // Ties on the order go to the faster member; under MPI to the first one, since the ranks'
-    // clocks differ and every rank must report the same winner.
-    const bool faster = process_count() == 1 && a.seconds < b.seconds;
-    const bool better = a.met != b.met ? a.met
-                        : a.met        ? (a.order != b.order ? a.order < b.order : faster)
-                                       : a.band_error < b.band_error;
-    if (better) best = static_cast<int>(k);
-  }
-  return best;
-}
-
-}  // namespace
+namespace ecmor::run {
 
 std::vector<PreparedMember> prepare_members(const RunConfig& config, Registry& registry) {
   std::vector<PortfolioMember> members = config.portfolio;
@@ -281,17 +199,14 @@ class MemberRunner {
     ctx.counters = [&env] { return env.solver.counters(); };
     ctx.full_evaluations = [&env] { return env.cache.size(); };
     ctx.stop_requested = [&env] { return env.stop.requested(); };
-    const Index offset = env.recorded();
-    ctx.on_iteration = [this, &env, &m, &pruned, k, label, offset](const IterationRecord& rec) {
+    ctx.on_iteration = [this, &env, &m, &pruned, k, label](const IterationRecord& rec) {
       IterationRecord r = rec;
-      r.iteration += offset;  // one numbering over all members
       r.diagnostics["peak_memory_mb"] = peak_memory_mb();
       if (m_portfolio) {
         r.diagnostics["portfolio_member"] = static_cast<double>(k + 1);
         r.note = "[" + label + "] " + r.note;
       }
-      env.record(r);
-      const bool go_on = env.observer ? env.observer->on_iteration(r) : true;
+      const bool go_on = env.history.append(r);
       // A grow_order member's order only grows: once it reaches the smallest order that met the
       // target without meeting it, it cannot win.
       if (m_portfolio && env.config.portfolio_prune && m.strategy->order_only_grows() &&
@@ -340,11 +255,10 @@ class MemberRunner {
     }
   }
 
-  /// A history record of phase "failed" for member k, and its observer call.
+  /// A history record of phase "failed" for member k.
   void record_failure(std::size_t k, const std::string& label, const std::string& what,
                       double member_start) {
     IterationRecord r;
-    r.iteration = m_env.recorded() + 1;
     r.phase = "failed";
     r.stable = false;  // no model: nothing is known stable
     r.band_error = std::numeric_limits<double>::quiet_NaN();
@@ -354,8 +268,7 @@ class MemberRunner {
     r.full_evaluations = m_env.cache.size();
     r.note = "[" + label + "] failed: " + what;
     r.diagnostics["portfolio_member"] = static_cast<double>(k + 1);
-    m_env.record(r);
-    if (m_env.observer) m_env.observer->on_iteration(r);
+    m_env.history.append(r);
   }
 
   const MemberEnvironment& m_env;
@@ -386,98 +299,4 @@ MemberRuns run_members(std::vector<PreparedMember>& members, const MemberEnviron
   return runs;
 }
 
-StrategyResult conclude(MemberRuns& runs, bool portfolio, const StopPolicy& stop, int& winner) {
-  std::vector<PortfolioAttempt>& attempts = runs.attempts;
-  std::vector<StrategyResult>& results = runs.results;
-  winner = select_winner(attempts);
-  StrategyResult result;
-  if (winner >= 0) {
-    attempts[static_cast<std::size_t>(winner)].selected = true;
-    result = std::move(results[static_cast<std::size_t>(winner)]);
-  } else {
-    // No model at all: the first failure (plain run: the only attempt) says why.
-    result = results.empty() ? StrategyResult{} : std::move(results.front());
-  }
-  if (portfolio) {
-    std::size_t met = 0;
-    std::vector<std::string> failures;
-    for (const PortfolioAttempt& a : attempts) {
-      met += a.met ? 1 : 0;
-      if (a.termination == "failed") failures.push_back(a.label() + ": " + a.message);
-    }
-    if (winner >= 0) {
-      const PortfolioAttempt& w = attempts[static_cast<std::size_t>(winner)];
-      result.message = fmt::format("portfolio: {} of {} members met the target; {} reported: {}",
-                                   met, attempts.size(), w.label(), result.message);
-    } else {
-      result.termination = Termination::Failed;
-      result.message =
-          fmt::format("portfolio: no member produced a model ({})", fmt::join(failures, "; "));
-    }
-    // A stop request ends the whole run as interrupted, even when a member already met the
-    // target: the members after it did not run, so "smallest" is not established.
-    if ((stop.user_stop() || stop.out_of_time()) && winner >= 0) {
-      for (const PortfolioAttempt& a : attempts) {
-        if (a.termination == "not_run" || a.termination == "interrupted") {
-          result.termination = Termination::Interrupted;
-          result.message =
-              (stop.out_of_time() ? stop.time_limit_text() + "; " : std::string("interrupted; ")) +
-              result.message;
-          break;
-        }
-      }
-    }
-  }
-
-  return result;
-}
-
-}  // namespace driver
-
-std::vector<PortfolioMember> default_portfolio(const Model& model, const Registry& registry) {
-  const bool second_order = kind_of(model) == ModelKind::SecondOrder;
-  auto symmetric = [](const SparseMatrix& A) { return relative_asymmetry(A) <= 1e-14; };
-  bool modal_suits = second_order;
-  if (const auto* d = std::get_if<DescriptorModel>(&model))
-    modal_suits = symmetric(d->E) && symmetric(d->A);
-  struct Candidate {
-    const char* reducer;
-    const char* strategy;
-    bool suits;
-    bool fallback;
-  };
-  // The last member runs only when the others missed the target: mixed_basis is the slower
-  // method (not pruned, its order is not monotone), and the one that reduces models the others
-  // cannot (beam: krylov stagnates at order 4, balanced stops at 24, mixed_basis meets 1e-2 at
-  // 104; docs/strategies.md). Its general Petrov-Galerkin path takes unsymmetric descriptors too.
-  const Candidate candidates[] = {{"krylov", "greedy_points", true, false},
-                                  {"balanced", "grow_order", true, false},
-                                  {"modal", "grow_order", modal_suits, false},
-                                  {"modal", "mixed_basis", true, true}};
-  std::vector<PortfolioMember> members;
-  for (const Candidate& c : candidates) {
-    const auto& entries = registry.entries();
-    const auto it = std::find_if(entries.begin(), entries.end(), [&](const Registry::Entry& e) {
-      return e.info.name == c.reducer;
-    });
-    if (it == entries.end() || !c.suits) continue;
-    if (second_order ? !it->info.second_order : !it->info.descriptor) continue;
-    if (std::string_view(c.strategy) == "mixed_basis" && !it->info.modal_block) continue;
-    PortfolioMember m;
-    m.reducer_name = c.reducer;
-    m.reducer_params = ParameterMap(std::string("reducer '") + c.reducer + "'");
-    m.strategy_name = c.strategy;
-    m.strategy_params = ParameterMap(std::string("strategy '") + c.strategy + "'");
-    m.fallback = c.fallback;
-    if (m.strategy_name == "greedy_points") m.strategy_params.set("moments", 2LL);
-    members.push_back(std::move(m));
-  }
-  if (members.empty()) {
-    throw ConfigError(
-        "strategy 'portfolio' without members: none of the bundled reducers krylov, balanced, "
-        "modal is loaded for this model; give strategy.members");
-  }
-  return members;
-}
-
-}  // namespace ecmor
+}  // namespace ecmor::run

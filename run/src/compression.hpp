@@ -9,9 +9,9 @@
 #include "ecmor/measures/band_error.hpp"
 #include "ecmor/plugin/reducer.hpp"
 #include "ecmor/response/frequency_response.hpp"
-#include "ecmor/strategies/driver.hpp"
+#include "ecmor/run/summary.hpp"
 
-namespace ecmor::driver {
+namespace ecmor::run {
 
 /// The smallest model inside an accepted one (docs/strategies.md, "Compression after
 /// acceptance"). Families nested by a count: for a Galerkin model (W = V) with symmetric reduced
@@ -34,4 +34,4 @@ std::optional<ReducerResult> compress_accepted(const ReducerResult& accepted,
                                                Index verify_factor, const RigidBodyModes& rigid,
                                                CompressionReport& report, BandError& verified);
 
-}  // namespace ecmor::driver
+}  // namespace ecmor::run

@@ -12,7 +12,7 @@ namespace ecmor {
 
 class RunObserver;
 
-namespace driver {
+namespace run {
 
 class StopPolicy {
  public:
@@ -54,5 +54,5 @@ class StopPolicy {
   bool m_member_out = false;
 };
 
-}  // namespace driver
+}  // namespace run
 }  // namespace ecmor

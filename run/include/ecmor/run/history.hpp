@@ -11,38 +11,37 @@
 
 #include "ecmor/linalg/shifted_solver.hpp"
 #include "ecmor/plugin/reducer.hpp"
+#include "ecmor/strategies/iteration_record.hpp"
 
 namespace ecmor {
 
-struct IterationRecord {
-  Index iteration = 0;                 ///< 1-based
-  std::string phase;                   ///< strategy phase, e.g. "grow", "shrink", "verify"
-  Index order = 0;                     ///< reduced order n
-  std::vector<ExpansionPoint> points;  ///< expansion points used (may be empty)
-  double band_error = 0.0;             ///< sup of the relative band error (target's norm)
-  double f_peak_hz = 0.0;              ///< where it peaks
-  bool meets_tolerance = false;
-  bool stable = true;          ///< all reduced poles in the open left half plane
-  double seconds = 0.0;        ///< wall time since the start of the run
-  double step_seconds = 0.0;   ///< wall time of this iteration
-  SolverCounters counters;     ///< cumulative solver counters at the end of the iteration
-  Index full_evaluations = 0;  ///< cumulative full-model frequencies evaluated
-  std::string sampling;        ///< how the band was sampled
-  std::string note;            ///< reducer's note
-  std::map<std::string, double> diagnostics;
-};
+class RunObserver;
 
-/// Writes the history files into a directory.
-class HistoryWriter {
+/// The run's history, the one path of every record: a strategy's record, labelled by the member
+/// runner (members.cpp), is numbered here over the whole run, kept, written as history.csv and
+/// history.jsonl (each rewritten atomically, so an interrupted run keeps everything up to its last
+/// record) and shown to the observer (the CLI's table).
+class RunHistory {
  public:
-  /// Creates `dir` if needed. Nothing is written until the first record.
-  explicit HistoryWriter(std::filesystem::path dir);
-  /// Appends a record and rewrites history.csv and history.jsonl atomically.
-  void append(const IterationRecord& record);
+  /// `dir` empty: kept in memory only (the Python module's runs). Otherwise `dir` is created at
+  /// the first record, so that a run refused before any record leaves no directory behind. Under
+  /// MPI only rank 0 writes (`write` false on the others). `observer` may be null.
+  RunHistory(std::filesystem::path dir, bool write, RunObserver* observer);
+  /// Appends `record` as the next row (its iteration number set to size() + 1), rewrites the
+  /// files and shows it to the observer; returns the observer's answer (false: stop the run).
+  /// \throws IoError naming the file or directory that could not be written, on every rank
+  ///         (collective under MPI, so that all ranks leave the strategy at the same record).
+  bool append(IterationRecord record);
+  Index size() const { return static_cast<Index>(m_records.size()); }
   const std::vector<IterationRecord>& records() const { return m_records; }
+  /// The records, moved out (the history is empty afterwards).
+  std::vector<IterationRecord> release() { return std::move(m_records); }
 
  private:
   std::filesystem::path m_dir;
+  bool m_write;
+  RunObserver* m_observer;
+  bool m_created = false;
   std::vector<IterationRecord> m_records;
 };
 
@@ -51,7 +50,7 @@ class HistoryWriter {
 std::string history_json_line(const IterationRecord& record);
 
 /// Writes history.csv and history.jsonl of `records` into the existing directory `dir`, each
-/// atomically (what HistoryWriter::append writes).
+/// atomically (what RunHistory::append writes).
 /// \throws IoError naming the file that could not be written.
 void write_history(const std::filesystem::path& dir, const std::vector<IterationRecord>& records);
 
@@ -78,7 +77,7 @@ struct HistoryCsvRow {
   std::string note;
 };
 
-/// Reads a history.csv as HistoryWriter writes it: RFC 4180 (quoted fields may hold commas,
+/// Reads a history.csv as RunHistory writes it: RFC 4180 (quoted fields may hold commas,
 /// newlines and doubled quotes), columns found by their header names (others are ignored), blank
 /// lines skipped. Numbers read back exactly, including "inf" and "nan".
 /// \throws InputError naming the file, the line and the rule broken: the file cannot be read or
