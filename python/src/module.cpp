@@ -210,8 +210,8 @@ py::tuple plugins(const std::vector<std::filesystem::path>& defaults) {
   for (const std::string& name : run_strategy_names())
     strategies[py::str(name)] = parameter_list(run_strategy_options(name));
   py::dict sections;
-  for (const char* name : {"error", "solver"})
-    sections[name] = parameter_list(section_options(name));
+  for (const std::string& name : option_section_names())
+    sections[py::str(name)] = parameter_list(section_options(name));
   return py::make_tuple(reducers, strategies, sections, warnings);
 }
 

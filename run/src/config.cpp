@@ -140,37 +140,10 @@ const OptionSpecs<RunConfig>& error_specs() {
   return specs;
 }
 
-// The solver section: the sparse shifted solver (SolverOptions) and the run's threads.
+// The solver section: the sparse shifted solver (SolverOptions::specs()) and the run's threads.
 const OptionSpecs<RunConfig>& solver_specs() {
-  using S = SolverOptions;
   using C = RunConfig;
   static const OptionSpecs<C> specs = [] {
-    const OptionSpecs<S> solver({
-        option("use_cholesky", &S::use_cholesky,
-               "try CHOLMOD for real symmetric combinations (else UMFPACK LU)"),
-        option("symmetry_tol", &S::symmetry_tol,
-               "relative asymmetry below which a coefficient matrix counts as symmetric")
-            .range(Range::closed_open(0, 1)),
-        option("singular_rcond", &S::singular_rcond,
-               "a factorisation whose reciprocal condition estimate is below this is reported "
-               "singular")
-            .range(Range::closed_open(0, 1)),
-        choice("ordering", &S::ordering, {{"auto", "auto"}, {"amd", "amd"}, {"metis", "metis"}},
-               "fill-reducing ordering: `auto` takes AMD, or METIS nested dissection where AMD's "
-               "predicted fill is large (3-D solids); the choice is made once per model from the "
-               "symbolic analyses"),
-        choice("complex_symmetric", &S::complex_symmetric,
-               {{"auto", "auto"}, {"ldlt", "ldlt"}, {"lu", "lu"}},
-               "complex shifts of symmetric M, D, K (or E, A): `ldlt` = MUMPS's LDL^T (about half "
-               "the memory and flops of an LU; one factorisation at a time, using the cores "
-               "inside it, so the loops over frequencies run serially), `lu` = UMFPACK (several "
-               "at once, one per thread), `auto` = `lu` while the LUs of all threads fit in "
-               "`ldlt_memory_fraction` of the physical memory (predicted from the symbolic "
-               "analysis), `ldlt` above ([benchmarks.md](benchmarks.md#sparse-factorisation-of-"
-               "3-d-solids-issue-27))"),
-        option("ldlt_memory_fraction", &S::ldlt_memory_fraction, "see `complex_symmetric`")
-            .range(Range::closed(0, 1)),
-    });
     std::vector<Option<C>> options = {
         option("threads", &C::threads,
                "the run's threads, ecmor's loops and the BLAS together: 0 = the process's "
@@ -179,8 +152,19 @@ const OptionSpecs<RunConfig>& solver_specs() {
                "([user-guide.md](user-guide.md#threads))")
             .range(Range::closed(0, 65536)),
     };
-    for (const auto& o : solver.options()) options.push_back(o.nested(&C::solver));
+    for (const auto& o : SolverOptions::specs().options()) options.push_back(o.nested(&C::solver));
     return OptionSpecs<C>(std::move(options));
+  }();
+  return specs;
+}
+
+// The backend section: which shifted solver does the sparse work (SolverOptions::backend_specs()).
+const OptionSpecs<RunConfig>& backend_specs() {
+  static const OptionSpecs<RunConfig> specs = [] {
+    std::vector<Option<RunConfig>> options;
+    for (const auto& o : SolverOptions::backend_specs().options())
+      options.push_back(o.nested(&RunConfig::solver));
+    return OptionSpecs<RunConfig>(std::move(options));
   }();
   return specs;
 }
@@ -188,7 +172,7 @@ const OptionSpecs<RunConfig>& solver_specs() {
 // The sections of plain key/value options, read through their specs.
 const std::vector<std::pair<std::string, const OptionSpecs<RunConfig>*>>& option_sections() {
   static const std::vector<std::pair<std::string, const OptionSpecs<RunConfig>*>> sections = {
-      {"error", &error_specs()}, {"solver", &solver_specs()}};
+      {"error", &error_specs()}, {"solver", &solver_specs()}, {"backend", &backend_specs()}};
   return sections;
 }
 
@@ -323,10 +307,9 @@ class Parser {
   void parse_band(RunConfig& config);
   void parse_target(RunConfig& config);
   void parse_strategy(bool portfolio, RunConfig& config);
-  void parse_backend(RunConfig& config);
   void parse_check(RunConfig& config);
   void parse_output(RunConfig& config);
-  /// A section of plain key/value options (error, solver), read through its specs.
+  /// A section of plain key/value options (error, solver, backend), read through its specs.
   void read_section(const std::string& name, const OptionSpecs<RunConfig>& specs,
                     RunConfig& config);
   void parse_plugins(RunConfig& config);
@@ -575,7 +558,6 @@ RunConfig Parser::parse(const std::string& yaml) {
   parse_strategy(portfolio, config);
   config.error.norm = config.norm;
   for (const auto& [name, specs] : option_sections()) read_section(name, *specs, config);
-  parse_backend(config);
   parse_check(config);
   parse_output(config);
   parse_plugins(config);
@@ -725,19 +707,6 @@ void Parser::read_section(const std::string& name, const OptionSpecs<RunConfig>&
   specs.read_into(options, config);
 }
 
-// backend: {name: suitesparse | petsc}: which shifted solver does the sparse work.
-void Parser::parse_backend(RunConfig& config) {
-  const YAML::Node backend = section(m_root, "backend", {"name"});
-  if (auto name = text(backend, "backend", "name", false)) {
-    if (*name != "suitesparse" && *name != "petsc")
-      fail(at(backend["name"]),
-           fmt::format("backend.name = '{}': must be 'suitesparse' (embedded: CHOLMOD, UMFPACK) "
-                       "or 'petsc' (distributed: PETSc with MUMPS over MPI)",
-                       *name));
-    config.solver.backend = *name;
-  }
-}
-
 // check: budgets of `ecmor check`. Not read through option specs: the defaults (0: no budget)
 // lie outside the valid values, and a spec's range holds for its default too.
 void Parser::parse_check(RunConfig& config) {
@@ -796,6 +765,12 @@ void Parser::parse_compress(RunConfig& config) {
 }  // namespace
 
 std::vector<ParameterDoc> portfolio_options() { return portfolio_specs().docs(); }
+
+std::vector<std::string> option_section_names() {
+  std::vector<std::string> names;
+  for (const auto& [name, specs] : option_sections()) names.push_back(name);
+  return names;
+}
 
 std::vector<ParameterDoc> section_options(const std::string& section) {
   for (const auto& [name, specs] : option_sections())

@@ -216,6 +216,38 @@ TEST(Options, RulesNameTheKeyOfAField) {
       << error_of(lists);
 }
 
+// A struct filled in code (the C++ and Python APIs) is checked by the same ranges, choices and
+// rules as one read from a file: each rule stated once.
+TEST(Options, ValidateChecksAStructFilledInCode) {
+  EXPECT_NO_THROW(specs().validate(Settings{}, "Settings"));
+  auto validate_error = [](auto change) {
+    Settings o;
+    change(o);
+    return test::message_of<ConfigError>([&] { specs().validate(o, "Settings"); });
+  };
+  EXPECT_EQ(validate_error([](Settings& o) { o.count = 0; }),
+            "Settings: count = 0: must be in [1, 100000]");
+  EXPECT_EQ(validate_error([](Settings& o) { o.ratio = std::nan(""); }),
+            "Settings: ratio = nan: must be in (0, 1]");
+  EXPECT_EQ(validate_error([](Settings& o) {
+              o.points_hz = {1.0, -2.0};
+            }),
+            "Settings: points[1] = -2: must be > 0 and finite");
+  EXPECT_EQ(validate_error([](Settings& o) { o.moments = {1.5}; }),
+            "Settings: moments[0] = 1.5: must be an integer in [1, 1000000]");
+  EXPECT_EQ(validate_error([](Settings& o) { o.mode = static_cast<Mode>(7); }),
+            "Settings: mode = a value without a name: must be one of fast, careful");
+  EXPECT_EQ(validate_error([](Settings& o) { o.inner.budget = 0; }),
+            "Settings: budget = 0: must be >= 1");  // nested
+  EXPECT_EQ(validate_error([](Settings& o) { o.inner.start = 9; }),
+            "Settings: budget = 7: must be >= start = 9");  // a rule between fields
+  EXPECT_EQ(validate_error([](Settings& o) {
+              o.points_hz = {1.0, 2.0};
+              o.moments = {1.0, 2.0, 3.0};
+            }),
+            "Settings: moments = [1, 2, 3]: give one per point or one for all");
+}
+
 TEST(Options, AKeyStatedTwiceIsAProgrammingError) {
   EXPECT_THROW(OptionSpecs<Inner>(
                    {option("budget", &Inner::budget, "a"), option("budget", &Inner::start, "b")}),

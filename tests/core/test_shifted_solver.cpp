@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "common/builders.hpp"
+#include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/linalg/first_order_view.hpp"
 #include "ecmor/linalg/recent_factorizations.hpp"
@@ -806,9 +807,22 @@ TEST(ShiftedSolverOrdering, OptionsValidation) {
     o.validate();
     FAIL();
   } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("SolverOptions::ordering = 'nested'"), std::string::npos)
-        << e.what();
+    EXPECT_EQ(std::string(e.what()),
+              "SolverOptions: ordering = 'nested': must be one of auto, amd, metis");
   }
+}
+
+// The API and the YAML reader apply one rule per option (SolverOptions::specs()): symmetry_tol was
+// ">= 0" in validate() and "[0, 1)" in the configuration, so 1.5 passed one and failed the other.
+TEST(ShiftedSolver, TheApiAndTheConfigurationApplyTheSameRules) {
+  SolverOptions o;
+  o.symmetry_tol = 1.5;
+  EXPECT_EQ(test::message_of<ConfigError>([&] { o.validate(); }),
+            "SolverOptions: symmetry_tol = 1.5: must be in [0, 1)");
+  o = SolverOptions{};
+  o.backend = "mumps";
+  EXPECT_EQ(test::message_of<ConfigError>([&] { o.validate(); }),
+            "SolverOptions (backend): name = 'mumps': must be one of suitesparse, petsc");
 }
 
 }  // namespace

@@ -108,31 +108,6 @@ std::shared_ptr<const Factorization> ShiftedSolver::factorize(Complex s) {
   return factorize_combination(w);
 }
 
-void SolverOptions::validate() const {
-  auto fail = [](const char* field, double value, const char* rule) {
-    std::ostringstream os;
-    os << "SolverOptions::" << field << " = " << value << ": " << rule;
-    throw ConfigError(os.str());
-  };
-  if (!std::isfinite(symmetry_tol) || symmetry_tol < 0.0)
-    fail("symmetry_tol", symmetry_tol, "must be finite and >= 0");
-  if (!std::isfinite(singular_rcond) || singular_rcond < 0.0 || singular_rcond >= 1.0)
-    fail("singular_rcond", singular_rcond, "must be in [0, 1)");
-  if (refinement_steps < 0 || refinement_steps > 10)
-    fail("refinement_steps", refinement_steps, "must be in [0, 10]");
-  if (backend != "suitesparse" && backend != "petsc")
-    throw ConfigError("SolverOptions::backend = '" + backend +
-                      "': must be 'suitesparse' (embedded) or 'petsc' (distributed)");
-  if (ordering != "auto" && ordering != "amd" && ordering != "metis")
-    throw ConfigError("SolverOptions::ordering = '" + ordering +
-                      "': must be 'auto', 'amd' or 'metis'");
-  if (complex_symmetric != "auto" && complex_symmetric != "ldlt" && complex_symmetric != "lu")
-    throw ConfigError("SolverOptions::complex_symmetric = '" + complex_symmetric +
-                      "': must be 'auto', 'ldlt' or 'lu'");
-  if (!(ldlt_memory_fraction >= 0.0 && ldlt_memory_fraction <= 1.0))
-    fail("ldlt_memory_fraction", ldlt_memory_fraction, "must be in [0, 1]");
-}
-
 namespace {
 
 using Clock = std::chrono::steady_clock;

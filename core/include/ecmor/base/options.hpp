@@ -8,7 +8,9 @@
 ///     ConfigError "<file:line>: <owner>: <key> = <value>: <rule>";
 ///   * documents the options for `ecmor plugins` and the READMEs (docs(): default from the
 ///     struct, range and unit in the text);
-///   * lists the keys (keys()), for tests.
+///   * lists the keys (keys()), for tests;
+///   * validates a struct filled in code, not from a file (validate(): the C++ and Python APIs),
+///     by the same ranges, choices and rules, failing with "<owner>: <key> = <value>: <rule>".
 ///
 ///   struct Options { Index batch_size = 20; bool shrink = true; Mode mode = Mode::Band; };
 ///   const OptionSpecs<Options> kSpecs({
@@ -115,6 +117,8 @@ class Option {
   using Read = std::function<void(const Option&, const ParameterMap&, O&)>;
   using Show = std::function<std::string(const O&)>;
   using Address = std::function<const void*(const O&)>;
+  /// Checks the field's value in a struct filled in code against the option's rule.
+  using Check = std::function<void(const Option&, const ParameterMap&, const O&)>;
 
   Option(std::string key, std::string type, std::string doc, Read read, Show show, Address address)
       : m_key(std::move(key)),
@@ -189,6 +193,13 @@ class Option {
     m_read(*this, params, o);
     if (m_given != nullptr) o.*m_given = params.has(m_key);
   }
+  /// \throws ConfigError "<key> = <value>: <rule>" when o's field breaks the option's range or
+  ///         names no choice (validate()).
+  void check_value(const ParameterMap& params, const O& o) const {
+    if (m_check) m_check(*this, params, o);
+  }
+  /// Used by the factories: how check_value() checks the field.
+  void set_check(Check check) { m_check = std::move(check); }
   /// \throws ConfigError when the key is given but its condition does not hold for o.
   void check_condition(const ParameterMap& params, const O& o) const {
     if (m_applies && params.has(m_key) && !m_applies(o)) reject(params, o, m_condition);
@@ -216,6 +227,11 @@ class Option {
     outer.m_choices = m_choices;
     outer.m_integers = m_integers;
     outer.m_condition = m_condition;
+    if (m_check) {
+      outer.m_check = [inner, member](const Option<Outer>&, const ParameterMap& p, const Outer& o) {
+        inner.check_value(p, o.*member);
+      };
+    }
     if (m_applies) {
       outer.m_applies = [inner, member](const Outer& o) { return inner.m_applies(o.*member); };
     }
@@ -236,6 +252,7 @@ class Option {
   Read m_read;
   Show m_show;
   Address m_address;
+  Check m_check;
   std::function<bool(const O&)> m_applies;
   bool O::*m_given = nullptr;
 };
@@ -262,6 +279,19 @@ void check_range(const Option<O>& self, const ParameterMap& p, double v) {
   }
 }
 
+// "key[i] = value: must be [an integer] in [1, 10]" for the first item outside the rule.
+template <class O>
+void check_items(const Option<O>& self, const ParameterMap& p, const std::vector<double>& v) {
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const bool integral = std::isfinite(v[i]) && v[i] == std::trunc(v[i]);
+    if (!self.valid_range().contains(v[i]) || (self.integer_items() && !integral)) {
+      p.fail(self.key(), self.key() + "[" + std::to_string(i) + "] = " + option_number(v[i]) +
+                             ": must be " + (self.integer_items() ? "an integer " : "") +
+                             self.valid_range().text());
+    }
+  }
+}
+
 }  // namespace options_detail
 
 /// A boolean option (YAML true/false).
@@ -280,7 +310,7 @@ Option<O> option(std::string key, bool O::*field, std::string doc) {
 template <class O, class T,
           std::enable_if_t<std::is_integral_v<T> && !std::is_same_v<T, bool>, int> = 0>
 Option<O> option(std::string key, T O::*field, std::string doc) {
-  return Option<O>(
+  Option<O> opt(
       std::move(key), "int", std::move(doc),
       [field](const Option<O>& self, const ParameterMap& p, O& o) {
         const long long v = p.get_int(self.key(), static_cast<long long>(o.*field));
@@ -288,12 +318,17 @@ Option<O> option(std::string key, T O::*field, std::string doc) {
         o.*field = static_cast<T>(v);
       },
       [field](const O& o) { return std::to_string(o.*field); }, options_detail::address_of(field));
+  opt.set_check([field](const Option<O>& self, const ParameterMap& p, const O& o) {
+    if (!self.valid_range().contains(static_cast<double>(o.*field)))
+      self.reject(p, o, "must be " + self.valid_range().text());
+  });
+  return opt;
 }
 
 /// A real option (NaN is always refused).
 template <class O>
 Option<O> option(std::string key, double O::*field, std::string doc) {
-  return Option<O>(
+  Option<O> opt(
       std::move(key), "double", std::move(doc),
       [field](const Option<O>& self, const ParameterMap& p, O& o) {
         const double v = p.get_double(self.key(), o.*field);
@@ -301,28 +336,30 @@ Option<O> option(std::string key, double O::*field, std::string doc) {
         o.*field = v;
       },
       [field](const O& o) { return option_number(o.*field); }, options_detail::address_of(field));
+  opt.set_check([field](const Option<O>& self, const ParameterMap& p, const O& o) {
+    if (!self.valid_range().contains(o.*field))
+      self.reject(p, o, "must be " + self.valid_range().text());
+  });
+  return opt;
 }
 
 /// A list of numbers (a single number is a list of one); range() and integers() apply to every
 /// item, and a failing item is named by its 0-based index: "points[1] = -2: must be > 0".
 template <class O>
 Option<O> option(std::string key, std::vector<double> O::*field, std::string doc) {
-  return Option<O>(
+  Option<O> opt(
       std::move(key), "list of double", std::move(doc),
       [field](const Option<O>& self, const ParameterMap& p, O& o) {
         std::vector<double> v = p.get_doubles(self.key(), o.*field);
-        for (std::size_t i = 0; i < v.size(); ++i) {
-          const bool integral = std::isfinite(v[i]) && v[i] == std::trunc(v[i]);
-          if (!self.valid_range().contains(v[i]) || (self.integer_items() && !integral)) {
-            p.fail(self.key(), self.key() + "[" + std::to_string(i) + "] = " + option_number(v[i]) +
-                                   ": must be " + (self.integer_items() ? "an integer " : "") +
-                                   self.valid_range().text());
-          }
-        }
+        options_detail::check_items(self, p, v);
         o.*field = std::move(v);
       },
       [field](const O& o) { return options_detail::list_text(o.*field); },
       options_detail::address_of(field));
+  opt.set_check([field](const Option<O>& self, const ParameterMap& p, const O& o) {
+    options_detail::check_items(self, p, o.*field);
+  });
+  return opt;
 }
 
 /// A string option with a fixed set of names, each standing for one value of the field (an enum,
@@ -345,6 +382,18 @@ Option<O> choice(std::string key, T O::*field, std::vector<std::pair<std::string
           if (n.first == name) o.*field = n.second;
       },
       show, options_detail::address_of(field));
+  opt.set_check([field, names](const Option<O>& self, const ParameterMap& p, const O& o) {
+    for (const auto& n : names)
+      if (n.second == o.*field) return;
+    std::string value = "a value without a name";
+    if constexpr (std::is_convertible_v<T, std::string>) {
+      // Appended, not "'" + s + "'": GCC 12 warns falsely (-Wrestrict) on that form.
+      value.assign(1, '\'');
+      value.append(o.*field);
+      value.push_back('\'');
+    }
+    p.fail(self.key(), self.key() + " = " + value + ": must be " + self.valid_text());
+  });
   opt.set_choices(std::move(list));
   return opt;
 }
@@ -427,6 +476,14 @@ class OptionSpecs {
     O o{};
     read_into(params, o);
     return o;
+  }
+  /// Checks a struct filled in code (not read from a file) by the same ranges, choices and rules.
+  /// \throws ConfigError "<owner>: <key> = <value>: <rule>" for the first option that fails.
+  void validate(const O& o, const std::string& owner) const {
+    const ParameterMap none(owner);
+    for (const auto& opt : m_options) opt.check_value(none, o);
+    const OptionCheck<O> check(m_options, none, o);
+    for (const auto& rule : m_rules) rule(o, check);
   }
   /// One ParameterDoc per option, in order, for ReducerInfo::parameters and the READMEs.
   std::vector<ParameterDoc> docs() const {

@@ -37,6 +37,9 @@
 
 namespace ecmor {
 
+template <class O>
+class OptionSpecs;
+
 /// Cumulative work counters of a ShiftedSolver (a snapshot; see ShiftedSolver::counters()).
 struct ECMOR_API SolverCounters {
   Index symbolic_analyses = 0;  ///< symbolic (pattern) analyses
@@ -156,7 +159,12 @@ struct ECMOR_API SolverOptions {
   std::string complex_symmetric = "auto";
   /// See complex_symmetric, in [0, 1]. YAML solver.ldlt_memory_fraction.
   double ldlt_memory_fraction = 0.25;
-  /// Throws ConfigError naming the field, value and rule.
+  /// The options of YAML section `solver` (every field but `backend`), with their ranges and
+  /// documentation: the rules validate() and the configuration reader both apply.
+  static const OptionSpecs<SolverOptions>& specs();
+  /// The options of YAML section `backend`: `name` (the field `backend`).
+  static const OptionSpecs<SolverOptions>& backend_specs();
+  /// Throws ConfigError naming the field, value and rule (by specs() and backend_specs()).
   void validate() const;
 };
 

@@ -145,7 +145,11 @@ std::vector<ParameterDoc> run_strategy_options(const std::string& name);
 /// `ecmor plugins` and docs/strategies.md print.
 std::vector<ParameterDoc> portfolio_options();
 
-/// The documented options of a section of plain key/value options ("error", "solver"),
+/// The sections of plain key/value options, read through option specs: "error", "solver",
+/// "backend".
+std::vector<std::string> option_section_names();
+
+/// The documented options of a section of plain key/value options (option_section_names()),
 /// from the option specs the reader uses: what docs/user-guide.md prints.
 /// \throws std::invalid_argument for any other name.
 std::vector<ParameterDoc> section_options(const std::string& section);
