@@ -11,7 +11,6 @@
 #include "base/parallel_for.hpp"
 #include "base/wall_timer.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/base/parameters.hpp"
 #include "ecmor/base/threads.hpp"
 #include "ecmor/linalg/parallel.hpp"
 #include "ecmor/response/reduced_response.hpp"
@@ -19,54 +18,6 @@
 #include "measures/band_error_sampling.hpp"
 
 namespace ecmor {
-
-void Band::validate() const {
-  auto fmt = [](double v) {
-    std::ostringstream os;
-    os << v;
-    return os.str();
-  };
-  if (!std::isfinite(f_min_hz) || !(f_min_hz > 0.0)) {
-    throw ConfigError("band.f_min_hz = " + fmt(f_min_hz) +
-                      ": must be a finite frequency > 0 Hz (the band is sampled in log scale; use "
-                      "e.g. 1e-3 * f_max_hz for a band starting near 0)");
-  }
-  if (!std::isfinite(f_max_hz) || !(f_max_hz > f_min_hz)) {
-    throw ConfigError("band.f_max_hz = " + fmt(f_max_hz) +
-                      ": must be finite and > band.f_min_hz = " + fmt(f_min_hz));
-  }
-}
-
-std::string to_string(ErrorNorm norm) {
-  return norm == ErrorNorm::Spectral ? "spectral" : "frobenius";
-}
-
-ErrorNorm parse_error_norm(const std::string& name) {
-  if (name == "spectral") return ErrorNorm::Spectral;
-  if (name == "frobenius") return ErrorNorm::Frobenius;
-  throw ConfigError("unknown error norm '" + name + "'" +
-                    suggestion(name, {"spectral", "frobenius"}));
-}
-
-std::string to_string(ErrorVerify verify) {
-  switch (verify) {
-    case ErrorVerify::Dense:
-      return "dense";
-    case ErrorVerify::Estimate:
-      return "estimate";
-    case ErrorVerify::Auto:
-      break;
-  }
-  return "auto";
-}
-
-ErrorVerify parse_error_verify(const std::string& name) {
-  if (name == "dense") return ErrorVerify::Dense;
-  if (name == "estimate") return ErrorVerify::Estimate;
-  if (name == "auto") return ErrorVerify::Auto;
-  throw ConfigError("unknown error.verify '" + name + "'" +
-                    suggestion(name, {"dense", "estimate", "auto"}));
-}
 
 double matrix_norm(const ComplexMatrix& A, ErrorNorm norm) {
   if (A.size() == 0) return 0.0;
@@ -76,33 +27,6 @@ double matrix_norm(const ComplexMatrix& A, ErrorNorm norm) {
   }
   Eigen::JacobiSVD<ComplexMatrix> svd(A);
   return svd.singularValues()(0);
-}
-
-void BandErrorOptions::validate() const {
-  auto bad = [](const std::string& field, const std::string& value, const std::string& rule) {
-    throw ConfigError("BandErrorOptions::" + field + " = " + value + ": " + rule);
-  };
-  if (grid_points < 2) bad("grid_points", std::to_string(grid_points), "must be >= 2");
-  if (grid_points > 1000000) bad("grid_points", std::to_string(grid_points), "must be <= 1e6");
-  if (max_pole_samples < 0)
-    bad("max_pole_samples", std::to_string(max_pole_samples), "must be >= 0");
-  if (refine_peaks < 0) bad("refine_peaks", std::to_string(refine_peaks), "must be >= 0");
-  if (refine_evaluations < 0 || refine_evaluations > 200) {
-    bad("refine_evaluations", std::to_string(refine_evaluations), "must be in [0, 200]");
-  }
-  if (!(zero_threshold >= 0.0) || !(zero_threshold < 1.0)) {
-    bad("zero_threshold", std::to_string(zero_threshold), "must be in [0, 1)");
-  }
-  if (dense_max_states < 0)
-    bad("dense_max_states", std::to_string(dense_max_states), "must be >= 0");
-  if (estimate_points < 2 || estimate_points > 1000000)
-    bad("estimate_points", std::to_string(estimate_points), "must be in [2, 1e6]");
-  if (reference_points < 2 || reference_points > 10000)
-    bad("reference_points", std::to_string(reference_points), "must be in [2, 10000]");
-  if (check_peaks < 1) bad("check_peaks", std::to_string(check_peaks), "must be >= 1");
-  if (random_checks < 0) bad("random_checks", std::to_string(random_checks), "must be >= 0");
-  if (check_rounds < 1) bad("check_rounds", std::to_string(check_rounds), "must be >= 1");
-  if (probe_solves < 0) bad("probe_solves", std::to_string(probe_solves), "must be >= 0");
 }
 
 std::string BandError::sampling() const {
