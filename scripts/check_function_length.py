@@ -167,9 +167,9 @@ def function_name(header):
     init = CTOR_INIT.search(h)
     if init:
         h = h[:init.start() + 1]
-    m = re.search(r'\boperator\s*(\(\)|\[\]|[^\s(]+)\s*\(', h)
+    m = re.search(r'((?:[A-Za-z_]\w*\s*::\s*)*)\boperator\s*(\(\)|\[\]|[^\s(]+)\s*\(', h)
     if m:
-        return 'operator' + m.group(1)
+        return m.group(1).replace(' ', '') + 'operator' + m.group(2)
     best = None
     for m in re.finditer(r'(~?[A-Za-z_]\w*(?:\s*::\s*~?[A-Za-z_]\w*)*)\s*\(', h):
         if paren_depth(h[:m.start()]) == 0:
