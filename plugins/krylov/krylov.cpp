@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <list>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -757,7 +758,7 @@ class KrylovReducer final : public Reducer {
   /// projections of symmetric models: Cholesky factorisations of n x n matrices instead of the
   /// eigenvalues of a 2n x 2n pencil); otherwise the eigenvalues (ecmor::poles, which reuses them
   /// for a model it saw recently, so the estimator's pole samples cost nothing more).
-  /// `certified`: the caller has proven every pole stable (see finish(), second-order structure).
+  /// `certified`: the caller has proven every pole stable (certified_stable, lift_to_first_order).
   /// Sets m_last_zero_poles to those of them in the full model's disc of rigid-body poles (|s| <=
   /// sqrt(zero_bound), see reduced_model_stability), 0 without rigid-body modes.
   Index unstable_poles(const ReducedModel& model, bool certified) {
@@ -780,28 +781,52 @@ class KrylovReducer final : public Reducer {
     return unstable;
   }
 
-  ReducerResult finish(const Matrix& V_all, const Matrix& W_all, IncrementalProjection& projection,
-                       const std::vector<Segment>& segments, std::vector<ExpansionPoint> points,
-                       Index order, bool exhausted, const std::string& path) {
+  /// What a result delivers: its columns and the moments they match.
+  struct Delivered {
+    Index n = 0;             ///< columns of V (and W) returned
+    bool capped = false;     ///< n is the requested order, below the columns built
+    bool block_cut = false;  ///< some point's last block lies partly beyond the n columns
+    std::vector<ExpansionPoint> points;  ///< each s once, with its moment blocks matched (or 0)
+    Index repeats = 0;                   ///< repeated points merged into one
+    Index total_moments = 0;             ///< moment blocks matched, over all points
+    Index used_points = 0;               ///< points with at least one block matched
+  };
+
+  /// The columns returned (all usable ones, or the requested order) and the moments they match:
+  /// the complete blocks inside them. ExpansionPoint::moments counts moment blocks per side: k
+  /// blocks match k moments at s0 (and conj(s0)) one-sided, 2k two-sided (k blocks in V and k in
+  /// W).
+  Delivered delivered(const Matrix& V_all, const Matrix& W_all,
+                      const std::vector<Segment>& segments, std::vector<ExpansionPoint> points,
+                      Index order) const {
     const bool two = m_options.two_sided;
-    Index n = usable(V_all, W_all);
-    const bool capped = order > 0 && n > order;
-    if (capped) n = order;
-    // Moments actually matched: complete blocks inside the returned columns.
-    std::vector<bool> partial(points.size(), false);
+    Delivered out;
+    out.n = usable(V_all, W_all);
+    out.capped = order > 0 && out.n > order;
+    if (out.capped) out.n = order;
     for (const Segment& s : segments) {
-      if (s.v_end <= n && (!two || s.w_end <= n)) {
+      if (s.v_end <= out.n && (!two || s.w_end <= out.n)) {
         points[s.point].moments = s.block + 1;
       } else {
-        partial[s.point] = true;
+        out.block_cut = true;
       }
     }
-    // Repeated points (optimisers place several at one frequency: DIRECT-L's first sample is the
-    // box centre, BOBYQA pushes points onto a bound) share one engine, so a later copy's blocks
-    // add no columns (they deflate): report each s once, with the largest moment count of its
-    // copies, so that the points, the moments and the note do not overstate the model.
+    out.points = merged(points, out.repeats);
+    for (const auto& p : out.points) {
+      out.total_moments += p.moments;
+      if (p.moments > 0) ++out.used_points;
+    }
+    return out;
+  }
+
+  /// Repeated points (optimisers place several at one frequency: DIRECT-L's first sample is the
+  /// box centre, BOBYQA pushes points onto a bound) share one engine, so a later copy's blocks
+  /// add no columns (they deflate): each s once, with the largest moment count of its copies, so
+  /// that the points, the moments and the note do not overstate the model. `repeats`: the copies
+  /// merged.
+  static std::vector<ExpansionPoint> merged(const std::vector<ExpansionPoint>& points,
+                                            Index& repeats) {
     std::vector<ExpansionPoint> distinct;
-    Index repeats = 0;
     for (const auto& p : points) {
       const auto it = std::find_if(distinct.begin(), distinct.end(),
                                    [&](const ExpansionPoint& q) { return q.s == p.s; });
@@ -812,40 +837,44 @@ class KrylovReducer final : public Reducer {
         ++repeats;
       }
     }
+    return distinct;
+  }
+
+  /// V, W and the reduced model of their first n columns, = project(*m_model, V, W) computing
+  /// only the columns not projected before; through the second-order structure, lifted back to
+  /// the first-order model. `certified`: every pole is proven stable (certified_stable()).
+  ReducerResult projected(const Matrix& V_all, const Matrix& W_all,
+                          IncrementalProjection& projection, Index n, bool& certified) const {
+    const bool two = m_options.two_sided;
     ReducerResult result;
     result.V = V_all.leftCols(n);
     result.W = two ? Matrix(W_all.leftCols(n)) : result.V;
-    // = project(*m_model, result.V, result.W), computing only the columns not projected before.
     projection.extend(V_all, W_all, n, two);
     result.model = projection.model(n);
-    bool certified = certified_stable(result.model);
-    if (m_structure) {
-      // Back to the first-order model: V = blkdiag(V2, V2), W = blkdiag(W2, W2). Its reduced
-      // pencil s Er - Ar = [s F, -F; Kr, s Mr + Dr] has det = det(F) det(s^2 Mr + s Dr + Kr), so
-      // with F nonsingular its poles are those of the second-order reduced model: the
-      // certificate of (Mr, Dr, Kr) carries over once F is proven positive definite (one-sided
-      // with E11 exactly symmetric, F is exactly symmetric: mirrored by the projection).
-      const Matrix F = projection.extra(n);
-      certified = certified && F == F.transpose() && proven_positive_definite(F);
-      result.model = first_order_of(std::get<ReducedSecondOrderModel>(result.model), F);
-      result.V = block_diagonal(result.V);
-      result.W = two ? block_diagonal(result.W) : result.V;
-    }
-    // ExpansionPoint::moments counts moment blocks per side: k blocks match k moments at s0 (and
-    // conj(s0)) one-sided, 2k two-sided (k blocks in V and k in W).
-    Index total_moments = 0, used_points = 0;
-    for (const auto& p : distinct) {
-      total_moments += p.moments;
-      if (p.moments > 0) ++used_points;
-    }
-    for (const auto& p : distinct) {
-      if (p.moments > 0) result.points.push_back(p);
-    }
+    certified = certified_stable(result.model);
+    if (m_structure) lift_to_first_order(result, projection.extra(n), certified);
+    return result;
+  }
 
-    // Diagnostics: bases, engines of the points in use, cache and work counters.
-    auto& d = result.diagnostics;
+  /// Back to the first-order model: V = blkdiag(V2, V2), W = blkdiag(W2, W2), F = W2' E11 V2. Its
+  /// reduced pencil s Er - Ar = [s F, -F; Kr, s Mr + Dr] has det = det(F) det(s^2 Mr + s Dr + Kr),
+  /// so with F nonsingular its poles are those of the second-order reduced model: the
+  /// certificate of (Mr, Dr, Kr) carries over once F is proven positive definite (one-sided with
+  /// E11 exactly symmetric, F is exactly symmetric: mirrored by the projection).
+  void lift_to_first_order(ReducerResult& result, const Matrix& F, bool& certified) const {
+    certified = certified && F == F.transpose() && proven_positive_definite(F);
+    result.model = first_order_of(std::get<ReducedSecondOrderModel>(result.model), F);
+    result.V = block_diagonal(result.V);
+    result.W = m_options.two_sided ? block_diagonal(result.W) : result.V;
+  }
+
+  /// Diagnostics of the bases (orthogonality, and two-sided the condition of W'V), of the
+  /// engines of the cached points, and the cache and work counters.
+  void add_diagnostics(std::map<std::string, double>& d, const IncrementalProjection& projection,
+                       const Delivered& got, const std::string& path) const {
+    const Index n = got.n;
     d["orthogonality_loss"] = projection.orthogonality_loss_v(n);
-    if (two) {
+    if (m_options.two_sided) {
       d["orthogonality_loss_W"] = projection.orthogonality_loss_w(n);
       const Matrix G = projection.wtv(n);
       if (G.size() > 0) {
@@ -876,23 +905,29 @@ class KrylovReducer final : public Reducer {
     d["cache_evictions"] = static_cast<double>(m_evictions);
     d["cached_points"] = static_cast<double>(m_cache.size());
     d["cached_solves"] = static_cast<double>(solves);
-    d["points"] = static_cast<double>(used_points);
-    d["moments"] = static_cast<double>(total_moments);
+    d["points"] = static_cast<double>(got.used_points);
+    d["moments"] = static_cast<double>(got.total_moments);
     if (path == "points") d["reused_columns"] = static_cast<double>(m_reused_columns);
+  }
 
-    std::string note =
-        fmt::format("{} point{}, {} moment{}, {}", used_points, used_points == 1 ? "" : "s",
-                    total_moments, total_moments == 1 ? "" : "s", two ? "two-sided" : "one-sided");
+  /// The note's account of the basis: points, moments and sides, then what cut or trimmed it.
+  std::string basis_note(const Matrix& V_all, const Matrix& W_all, const Delivered& got,
+                         Index order, bool exhausted, const std::string& path) const {
+    const bool two = m_options.two_sided;
+    const Index n = got.n;
+    std::string note = fmt::format(
+        "{} point{}, {} moment{}, {}", got.used_points, got.used_points == 1 ? "" : "s",
+        got.total_moments, got.total_moments == 1 ? "" : "s", two ? "two-sided" : "one-sided");
     const Index l = m_options.tangential_directions;
     if (l > 0) note += fmt::format(", tangential ({} direction{})", l, l == 1 ? "" : "s");
     if (two && m_velocity_start) note += ", output side from Cv (velocity output)";
-    if (repeats > 0) {
-      note += fmt::format("; {} repeated point{} merged", repeats, repeats == 1 ? "" : "s");
+    if (got.repeats > 0) {
+      note += fmt::format("; {} repeated point{} merged", got.repeats, got.repeats == 1 ? "" : "s");
     }
-    if (std::any_of(partial.begin(), partial.end(), [](bool x) { return x; }) && capped) {
+    if (got.block_cut && got.capped) {
       note += fmt::format("; last block cut at order {}", states(n));
     }
-    if (two && V_all.cols() != W_all.cols() && !capped) {
+    if (two && V_all.cols() != W_all.cols() && !got.capped) {
       note += fmt::format("; {} trimmed from {} to {} columns to match {} (deflation)",
                           V_all.cols() > W_all.cols() ? "V" : "W",
                           states(std::max(V_all.cols(), W_all.cols())), states(n),
@@ -906,22 +941,30 @@ class KrylovReducer final : public Reducer {
       note += fmt::format("; order {} requested, {} delivered (two states per second-order column)",
                           m_requested_order, states(n));
     }
-    d["second_order_structure"] = m_structure ? 1.0 : 0.0;
-    if (m_structure) note += "; second-order structure of the first-order model used (x = [q; q'])";
-    // The rigid-body modes ahead of the Krylov vectors (setup_rigid_modes); a cap below their
-    // number leaves some out, and the stability rule then names the model as keeping fewer.
+    return note;
+  }
+
+  /// The rigid-body modes ahead of the Krylov vectors (setup_rigid_modes): the diagnostic and the
+  /// note's part. A cap below their number leaves some out, and the stability rule then names the
+  /// model as keeping fewer.
+  std::string rigid_note(Index n, std::map<std::string, double>& d) const {
     const Index rigid_in_basis = std::min(rigid_columns(), n);
     d["rigid_modes_in_basis"] = static_cast<double>(rigid_in_basis);
-    if (rigid_columns() > 0) {
-      note += rigid_in_basis == rigid_columns()
-                  ? fmt::format("; {} rigid-body mode{} (null space of K) first in the basis",
-                                rigid_in_basis, rigid_in_basis == 1 ? "" : "s")
-                  : fmt::format(
-                        "; only {} of the {} rigid-body modes (null space of K) in the "
-                        "basis: order {} is below their number",
-                        rigid_in_basis, rigid_columns(), states(n));
-    }
-    // Stability: reported, never hidden or repaired.
+    if (rigid_columns() == 0) return "";
+    return rigid_in_basis == rigid_columns()
+               ? fmt::format("; {} rigid-body mode{} (null space of K) first in the basis",
+                             rigid_in_basis, rigid_in_basis == 1 ? "" : "s")
+               : fmt::format(
+                     "; only {} of the {} rigid-body modes (null space of K) in the "
+                     "basis: order {} is below their number",
+                     rigid_in_basis, rigid_columns(), states(n));
+  }
+
+  /// Stability: reported, never hidden or repaired. Sets the result's pole diagnostics and returns
+  /// the note's part.
+  std::string stability_note(ReducerResult& result, bool certified) {
+    auto& d = result.diagnostics;
+    std::string note;
     try {
       const Index unstable = unstable_poles(result.model, certified);
       d[kUnstablePolesDiagnostic] = static_cast<double>(unstable);
@@ -930,8 +973,8 @@ class KrylovReducer final : public Reducer {
       const Index away = unstable - m_last_zero_poles;
       if (away > 0) {
         note += fmt::format("; {} projection lost stability: {} pole{} with Re >= 0{}",
-                            two ? "two-sided" : "one-sided", away, away == 1 ? "" : "s",
-                            m_last_zero_poles > 0 ? " away from s = 0" : "");
+                            m_options.two_sided ? "two-sided" : "one-sided", away,
+                            away == 1 ? "" : "s", m_last_zero_poles > 0 ? " away from s = 0" : "");
       }
     } catch (const Error& e) {
       d[kUnstablePolesDiagnostic] = std::numeric_limits<double>::quiet_NaN();
@@ -939,6 +982,25 @@ class KrylovReducer final : public Reducer {
     }
     d["stability_certified"] = m_last_certified ? 1.0 : 0.0;
     d["pole_requests"] = static_cast<double>(m_pole_requests);
+    return note;
+  }
+
+  ReducerResult finish(const Matrix& V_all, const Matrix& W_all, IncrementalProjection& projection,
+                       const std::vector<Segment>& segments, std::vector<ExpansionPoint> points,
+                       Index order, bool exhausted, const std::string& path) {
+    const Delivered got = delivered(V_all, W_all, segments, std::move(points), order);
+    bool certified = false;
+    ReducerResult result = projected(V_all, W_all, projection, got.n, certified);
+    for (const auto& p : got.points) {
+      if (p.moments > 0) result.points.push_back(p);
+    }
+    auto& d = result.diagnostics;
+    add_diagnostics(d, projection, got, path);
+    std::string note = basis_note(V_all, W_all, got, order, exhausted, path);
+    d["second_order_structure"] = m_structure ? 1.0 : 0.0;
+    if (m_structure) note += "; second-order structure of the first-order model used (x = [q; q'])";
+    note += rigid_note(got.n, d);
+    note += stability_note(result, certified);
     result.note = note;
     return result;
   }

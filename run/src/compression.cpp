@@ -568,123 +568,155 @@ std::string family_names(const std::vector<Family>& families) {
   return fmt::format("{}", fmt::join(names, " or "));
 }
 
-}  // namespace
-
-std::optional<ReducerResult> compress_accepted(const ReducerResult& accepted,
-                                               BandErrorEstimator& estimator,
-                                               const ResponseCache& cache, double tolerance,
-                                               Index verify_factor, const RigidBodyModes& rigid,
-                                               CompressionReport& report, BandError& verified) {
-  const auto start = std::chrono::steady_clock::now();
-  const std::int64_t factorizations_before = static_cast<std::int64_t>(cache.size());
-  auto finish = [&] {
-    report.seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    report.factorizations = static_cast<std::int64_t>(cache.size()) - factorizations_before;
-  };
-  report.attempted = true;
+// The families of smaller models inside a symmetric Galerkin model: its ranked modes, without and
+// with the static correction of the rest (the rigid-body modes always kept).
+std::vector<Family> modal_families(const ReducerResult& accepted,
+                                   std::shared_ptr<const Modes> modes) {
   const Index n = accepted.V.cols();
-  report.order_before = report.order_after = n;
-  const Band& band = estimator.band();
+  std::vector<Family> families;
+  for (bool residual : {false, true}) {
+    Family fam;
+    fam.method =
+        residual ? "reduced modal truncation with static correction" : "reduced modal truncation";
+    fam.min_count = std::max<Index>(1, modes->rigid);
+    fam.max_count = n;
+    fam.make = [&accepted, modes, residual](Index count) {
+      return truncated(accepted, *modes, count, residual);
+    };
+    fam.describe = [n, rigid_kept = modes->rigid, residual](Index count, Index order) {
+      return fmt::format(
+          "{} -> {}: {} of {} modes of the accepted model kept{}{}", n, order, count, n,
+          rigid_kept > 0 ? fmt::format(", its {} rigid-body modes among them", rigid_kept)
+                         : std::string(),
+          residual ? fmt::format(", and {} static correction vector(s) for the rest", order - count)
+                   : std::string());
+    };
+    families.push_back(std::move(fam));
+  }
+  return families;
+}
+
+// One compression (compress_accepted): its inputs, what it has spent, and its phases in order:
+// the frequencies that rank the candidates, the families of smaller models, the bisection for
+// each family's smallest count meeting the target, and the re-check against the full model.
+class Compression {
+ public:
+  Compression(const ReducerResult& accepted, BandErrorEstimator& estimator,
+              const ResponseCache& cache, double tolerance, Index verify_factor,
+              const RigidBodyModes& rigid, CompressionReport& report, BandError& verified)
+      : m_accepted(accepted),
+        m_estimator(estimator),
+        m_cache(cache),
+        m_tolerance(tolerance),
+        m_verify_factor(verify_factor),
+        m_rigid(rigid),
+        m_report(report),
+        m_verified(verified),
+        m_start(std::chrono::steady_clock::now()),
+        m_factorizations_before(static_cast<std::int64_t>(cache.size())),
+        m_n(accepted.V.cols()) {}
+
+  std::optional<ReducerResult> run() {
+    m_report.attempted = true;
+    m_report.order_before = m_report.order_after = m_n;
+    m_f_hz = ranking_frequencies();
+    std::string why;
+    const std::vector<Family> families = families_inside(why);
+    if (families.empty()) return kept("kept the accepted model: " + why);
+    m_report.method = families.front().method;
+    Index count = m_n;
+    const Family* chosen = smallest_family(families, count);
+    if (chosen) {
+      if (std::optional<ReducerResult> compressed = rechecked(*chosen, count)) return compressed;
+      m_report.method = chosen->method;
+      return kept(fmt::format(
+          "kept the accepted model: the re-check refused the {} compressed model(s) tried",
+          m_report.verifications));
+    }
+    return kept("kept the accepted model: no smaller model of its " + family_names(families) +
+                " meets the target" +
+                (m_unstable > 0 ? fmt::format(" ({} of the {} tried unstable)", m_unstable,
+                                              m_report.candidates)
+                                : std::string()));
+  }
+
+ private:
   // Where the band error of a candidate is known without new full solves: the estimator's grid
   // (dense mode: solved there; estimate mode: the reference's values) and the accepted model's
   // resonances in the band, where a truncation departs first (estimate mode: the reference's
   // values there; dense mode: a frequency already solved within a 32nd of the resonance's
   // relative half-width, as the band error's pole samples take them, else none). The frequencies
   // solved so far (thousands, after a grown Krylov run) are left to the re-check.
-  std::vector<double> f_hz = estimator.grid();
-  try {
-    const ComplexVector p = poles(accepted.model);
-    for (Index i = 0; i < p.size(); ++i) {
-      const double f = p(i).imag() / kTwoPi;
-      if (!(f >= band.f_min_hz && f <= band.f_max_hz)) continue;
-      if (estimator.mode() == ErrorVerify::Estimate) {
-        f_hz.push_back(f);
-      } else if (const auto near =
-                     cache.nearest_cached(f, std::abs(p(i).real()) / std::abs(p(i)) / 32.0)) {
-        f_hz.push_back(*near);
+  std::vector<double> ranking_frequencies() const {
+    const Band& band = m_estimator.band();
+    std::vector<double> f_hz = m_estimator.grid();
+    try {
+      const ComplexVector p = poles(m_accepted.model);
+      for (Index i = 0; i < p.size(); ++i) {
+        const double f = p(i).imag() / kTwoPi;
+        if (!(f >= band.f_min_hz && f <= band.f_max_hz)) continue;
+        if (m_estimator.mode() == ErrorVerify::Estimate) {
+          f_hz.push_back(f);
+        } else if (const auto near =
+                       m_cache.nearest_cached(f, std::abs(p(i).real()) / std::abs(p(i)) / 32.0)) {
+          f_hz.push_back(*near);
+        }
       }
+    } catch (const NumericalError&) {
+      // No poles: the grid alone ranks the candidates.
     }
-  } catch (const NumericalError&) {
-    // No poles: the grid alone ranks the candidates.
+    std::sort(f_hz.begin(), f_hz.end());
+    f_hz.erase(std::unique(f_hz.begin(), f_hz.end()), f_hz.end());
+    if (f_hz.size() < 2) f_hz = log_grid(band.f_min_hz, band.f_max_hz, 2);
+    return f_hz;
   }
-  std::sort(f_hz.begin(), f_hz.end());
-  f_hz.erase(std::unique(f_hz.begin(), f_hz.end()), f_hz.end());
-  if (f_hz.size() < 2) f_hz = log_grid(band.f_min_hz, band.f_max_hz, 2);
 
   // The families of smaller models inside the accepted one: its modes (ranked, without and with
-  // the static correction of the rest) where it is a symmetric Galerkin model, else its
-  // response-weighted directions.
-  std::vector<Family> families;
-  std::string why;
-  const std::optional<Modes> modes = ranked_modes(accepted, rigid, f_hz, why);
-  if (modes) {
-    for (bool residual : {false, true}) {
-      Family fam;
-      fam.method =
-          residual ? "reduced modal truncation with static correction" : "reduced modal truncation";
-      fam.min_count = std::max<Index>(1, modes->rigid);
-      fam.max_count = n;
-      fam.make = [&accepted, &modes, residual](Index count) {
-        return truncated(accepted, *modes, count, residual);
-      };
-      fam.describe = [n, rigid_kept = modes->rigid, residual](Index count, Index order) {
-        return fmt::format(
-            "{} -> {}: {} of {} modes of the accepted model kept{}{}", n, order, count, n,
-            rigid_kept > 0 ? fmt::format(", its {} rigid-body modes among them", rigid_kept)
-                           : std::string(),
-            residual
-                ? fmt::format(", and {} static correction vector(s) for the rest", order - count)
-                : std::string());
-      };
-      families.push_back(std::move(fam));
+  // the static correction of the rest) where it is a symmetric Galerkin model, else its poles
+  // (first order) and its band responses' leading directions, the smaller model of the two. None
+  // for a free body that is not symmetric Galerkin (its rigid-body modes are kept by the modal
+  // family only), nor when no family applies; `why` then says why.
+  std::vector<Family> families_inside(std::string& why) const {
+    std::optional<Modes> modes = ranked_modes(m_accepted, m_rigid, m_f_hz, why);
+    if (modes) {
+      return modal_families(m_accepted, std::make_shared<const Modes>(std::move(*modes)));
     }
-  } else if (rigid.count > 0) {
-    // A free body's rigid-body modes are kept by the modal family only.
-    report.note = "kept the accepted model: " + why;
-    finish();
-    return std::nullopt;
-  } else {
-    // A Petrov-Galerkin or unsymmetric model: its poles (first order), and its band responses'
-    // leading directions; the smaller model of the two.
+    if (m_rigid.count > 0) return {};
     std::string pole_why, pod_why;
-    for (Family& fam : pole_families(accepted, f_hz, pole_why)) families.push_back(std::move(fam));
-    if (auto fam = pod_family(accepted, f_hz, pod_why)) families.push_back(std::move(*fam));
-    if (families.empty()) {
-      report.note = "kept the accepted model: " + why + "; " + pole_why + "; " + pod_why;
-      finish();
-      return std::nullopt;
-    }
+    std::vector<Family> families = pole_families(m_accepted, m_f_hz, pole_why);
+    if (auto fam = pod_family(m_accepted, m_f_hz, pod_why)) families.push_back(std::move(*fam));
+    if (families.empty()) why += "; " + pole_why + "; " + pod_why;
+    return families;
   }
-  report.method = families.front().method;
+
   // A candidate counts when it meets the target on f_hz and, where its family may lose it, is
   // stable (no full solve is spent on either; a modal family of a symmetric definite model keeps
-  // stability, which the re-check confirms).
-  Index unstable = 0;
-  // Where the last refused candidate failed: its largest local maxima above the tolerance. A
-  // candidate failing there fails on f_hz too (the test is a maximum over the samples), so it is
-  // refused after a handful of evaluations instead of all of f_hz; one passing there is evaluated
-  // on f_hz. The decisions are those of f_hz alone; the bisection's refused half costs little.
-  std::vector<double> failed_at;
-  auto meets = [&](const Family& fam, Index count) {
-    ++report.candidates;
+  // stability, which the re-check confirms). It is tried first where the last refused candidate
+  // failed (its largest local maxima above the tolerance): a candidate failing there fails on
+  // f_hz too (the test is a maximum over the samples), so it is refused after a handful of
+  // evaluations instead of all of f_hz; one passing there is evaluated on f_hz. The decisions are
+  // those of f_hz alone; the bisection's refused half costs little.
+  bool meets(const Family& fam, Index count) {
+    ++m_report.candidates;
     const ReducerResult candidate = fam.make(count);
-    if (fam.may_lose_stability && !reduced_model_stability(candidate.model, rigid).accepted()) {
-      ++unstable;
+    if (fam.may_lose_stability && !reduced_model_stability(candidate.model, m_rigid).accepted()) {
+      ++m_unstable;
       return false;
     }
-    if (!failed_at.empty() && !estimator.evaluate_on(candidate.model, failed_at).within(tolerance))
+    if (!m_failed_at.empty() &&
+        !m_estimator.evaluate_on(candidate.model, m_failed_at).within(m_tolerance))
       return false;
-    const BandError e = estimator.evaluate_on(candidate.model, f_hz);
-    if (e.within(tolerance)) return true;
-    failed_at = largest_local_maxima_hz(e, 8, tolerance);
+    const BandError e = m_estimator.evaluate_on(candidate.model, m_f_hz);
+    if (e.within(m_tolerance)) return true;
+    m_failed_at = largest_local_maxima_hz(e, 8, m_tolerance);
     return false;
-  };
+  }
+
   // The smallest count meeting the target on f_hz, by bisection between lo and hi (hi meets it:
-  // the whole accepted model when hi = n, else checked first).
-  auto smallest = [&](const Family& fam, Index lo, Index hi) {
-    if (lo > hi || lo >= n) return n;
-    if (hi < n && !meets(fam, hi)) return n;
+  // the whole accepted model when hi = n, else checked first); n when none does.
+  Index smallest(const Family& fam, Index lo, Index hi) {
+    if (lo > hi || lo >= m_n) return m_n;
+    if (hi < m_n && !meets(fam, hi)) return m_n;
     while (lo < hi) {
       const Index mid = lo + (hi - lo) / 2;
       if (meets(fam, mid))
@@ -693,68 +725,112 @@ std::optional<ReducerResult> compress_accepted(const ReducerResult& accepted,
         lo = mid + 1;
     }
     return lo;
-  };
-  // The family whose smallest model is smallest. (Each family is searched whole: the static
-  // correction can make a truncation worse as well as better, so the count one family needs says
-  // little about the other's; measured on iss_so_krylov, 73 with the corrected family's count as
-  // the other's floor, 57 without.)
-  const Family* chosen = nullptr;
-  Index lo = n, best_order = n;
-  for (const Family& fam : families) {
-    const Index count = smallest(fam, fam.min_count, std::min(fam.max_count, n));
-    if (count >= n) continue;
-    const Index order = fam.make(count).V.cols();
-    if (order < best_order) {
-      chosen = &fam;
-      lo = count;
-      best_order = order;
-    }
   }
+
+  // The family whose smallest model is smallest, with that model's count in `count`; nullptr
+  // when no family has one smaller than the accepted model. (Each family is searched whole: the
+  // static correction can make a truncation worse as well as better, so the count one family
+  // needs says little about the other's; measured on iss_so_krylov, 73 with the corrected
+  // family's count as the other's floor, 57 without.)
+  const Family* smallest_family(const std::vector<Family>& families, Index& count) {
+    const Family* chosen = nullptr;
+    Index best_order = m_n;
+    for (const Family& fam : families) {
+      const Index c = smallest(fam, fam.min_count, std::min(fam.max_count, m_n));
+      if (c >= m_n) continue;
+      const Index order = fam.make(c).V.cols();
+      if (order < best_order) {
+        chosen = &fam;
+        count = c;
+        best_order = order;
+      }
+    }
+    return chosen;
+  }
+
   // The re-check against the full model (verify_near: every frequency solved so far, and new
-  // solves at the candidate's largest departures from the accepted model, within the budget); on
-  // failure, step up by an eighth of the distance to n, then halfway (four re-checks at most).
-  const Index top = chosen ? std::min(chosen->max_count, n) : n;
-  for (Index count = lo, attempt = 0; chosen && count < top && attempt < 4; ++attempt) {
-    ReducerResult candidate = chosen->make(count);
-    if (candidate.V.cols() >= n) break;
-    // Stability first: it costs no full solve.
-    const bool stable = reduced_model_stability(candidate.model, rigid).accepted();
-    BandError check;
-    if (stable) {
-      ++report.verifications;
-      const Index spent = static_cast<Index>(cache.size()) - factorizations_before;
-      check = estimator.verify_near(candidate.model, accepted.model, report.error_before, tolerance,
-                                    verify_factor, std::max<Index>(0, kCheckSolves - spent));
+  // solves at the candidate's largest departures from the accepted model, within the budget),
+  // from `count` of the chosen family; on failure, step up by an eighth of the distance to n, then
+  // halfway (four re-checks at most). The first model that passes, with its re-check in
+  // `verified`, or std::nullopt.
+  std::optional<ReducerResult> rechecked(const Family& chosen, Index count) {
+    const Index top = std::min(chosen.max_count, m_n);
+    for (Index attempt = 0; count < top && attempt < 4; ++attempt) {
+      ReducerResult candidate = chosen.make(count);
+      if (candidate.V.cols() >= m_n) break;
+      // Stability first: it costs no full solve.
+      const bool stable = reduced_model_stability(candidate.model, m_rigid).accepted();
+      BandError check;
+      if (stable) {
+        ++m_report.verifications;
+        const Index spent = static_cast<Index>(m_cache.size()) - m_factorizations_before;
+        check = m_estimator.verify_near(candidate.model, m_accepted.model, m_report.error_before,
+                                        m_tolerance, m_verify_factor,
+                                        std::max<Index>(0, kCheckSolves - spent));
+      }
+      if (stable && check.within(m_tolerance))
+        return applied(chosen, count, std::move(candidate), std::move(check));
+      count += std::max<Index>(1, attempt == 0 ? (top - count) / 8 : (top - count + 1) / 2);
     }
-    if (stable && check.within(tolerance)) {
-      const Index order = candidate.V.cols();
-      report.applied = true;
-      report.method = chosen->method;
-      report.order_after = order;
-      report.error_after = check.sup_relative;
-      report.note =
-          fmt::format("{} (re-checked: {:.3e} at {:.4g} Hz)", chosen->describe(count, order),
-                      check.sup_relative, check.f_peak_hz);
-      candidate.note = accepted.note.empty() ? "compressed: " + report.note
-                                             : accepted.note + "; compressed " + report.note;
-      verified = std::move(check);
-      finish();
-      return candidate;
-    }
-    count += std::max<Index>(1, attempt == 0 ? (top - count) / 8 : (top - count + 1) / 2);
+    return std::nullopt;
   }
-  if (chosen) report.method = chosen->method;
-  report.note = !chosen ? "kept the accepted model: no smaller model of its " +
-                              family_names(families) + " meets the target" +
-                              (unstable > 0 ? fmt::format(" ({} of the {} tried unstable)",
-                                                          unstable, report.candidates)
-                                            : std::string())
-                        : fmt::format(
-                              "kept the accepted model: the re-check refused the "
-                              "{} compressed model(s) tried",
-                              report.verifications);
-  finish();
-  return std::nullopt;
+
+  // The compressed model that passed its re-check, with the report and its note.
+  ReducerResult applied(const Family& chosen, Index count, ReducerResult candidate,
+                        BandError check) {
+    const Index order = candidate.V.cols();
+    m_report.applied = true;
+    m_report.method = chosen.method;
+    m_report.order_after = order;
+    m_report.error_after = check.sup_relative;
+    m_report.note = fmt::format("{} (re-checked: {:.3e} at {:.4g} Hz)",
+                                chosen.describe(count, order), check.sup_relative, check.f_peak_hz);
+    candidate.note = m_accepted.note.empty() ? "compressed: " + m_report.note
+                                             : m_accepted.note + "; compressed " + m_report.note;
+    m_verified = std::move(check);
+    finish();
+    return candidate;
+  }
+
+  // The accepted model stays: the report says why.
+  std::optional<ReducerResult> kept(std::string note) {
+    m_report.note = std::move(note);
+    finish();
+    return std::nullopt;
+  }
+
+  // What the compression cost: its wall time and the full-model responses computed meanwhile.
+  void finish() {
+    m_report.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
+    m_report.factorizations = static_cast<std::int64_t>(m_cache.size()) - m_factorizations_before;
+  }
+
+  const ReducerResult& m_accepted;
+  BandErrorEstimator& m_estimator;
+  const ResponseCache& m_cache;
+  const double m_tolerance;
+  const Index m_verify_factor;
+  const RigidBodyModes& m_rigid;
+  CompressionReport& m_report;
+  BandError& m_verified;
+  const std::chrono::steady_clock::time_point m_start;
+  const std::int64_t m_factorizations_before;
+  const Index m_n;                  // order of the accepted model
+  std::vector<double> m_f_hz;       // the frequencies that rank the candidates
+  std::vector<double> m_failed_at;  // where the last refused candidate failed (meets())
+  Index m_unstable = 0;             // candidates refused as unstable
+};
+
+}  // namespace
+
+std::optional<ReducerResult> compress_accepted(const ReducerResult& accepted,
+                                               BandErrorEstimator& estimator,
+                                               const ResponseCache& cache, double tolerance,
+                                               Index verify_factor, const RigidBodyModes& rigid,
+                                               CompressionReport& report, BandError& verified) {
+  return Compression(accepted, estimator, cache, tolerance, verify_factor, rigid, report, verified)
+      .run();
 }
 
 }  // namespace ecmor::run

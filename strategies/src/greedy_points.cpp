@@ -102,8 +102,9 @@ struct Step {
   std::map<std::string, double> extra;
 };
 
-Step step_toward(const std::vector<ExpansionPoint>& points, double f, double separation,
-                 Index moments) {
+// strategy_support::step_toward (the rule) with the history's words for the step.
+Step described_step(const std::vector<ExpansionPoint>& points, double f, double separation,
+                    Index moments) {
   strategy_support::PointStep s = strategy_support::step_toward(points, f, separation, moments);
   Step step{std::move(s.points), s.adds_point, {}, {}, {}};
   if (s.adds_point) {
@@ -165,7 +166,7 @@ class Growth {
       const double f = next_target(m_c.error, m_blocked);
       if (End end = no_target(f)) return end;
       const double at = std::clamp(f, m_band.f_min_hz, m_band.f_max_hz);
-      if (End end = take(step_toward(m_points, at, m_separation, m_o.moments), at)) return end;
+      if (End end = take(described_step(m_points, at, m_separation, m_o.moments), at)) return end;
     }
   }
 

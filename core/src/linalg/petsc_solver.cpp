@@ -21,11 +21,14 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <functional>
 #include <memory>
 #include <mutex>
 #include <random>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "ecmor/base/error.hpp"
@@ -630,22 +633,34 @@ struct EpsObjects {
   }
 };
 
-SymmetricEigenResult symmetric_eigs(const Factorization& factorization, const SparseMatrix& M,
-                                    double sigma, const EigenOptions& options) {
-  const auto* F = dynamic_cast<const PetscFactorization*>(&factorization);
-  if (F == nullptr)
-    throw InputError("PETSc backend: the SLEPc eigensolver needs a factorisation of this backend");
-  const Index n = F->size();
-  const std::string where =
-      fmt::format("SLEPc Krylov-Schur (sigma = {:g}, nev = {})", sigma, options.nev);
-  EpsObjects o;
-  ShiftInvertContext ctx;
-  o.M = F->state().distribute(M);
-  ECMOR_PETSC(MatCreateVecs(o.M, &o.x, nullptr));
-  ctx.F = F;
+// A start vector from the seed: the whole vector is drawn on every rank (the same numbers), and
+// each rank keeps its rows, so the start does not depend on the number of ranks.
+void set_start_vector(EpsObjects& o, Index n, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  PetscInt lo = 0, hi = 0;
+  ECMOR_PETSC(VecGetOwnershipRange(o.x, &lo, &hi));
+  PetscScalar* a = nullptr;
+  ECMOR_PETSC(VecGetArray(o.x, &a));
+  for (PetscInt r = 0; r < static_cast<PetscInt>(n); ++r) {
+    const double v = uniform(rng);
+    if (r >= lo && r < hi) a[r - lo] = PetscScalar(v, 0.0);
+  }
+  ECMOR_PETSC(VecRestoreArray(o.x, &a));
+  ECMOR_PETSC(EPSSetInitialSpace(o.eps, 1, &o.x));
+}
 
+// Sets up o.eps for the pencil (K - sigma M, M) as the comment at the top of this section says:
+// Krylov-Schur on a GHEP, target 0, SLEPc's shift-and-invert applying F's factors through a shell
+// preconditioner with context ctx, the run's stopping test, and a seeded start vector.
+// SLEPc's calling sequence, kept as one: each call configures an object reached through the one
+// before (EPS -> ST -> KSP -> PC), all owned by the EPS and put together only in EPSSolve; split,
+// the pieces would hand half-configured handles to each other and none would read on its own.
+// The shell preconditioner keeps a pointer to ctx, which must outlive EPSSolve.
+void configure_shift_invert(EpsObjects& o, const PetscFactorization& F, ShiftInvertContext& ctx,
+                            const EigenOptions& options) {
   ECMOR_PETSC(EPSCreate(PETSC_COMM_WORLD, &o.eps));
-  ECMOR_PETSC(EPSSetOperators(o.eps, F->matrix(), o.M));
+  ECMOR_PETSC(EPSSetOperators(o.eps, F.matrix(), o.M));
   ECMOR_PETSC(EPSSetProblemType(o.eps, EPS_GHEP));
   ECMOR_PETSC(EPSSetType(o.eps, EPSKRYLOVSCHUR));
   ECMOR_PETSC(EPSSetTarget(o.eps, 0.0));
@@ -668,29 +683,21 @@ SymmetricEigenResult symmetric_eigs(const Factorization& factorization, const Sp
   ECMOR_PETSC(PCSetType(pc, PCSHELL));
   ECMOR_PETSC(PCShellSetContext(pc, &ctx));
   ECMOR_PETSC(PCShellSetApply(pc, apply_factors));
-  if (options.seed != 0) {
-    // A start vector from the seed: the whole vector is drawn on every rank (the same numbers),
-    // and each rank keeps its rows, so the start does not depend on the number of ranks.
-    std::mt19937_64 rng(options.seed);
-    std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-    PetscInt lo = 0, hi = 0;
-    ECMOR_PETSC(VecGetOwnershipRange(o.x, &lo, &hi));
-    PetscScalar* a = nullptr;
-    ECMOR_PETSC(VecGetArray(o.x, &a));
-    for (PetscInt r = 0; r < static_cast<PetscInt>(n); ++r) {
-      const double v = uniform(rng);
-      if (r >= lo && r < hi) a[r - lo] = PetscScalar(v, 0.0);
-    }
-    ECMOR_PETSC(VecRestoreArray(o.x, &a));
-    ECMOR_PETSC(EPSSetInitialSpace(o.eps, 1, &o.x));
-  }
+  if (options.seed != 0) set_start_vector(o, F.size(), options.seed);
   // The run's time limit and signals (interrupt.hpp) end the iteration at a restart: the stopping
   // test is called at the same iteration on every rank, so the collective stop test matches.
   ECMOR_PETSC(EPSSetStoppingTestFunction(o.eps, stopping_test, nullptr, nullptr));
+}
+
+// Runs the configured solve, counts its operator applications as solves of F, and returns the
+// number of restarts. \throws Interrupted when the run's stop condition ended it, NumericalError
+// when fewer than nev eigenpairs converged.
+PetscInt solve_eps(EpsObjects& o, const PetscFactorization& F, const ShiftInvertContext& ctx,
+                   Index nev, const std::string& where) {
   const auto t0 = Clock::now();
   ECMOR_PETSC(EPSSolve(o.eps));
   const double dt = seconds_since(t0);
-  F->state().count([&](SolverCounters& c) {
+  F.state().count([&](SolverCounters& c) {
     c.solves += ctx.applications;
     c.solve_seconds += dt;
   });
@@ -700,14 +707,18 @@ SymmetricEigenResult symmetric_eigs(const Factorization& factorization, const Sp
   PetscInt nconv = 0, iterations = 0;
   ECMOR_PETSC(EPSGetConverged(o.eps, &nconv));
   ECMOR_PETSC(EPSGetIterationNumber(o.eps, &iterations));
-  if (nconv < static_cast<PetscInt>(options.nev))
+  if (nconv < static_cast<PetscInt>(nev))
     throw NumericalError(
         fmt::format("{}: only {} of {} eigenpairs converged in {} restarts "
                     "(SLEPc reason {})",
-                    where, nconv, options.nev, iterations, static_cast<int>(reason)));
+                    where, nconv, nev, iterations, static_cast<int>(reason)));
+  return iterations;
+}
 
-  // The nev eigenpairs nearest sigma (SLEPc sorts them by |nu|), gathered on every rank.
-  const Index nev = options.nev;
+// The nev eigenpairs nearest sigma (SLEPc sorts them by |mu|), gathered on every rank: lambda =
+// sigma + mu and the complex eigenvectors (n x nev).
+std::pair<Vector, ComplexMatrix> gathered_eigenpairs(EpsObjects& o, double sigma, Index nev,
+                                                     Index n) {
   ECMOR_PETSC(VecScatterCreateToAll(o.x, &o.scatter, &o.all));
   Vector lambda(nev);
   ComplexMatrix X(n, nev);
@@ -722,38 +733,26 @@ SymmetricEigenResult symmetric_eigs(const Factorization& factorization, const Sp
     for (Index r = 0; r < n; ++r) X(r, j) = Complex(PetscRealPart(a[r]), PetscImaginaryPart(a[r]));
     ECMOR_PETSC(VecRestoreArrayRead(o.all, &a));
   }
+  return {std::move(lambda), std::move(X)};
+}
 
-  // Real, M-orthonormal eigenvectors. K and M are real: each eigenspace has a real basis, but
-  // complex arithmetic returns its vectors with arbitrary phases. Each vector is turned to make
-  // its largest entry real. Then, per group of equal eigenvalues (relative 1e-10), the real and
-  // imaginary parts of the group's vectors, largest first, are M-orthogonalised (twice) against
-  // every vector kept so far; a part is kept when 1e-8 of its complex vector's M-norm survives,
-  // until the group is spanned. (Parts that are rounding noise never reach that size.)
-  std::vector<Index> order(static_cast<std::size_t>(nev));
-  for (Index j = 0; j < nev; ++j) order[static_cast<std::size_t>(j)] = j;
-  std::stable_sort(order.begin(), order.end(),
-                   [&](Index a, Index b) { return lambda(a) < lambda(b); });
-  SymmetricEigenResult result;
-  result.eigenvalues.resize(nev);
-  result.eigenvectors.resize(n, nev);
-  result.iterations = iterations;
-  result.operator_applications = ctx.applications;
-  result.method = "slepc";
-  Index kept = 0;
-  const double scale = lambda.cwiseAbs().maxCoeff();
-  auto m_norm = [&](const Vector& v) { return std::sqrt(std::max(0.0, v.dot(M * v))); };
-  for (std::size_t g = 0; g < order.size();) {
-    std::size_t e = g + 1;
-    while (e < order.size() &&
-           std::abs(lambda(order[e]) - lambda(order[g])) <=
-               1e-10 * std::max(std::abs(lambda(order[e])), std::abs(lambda(order[g]))) +
-                   1e-14 * scale)
-      ++e;
-    struct Part {
-      Vector v;
-      double size;       // its M-norm
-      double reference;  // the M-norm of its complex vector
-    };
+// Real, M-orthonormal eigenvectors. K and M are real: each eigenspace has a real basis, but
+// complex arithmetic returns its vectors with arbitrary phases. Each vector is turned to make its
+// largest entry real. Then, per group of equal eigenvalues (relative 1e-10), the real and
+// imaginary parts of the group's vectors, largest first, are M-orthogonalised (twice) against
+// every vector kept so far; a part is kept when 1e-8 of its complex vector's M-norm survives,
+// until the group is spanned. (Parts that are rounding noise never reach that size.)
+class RealEigenbasis {
+ public:
+  RealEigenbasis(const SparseMatrix& M, Index n, Index nev) : m_M(M) {
+    m_result.eigenvalues.resize(nev);
+    m_result.eigenvectors.resize(n, nev);
+  }
+
+  // Adds the group of eigenvalues lambda(order[g..e)) with the eigenvectors of X. \throws
+  // NumericalError naming `where` when their real and imaginary parts span fewer dimensions.
+  void add_group(const Vector& lambda, const ComplexMatrix& X, const std::vector<Index>& order,
+                 std::size_t g, std::size_t e, const std::string& where) {
     std::vector<Part> parts;
     for (std::size_t k = g; k < e; ++k) {
       ComplexVector x = X.col(order[k]);
@@ -774,15 +773,15 @@ SymmetricEigenResult symmetric_eigs(const Factorization& factorization, const Sp
       if (!(part.reference > 0.0)) continue;
       Vector& v = part.v;
       for (int pass = 0; pass < 2; ++pass)
-        for (Index k = 0; k < kept; ++k) {
-          const auto q = result.eigenvectors.col(k);
-          v -= q.dot(M * v) * q;
+        for (Index k = 0; k < m_kept; ++k) {
+          const auto q = m_result.eigenvectors.col(k);
+          v -= q.dot(m_M * v) * q;
         }
       const double norm = m_norm(v);
       if (!(norm > 1e-8 * part.reference)) continue;
-      result.eigenvectors.col(kept) = v / norm;
-      result.eigenvalues(kept) = lambda(order[g + static_cast<std::size_t>(got)]);
-      ++kept;
+      m_result.eigenvectors.col(m_kept) = v / norm;
+      m_result.eigenvalues(m_kept) = lambda(order[g + static_cast<std::size_t>(got)]);
+      ++m_kept;
       ++got;
     }
     if (got < want)
@@ -790,10 +789,71 @@ SymmetricEigenResult symmetric_eigs(const Factorization& factorization, const Sp
           "{}: the eigenvectors of the eigenvalue {:.10g} (multiplicity {}) span only {} real "
           "dimension{}",
           where, lambda(order[g]), want, got, got == 1 ? "" : "s"));
+  }
+
+  // The eigenpairs kept, in the order added.
+  SymmetricEigenResult take() {
+    m_result.eigenvalues.conservativeResize(m_kept);
+    m_result.eigenvectors.conservativeResize(m_result.eigenvectors.rows(), m_kept);
+    return std::move(m_result);
+  }
+
+ private:
+  struct Part {
+    Vector v;
+    double size;       // its M-norm
+    double reference;  // the M-norm of its complex vector
+  };
+  double m_norm(const Vector& v) const { return std::sqrt(std::max(0.0, v.dot(m_M * v))); }
+
+  const SparseMatrix& m_M;
+  SymmetricEigenResult m_result;
+  Index m_kept = 0;
+};
+
+// The eigenpairs (lambda, X) as real M-orthonormal ones in ascending order (RealEigenbasis), the
+// eigenvalues grouped by equality to 1e-10 relative (1e-14 of the largest absolute).
+SymmetricEigenResult real_eigenpairs(const Vector& lambda, const ComplexMatrix& X,
+                                     const SparseMatrix& M, const std::string& where) {
+  const Index nev = lambda.size();
+  std::vector<Index> order(static_cast<std::size_t>(nev));
+  for (Index j = 0; j < nev; ++j) order[static_cast<std::size_t>(j)] = j;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](Index a, Index b) { return lambda(a) < lambda(b); });
+  RealEigenbasis basis(M, X.rows(), nev);
+  const double scale = lambda.cwiseAbs().maxCoeff();
+  for (std::size_t g = 0; g < order.size();) {
+    std::size_t e = g + 1;
+    while (e < order.size() &&
+           std::abs(lambda(order[e]) - lambda(order[g])) <=
+               1e-10 * std::max(std::abs(lambda(order[e])), std::abs(lambda(order[g]))) +
+                   1e-14 * scale)
+      ++e;
+    basis.add_group(lambda, X, order, g, e, where);
     g = e;
   }
-  result.eigenvalues.conservativeResize(kept);
-  result.eigenvectors.conservativeResize(n, kept);
+  return basis.take();
+}
+
+SymmetricEigenResult symmetric_eigs(const Factorization& factorization, const SparseMatrix& M,
+                                    double sigma, const EigenOptions& options) {
+  const auto* F = dynamic_cast<const PetscFactorization*>(&factorization);
+  if (F == nullptr)
+    throw InputError("PETSc backend: the SLEPc eigensolver needs a factorisation of this backend");
+  const std::string where =
+      fmt::format("SLEPc Krylov-Schur (sigma = {:g}, nev = {})", sigma, options.nev);
+  EpsObjects o;
+  ShiftInvertContext ctx;
+  o.M = F->state().distribute(M);
+  ECMOR_PETSC(MatCreateVecs(o.M, &o.x, nullptr));
+  ctx.F = F;
+  configure_shift_invert(o, *F, ctx, options);
+  const PetscInt iterations = solve_eps(o, *F, ctx, options.nev, where);
+  const auto [lambda, X] = gathered_eigenpairs(o, sigma, options.nev, F->size());
+  SymmetricEigenResult result = real_eigenpairs(lambda, X, M, where);
+  result.iterations = iterations;
+  result.operator_applications = ctx.applications;
+  result.method = "slepc";
   return result;
 }
 #endif  // ECMOR_HAVE_SLEPC

@@ -11,7 +11,6 @@
 #include "base/parallel_for.hpp"
 #include "base/wall_timer.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/base/parameters.hpp"
 #include "ecmor/base/threads.hpp"
 #include "ecmor/linalg/parallel.hpp"
 #include "ecmor/response/reduced_response.hpp"
@@ -19,54 +18,6 @@
 #include "measures/band_error_sampling.hpp"
 
 namespace ecmor {
-
-void Band::validate() const {
-  auto fmt = [](double v) {
-    std::ostringstream os;
-    os << v;
-    return os.str();
-  };
-  if (!std::isfinite(f_min_hz) || !(f_min_hz > 0.0)) {
-    throw ConfigError("band.f_min_hz = " + fmt(f_min_hz) +
-                      ": must be a finite frequency > 0 Hz (the band is sampled in log scale; use "
-                      "e.g. 1e-3 * f_max_hz for a band starting near 0)");
-  }
-  if (!std::isfinite(f_max_hz) || !(f_max_hz > f_min_hz)) {
-    throw ConfigError("band.f_max_hz = " + fmt(f_max_hz) +
-                      ": must be finite and > band.f_min_hz = " + fmt(f_min_hz));
-  }
-}
-
-std::string to_string(ErrorNorm norm) {
-  return norm == ErrorNorm::Spectral ? "spectral" : "frobenius";
-}
-
-ErrorNorm parse_error_norm(const std::string& name) {
-  if (name == "spectral") return ErrorNorm::Spectral;
-  if (name == "frobenius") return ErrorNorm::Frobenius;
-  throw ConfigError("unknown error norm '" + name + "'" +
-                    suggestion(name, {"spectral", "frobenius"}));
-}
-
-std::string to_string(ErrorVerify verify) {
-  switch (verify) {
-    case ErrorVerify::Dense:
-      return "dense";
-    case ErrorVerify::Estimate:
-      return "estimate";
-    case ErrorVerify::Auto:
-      break;
-  }
-  return "auto";
-}
-
-ErrorVerify parse_error_verify(const std::string& name) {
-  if (name == "dense") return ErrorVerify::Dense;
-  if (name == "estimate") return ErrorVerify::Estimate;
-  if (name == "auto") return ErrorVerify::Auto;
-  throw ConfigError("unknown error.verify '" + name + "'" +
-                    suggestion(name, {"dense", "estimate", "auto"}));
-}
 
 double matrix_norm(const ComplexMatrix& A, ErrorNorm norm) {
   if (A.size() == 0) return 0.0;
@@ -76,33 +27,6 @@ double matrix_norm(const ComplexMatrix& A, ErrorNorm norm) {
   }
   Eigen::JacobiSVD<ComplexMatrix> svd(A);
   return svd.singularValues()(0);
-}
-
-void BandErrorOptions::validate() const {
-  auto bad = [](const std::string& field, const std::string& value, const std::string& rule) {
-    throw ConfigError("BandErrorOptions::" + field + " = " + value + ": " + rule);
-  };
-  if (grid_points < 2) bad("grid_points", std::to_string(grid_points), "must be >= 2");
-  if (grid_points > 1000000) bad("grid_points", std::to_string(grid_points), "must be <= 1e6");
-  if (max_pole_samples < 0)
-    bad("max_pole_samples", std::to_string(max_pole_samples), "must be >= 0");
-  if (refine_peaks < 0) bad("refine_peaks", std::to_string(refine_peaks), "must be >= 0");
-  if (refine_evaluations < 0 || refine_evaluations > 200) {
-    bad("refine_evaluations", std::to_string(refine_evaluations), "must be in [0, 200]");
-  }
-  if (!(zero_threshold >= 0.0) || !(zero_threshold < 1.0)) {
-    bad("zero_threshold", std::to_string(zero_threshold), "must be in [0, 1)");
-  }
-  if (dense_max_states < 0)
-    bad("dense_max_states", std::to_string(dense_max_states), "must be >= 0");
-  if (estimate_points < 2 || estimate_points > 1000000)
-    bad("estimate_points", std::to_string(estimate_points), "must be in [2, 1e6]");
-  if (reference_points < 2 || reference_points > 10000)
-    bad("reference_points", std::to_string(reference_points), "must be in [2, 10000]");
-  if (check_peaks < 1) bad("check_peaks", std::to_string(check_peaks), "must be >= 1");
-  if (random_checks < 0) bad("random_checks", std::to_string(random_checks), "must be >= 0");
-  if (check_rounds < 1) bad("check_rounds", std::to_string(check_rounds), "must be >= 1");
-  if (probe_solves < 0) bad("probe_solves", std::to_string(probe_solves), "must be >= 0");
 }
 
 std::string BandError::sampling() const {
@@ -286,134 +210,159 @@ const ComplexVector& CandidateResponse::poles() {
   return *m_poles;
 }
 
-BandError assemble_band_error(CandidateResponse& candidate, std::vector<double> f_hz,
-                              const ReferenceSource& source, const SamplingPlan& plan,
-                              const BandErrorOptions& options, const Band& band, double scale2,
-                              double scaleF, int threads) {
-  std::sort(f_hz.begin(), f_hz.end());
-  f_hz.erase(std::unique(f_hz.begin(), f_hz.end()), f_hz.end());
-  const ReducedModel& reduced = candidate.model();
-  std::vector<Sample> samples = sample(source, candidate, f_hz, threads);
-  const ErrorNorm norm = options.norm;
-  const Index grid = plan.grid, pole_count = plan.poles;
-  const BandErrorOptions& m_options = options;
+namespace {
 
-  const double zero2 = options.zero_threshold * scale2;
-  const double zeroF = options.zero_threshold * scaleF;
-
-  Index refinement_count = 0;
-  if (plan.refine && m_options.refine_peaks > 0 && m_options.refine_evaluations > 0 &&
-      samples.size() >= 3) {
-    // Local maxima of the relative error on the sorted samples, largest first.
-    auto rel = [&](const Sample& s) {
-      const double r = relative_of(s, norm, zero2, zeroF);
-      return std::isnan(r) ? -1.0 : r;
-    };
-    std::vector<std::size_t> peaks;
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-      const double r = rel(samples[i]);
-      if (r < 0.0 || std::isinf(r)) continue;
-      const bool left_ok = (i == 0) || rel(samples[i - 1]) <= r;
-      const bool right_ok = (i + 1 == samples.size()) || rel(samples[i + 1]) < r;
-      if (left_ok && right_ok) peaks.push_back(i);
-    }
-    std::sort(peaks.begin(), peaks.end(),
-              [&](std::size_t a, std::size_t b) { return rel(samples[a]) > rel(samples[b]); });
-    if (static_cast<Index>(peaks.size()) > m_options.refine_peaks) {
-      peaks.resize(static_cast<std::size_t>(m_options.refine_peaks));
-    }
-    // Golden-section search for the maximum in log f, all peaks advanced together so that each
-    // round's new full-model frequencies are evaluated in one parallel batch.
-    struct Bracket {
-      double a, c, b;  // log f; c is the best point so far
-      Sample best;
-      Index stalled = 0;  // consecutive steps without a relative gain above 1e-4
-    };
-    std::vector<Bracket> brackets;
-    for (std::size_t i : peaks) {
-      const double c = std::log(samples[i].f_hz);
-      const double a = i == 0 ? c : std::log(samples[i - 1].f_hz);
-      const double b = i + 1 == samples.size() ? c : std::log(samples[i + 1].f_hz);
-      if (b - a > 0.0) brackets.push_back({a, c, b, samples[i], 0});
-    }
-    constexpr double kGolden = 0.3819660112501051;  // 2 - golden ratio
-    std::vector<Sample> added;
-    for (Index round = 0; round < m_options.refine_evaluations && !brackets.empty(); ++round) {
-      std::vector<double> trial(brackets.size());
-      for (std::size_t j = 0; j < brackets.size(); ++j) {
-        Bracket& br = brackets[j];
-        // Probe the larger side of c.
-        trial[j] = (br.b - br.c > br.c - br.a) ? br.c + kGolden * (br.b - br.c)
-                                               : br.c - kGolden * (br.c - br.a);
-      }
-      std::vector<double> trial_f(trial.size());
-      std::transform(trial.begin(), trial.end(), trial_f.begin(),
-                     [](double x) { return std::exp(x); });
-      const std::vector<Sample> got = sample(source, candidate, trial_f, threads);
-      std::vector<Bracket> next;
-      for (std::size_t j = 0; j < brackets.size(); ++j) {
-        Bracket br = brackets[j];
-        const double x = trial[j];
-        added.push_back(got[j]);
-        ++refinement_count;
-        const double before = rel(br.best);
-        br.stalled = rel(got[j]) > before * (1.0 + 1e-4) ? 0 : br.stalled + 1;
-        if (rel(got[j]) > before) {
-          // New best: the old centre becomes a bracket end.
-          if (x > br.c)
-            br.a = br.c;
-          else
-            br.b = br.c;
-          br.c = x;
-          br.best = got[j];
-        } else {
-          if (x > br.c)
-            br.b = x;
-          else
-            br.a = x;
-        }
-        // A peak is done when the bracket is below 1e-9 relative in f (far below any resonance
-        // width) or its value has stopped rising for 6 steps; one still rising near a zero of H
-        // or an undamped pole goes on to the budget, so that a sharp peak is not under-reported.
-        if (br.b - br.a > 1e-9 && br.stalled < 6) next.push_back(br);
-      }
-      brackets = std::move(next);
-    }
-    samples.insert(samples.end(), added.begin(), added.end());
-    std::sort(samples.begin(), samples.end(),
-              [](const Sample& x, const Sample& y) { return x.f_hz < y.f_hz; });
+// The relative error of a sample in the options' norm as the refinement and the re-check rank
+// samples: where it is undefined (H vanishes), below every number.
+struct Ranking {
+  ErrorNorm norm = ErrorNorm::Spectral;
+  double zero2 = 0.0;  // ||H||_2 at or below which H counts as vanishing
+  double zeroF = 0.0;  // the same for ||H||_F
+  double operator()(const Sample& s) const {
+    const double r = relative_of(s, norm, zero2, zeroF);
+    return std::isnan(r) ? -1.0 : r;
   }
-  if (plan.dense_peaks && !samples.empty()) {
-    // The re-check must not rest on the fast path alone: re-evaluate the largest errors with a
-    // dense LU of P_r(s) (transfer_function), an independent computation of Hr.
-    std::vector<std::size_t> order(samples.size());
-    std::iota(order.begin(), order.end(), std::size_t{0});
-    auto rel = [&](std::size_t i) {
-      const double r = relative_of(samples[i], norm, zero2, zeroF);
-      return std::isnan(r) ? -1.0 : r;
-    };
-    const std::size_t top = std::min<std::size_t>(samples.size(), 10);
-    std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(top), order.end(),
-                      [&](std::size_t a, std::size_t b) { return rel(a) > rel(b); });
-    for (std::size_t j = 0; j < top; ++j) {
-      Sample& s = samples[order[j]];
-      if (s.singular || std::isinf(s.ref2) || s.H.size() == 0) continue;
-      try {
-        const ComplexMatrix E = s.H - transfer_function(reduced, s_from_hz(s.f_hz));
-        s.abs2 = std::max(s.abs2, matrix_norm(E, ErrorNorm::Spectral));
-        s.absF = std::max(s.absF, E.norm());
-      } catch (const NumericalError&) {
-        s.singular = true;
-        s.abs2 = s.absF = kInf;
-      }
+};
+
+// A peak's golden-section search in log f.
+struct Bracket {
+  double a, c, b;  // log f; c is the best point so far
+  Sample best;
+  Index stalled = 0;  // consecutive steps without a relative gain above 1e-4
+};
+
+// The brackets around the largest finite local maxima of the relative error on the sorted
+// samples, at most max_peaks of them, largest first.
+std::vector<Bracket> peak_brackets(const std::vector<Sample>& samples, const Ranking& rel,
+                                   Index max_peaks) {
+  std::vector<std::size_t> peaks;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const double r = rel(samples[i]);
+    if (r < 0.0 || std::isinf(r)) continue;
+    const bool left_ok = (i == 0) || rel(samples[i - 1]) <= r;
+    const bool right_ok = (i + 1 == samples.size()) || rel(samples[i + 1]) < r;
+    if (left_ok && right_ok) peaks.push_back(i);
+  }
+  std::sort(peaks.begin(), peaks.end(),
+            [&](std::size_t a, std::size_t b) { return rel(samples[a]) > rel(samples[b]); });
+  if (static_cast<Index>(peaks.size()) > max_peaks) {
+    peaks.resize(static_cast<std::size_t>(max_peaks));
+  }
+  std::vector<Bracket> brackets;
+  for (std::size_t i : peaks) {
+    const double c = std::log(samples[i].f_hz);
+    const double a = i == 0 ? c : std::log(samples[i - 1].f_hz);
+    const double b = i + 1 == samples.size() ? c : std::log(samples[i + 1].f_hz);
+    if (b - a > 0.0) brackets.push_back({a, c, b, samples[i], 0});
+  }
+  return brackets;
+}
+
+// One golden-section step of a bracket with the sample `got` at x = log f. Returns false when the
+// peak is done: the bracket is below 1e-9 relative in f (far below any resonance width) or its
+// value has stopped rising for 6 steps; one still rising near a zero of H or an undamped pole goes
+// on to the budget, so that a sharp peak is not under-reported.
+bool golden_step(Bracket& br, double x, const Sample& got, const Ranking& rel) {
+  const double before = rel(br.best);
+  br.stalled = rel(got) > before * (1.0 + 1e-4) ? 0 : br.stalled + 1;
+  if (rel(got) > before) {
+    // New best: the old centre becomes a bracket end.
+    if (x > br.c)
+      br.a = br.c;
+    else
+      br.b = br.c;
+    br.c = x;
+    br.best = got;
+  } else {
+    if (x > br.c)
+      br.b = x;
+    else
+      br.a = x;
+  }
+  return br.b - br.a > 1e-9 && br.stalled < 6;
+}
+
+// Refines the largest local maxima of the relative error by golden-section search in log f, all
+// peaks advanced together so that each round's new full-model frequencies are evaluated in one
+// parallel batch. The new samples join `samples` (sorted by frequency again); returns their count.
+Index refine_peaks(std::vector<Sample>& samples, CandidateResponse& candidate,
+                   const Comparison& with, const Ranking& rel) {
+  std::vector<Bracket> brackets = peak_brackets(samples, rel, with.options.refine_peaks);
+  constexpr double kGolden = 0.3819660112501051;  // 2 - golden ratio
+  std::vector<Sample> added;
+  for (Index round = 0; round < with.options.refine_evaluations && !brackets.empty(); ++round) {
+    std::vector<double> trial(brackets.size());
+    for (std::size_t j = 0; j < brackets.size(); ++j) {
+      Bracket& br = brackets[j];
+      // Probe the larger side of c.
+      trial[j] = (br.b - br.c > br.c - br.a) ? br.c + kGolden * (br.b - br.c)
+                                             : br.c - kGolden * (br.c - br.a);
+    }
+    std::vector<double> trial_f(trial.size());
+    std::transform(trial.begin(), trial.end(), trial_f.begin(),
+                   [](double x) { return std::exp(x); });
+    const std::vector<Sample> got = sample(with.source, candidate, trial_f, with.threads);
+    std::vector<Bracket> next;
+    for (std::size_t j = 0; j < brackets.size(); ++j) {
+      Bracket br = brackets[j];
+      added.push_back(got[j]);
+      if (golden_step(br, trial[j], got[j], rel)) next.push_back(br);
+    }
+    brackets = std::move(next);
+  }
+  samples.insert(samples.end(), added.begin(), added.end());
+  std::sort(samples.begin(), samples.end(),
+            [](const Sample& x, const Sample& y) { return x.f_hz < y.f_hz; });
+  return static_cast<Index>(added.size());
+}
+
+// The re-check must not rest on the fast path alone: the ten largest errors are evaluated again
+// with a dense LU of P_r(s) (transfer_function), an independent computation of Hr, and the larger
+// of the two kept.
+void recheck_largest_by_dense_lu(std::vector<Sample>& samples, const ReducedModel& reduced,
+                                 const Ranking& rel) {
+  std::vector<std::size_t> order(samples.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  const std::size_t top = std::min<std::size_t>(samples.size(), 10);
+  std::partial_sort(
+      order.begin(), order.begin() + static_cast<std::ptrdiff_t>(top), order.end(),
+      [&](std::size_t a, std::size_t b) { return rel(samples[a]) > rel(samples[b]); });
+  for (std::size_t j = 0; j < top; ++j) {
+    Sample& s = samples[order[j]];
+    if (s.singular || std::isinf(s.ref2) || s.H.size() == 0) continue;
+    try {
+      const ComplexMatrix E = s.H - transfer_function(reduced, s_from_hz(s.f_hz));
+      s.abs2 = std::max(s.abs2, matrix_norm(E, ErrorNorm::Spectral));
+      s.absF = std::max(s.absF, E.norm());
+    } catch (const NumericalError&) {
+      s.singular = true;
+      s.abs2 = s.absF = kInf;
     }
   }
+}
 
+// The band H2 norm of the error, sqrt(2 * integral_{f_min}^{f_max} ||H - Hr||_F^2 df) (both signs
+// of omega: twice the integral over positive f), by the trapezoidal rule in f on the samples
+// (sorted by frequency). It costs no evaluation beyond the samples the supremum needs;
+// h2_error_quadrature (h2_norm.hpp) computes the same norm to a tolerance with full solves of its
+// own.
+double band_h2_by_trapezoid(const std::vector<Sample>& samples) {
+  double h2sq = 0.0;
+  for (std::size_t k = 1; k < samples.size(); ++k) {
+    const double a = samples[k - 1].absF, b = samples[k].absF;
+    if (!std::isnan(a) && !std::isnan(b)) {
+      h2sq += 0.5 * (a * a + b * b) * (samples[k].f_hz - samples[k - 1].f_hz);
+    }
+  }
+  return std::sqrt(2.0 * h2sq);
+}
+
+// The BandError of the samples (sorted by frequency): the errors at each, the supremum of the
+// relative error and the band H-infinity norm of the error with where they are, the band H2 norm.
+// \throws NumericalError when H vanishes at every sample.
+BandError assembled(const std::vector<Sample>& samples, const Ranking& rel, const Band& band) {
   BandError out;
-  out.norm = norm;
-  out.grid_samples = grid;
-  out.pole_samples = pole_count;
-  out.refinement_samples = refinement_count;
+  out.norm = rel.norm;
   const std::size_t n = samples.size();
   out.f_hz.resize(n);
   out.relative.resize(n);
@@ -422,14 +371,14 @@ BandError assemble_band_error(CandidateResponse& candidate, std::vector<double> 
   out.absolute.resize(n);
   out.reference.resize(n);
   out.exact.resize(n);
-  double sup = -1.0, hinf = -1.0, h2sq = 0.0;
+  double sup = -1.0, hinf = -1.0;
   for (std::size_t k = 0; k < n; ++k) {
     const Sample& s = samples[k];
     out.f_hz[k] = s.f_hz;
-    out.relative_spectral[k] = relative_of(s, ErrorNorm::Spectral, zero2, zeroF);
-    out.relative_frobenius[k] = relative_of(s, ErrorNorm::Frobenius, zero2, zeroF);
+    out.relative_spectral[k] = relative_of(s, ErrorNorm::Spectral, rel.zero2, rel.zeroF);
+    out.relative_frobenius[k] = relative_of(s, ErrorNorm::Frobenius, rel.zero2, rel.zeroF);
     out.relative[k] =
-        norm == ErrorNorm::Spectral ? out.relative_spectral[k] : out.relative_frobenius[k];
+        rel.norm == ErrorNorm::Spectral ? out.relative_spectral[k] : out.relative_frobenius[k];
     out.absolute[k] = s.abs2;
     out.reference[k] = s.ref2;
     out.exact[k] = s.exact ? 1 : 0;
@@ -444,13 +393,6 @@ BandError assemble_band_error(CandidateResponse& candidate, std::vector<double> 
       hinf = s.abs2;
       out.f_hinf_hz = s.f_hz;
     }
-    if (k > 0) {
-      // Trapezoidal rule in f of ||E||_F^2.
-      const double a = samples[k - 1].absF, b = s.absF;
-      if (!std::isnan(a) && !std::isnan(b)) {
-        h2sq += 0.5 * (a * a + b * b) * (s.f_hz - samples[k - 1].f_hz);
-      }
-    }
   }
   if (sup < 0.0) {
     throw NumericalError("band error: H vanishes at every sampled frequency of the band [" +
@@ -459,8 +401,32 @@ BandError assemble_band_error(CandidateResponse& candidate, std::vector<double> 
   }
   out.sup_relative = sup;
   out.hinf_absolute = hinf;
-  // Both signs of omega: the band H2 norm squared is twice the integral over positive f.
-  out.h2_absolute = std::sqrt(2.0 * h2sq);
+  out.h2_absolute = band_h2_by_trapezoid(samples);
+  return out;
+}
+
+}  // namespace
+
+BandError assemble_band_error(CandidateResponse& candidate, std::vector<double> f_hz,
+                              const SamplingPlan& plan, const Comparison& with) {
+  std::sort(f_hz.begin(), f_hz.end());
+  f_hz.erase(std::unique(f_hz.begin(), f_hz.end()), f_hz.end());
+  std::vector<Sample> samples = sample(with.source, candidate, f_hz, with.threads);
+  const BandErrorOptions& options = with.options;
+  const Ranking rel{options.norm, options.zero_threshold * with.scale2,
+                    options.zero_threshold * with.scaleF};
+  Index refinement_count = 0;
+  if (plan.refine && options.refine_peaks > 0 && options.refine_evaluations > 0 &&
+      samples.size() >= 3) {
+    refinement_count = refine_peaks(samples, candidate, with, rel);
+  }
+  if (plan.dense_peaks && !samples.empty()) {
+    recheck_largest_by_dense_lu(samples, candidate.model(), rel);
+  }
+  BandError out = assembled(samples, rel, with.band);
+  out.grid_samples = plan.grid;
+  out.pole_samples = plan.poles;
+  out.refinement_samples = refinement_count;
   return out;
 }
 
@@ -582,10 +548,9 @@ BandError BandErrorEstimator::assemble(const ReducedModel& reduced, std::vector<
                                        bool dense_peaks) {
   const Index before = m_full.size();
   detail::CandidateResponse candidate(reduced);
-  BandError out =
-      detail::assemble_band_error(candidate, std::move(f_hz), full_source(),
-                                  detail::SamplingPlan{grid, pole_count, refine, dense_peaks},
-                                  m_options, m_band, m_scale2, m_scaleF, m_full.threads());
+  BandError out = detail::assemble_band_error(
+      candidate, std::move(f_hz), detail::SamplingPlan{grid, pole_count, refine, dense_peaks},
+      {full_source(), m_options, m_band, m_scale2, m_scaleF, m_full.threads()});
   out.checked_samples = static_cast<Index>(out.f_hz.size());
   out.new_full_solves = m_full.size() - before;
   return out;
@@ -707,8 +672,8 @@ BandError BandErrorEstimator::verify_near(const ReducedModel& reduced,
   detail::CandidateResponse candidate(reduced);
   const auto near_grid = static_cast<Index>(m_grid.size());
   const BandError departure = detail::assemble_band_error(
-      candidate, std::move(near_f), source, detail::SamplingPlan{near_grid, 0, true, false},
-      m_options, m_band, 0.0, 0.0, m_full.threads());
+      candidate, std::move(near_f), detail::SamplingPlan{near_grid, 0, true, false},
+      {source, m_options, m_band, 0.0, 0.0, m_full.threads()});
   const double settled = (tolerance - std::max(neighbour_error, 0.0)) / (1.0 + neighbour_error);
   std::vector<double> solve;
   for (double fp :

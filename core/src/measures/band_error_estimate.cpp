@@ -286,10 +286,10 @@ std::vector<double> EstimateEngine::sample_set(CandidateResponse& reduced, Index
 
 BandError EstimateEngine::assemble(CandidateResponse& reduced, std::vector<double> f_hz, Index grid,
                                    Index poles, bool refine, bool dense_peaks) {
-  BandError e = assemble_band_error(
-      reduced, std::move(f_hz), [this](const std::vector<double>& f) { return values(f); },
-      SamplingPlan{grid, poles, refine, dense_peaks}, m_options, m_band, m_scale2, m_scaleF,
-      m_full.threads());
+  const ReferenceSource source = [this](const std::vector<double>& f) { return values(f); };
+  BandError e =
+      assemble_band_error(reduced, std::move(f_hz), SamplingPlan{grid, poles, refine, dense_peaks},
+                          {source, m_options, m_band, m_scale2, m_scaleF, m_full.threads()});
   e.reference_order = m_reference.order();
   return e;
 }

@@ -57,13 +57,22 @@ class CandidateResponse {
   std::optional<ComplexVector> m_poles;
 };
 
-/// Compares `reduced` with `source` at f_hz (sorted and made unique here), refines as planned and
+/// What a candidate is compared with, and how: the reference side, the estimator's options and
+/// band, the scale of "H vanishes" and the threads of the sampling.
+struct Comparison {
+  ReferenceSource source;
+  const BandErrorOptions& options;
+  const Band& band;
+  double scale2 = 0.0;  ///< the largest ||H||_2 of the band (zero_threshold is relative to it)
+  double scaleF = 0.0;  ///< the largest ||H||_F of the band
+  int threads = 0;      ///< of the sampling (<= 0: OpenMP's default)
+};
+
+/// Compares `candidate` with `with.source` at f_hz (sorted and made unique here), refines the
+/// largest local maxima and re-checks the largest errors by a dense LU as `plan` says, and
 /// assembles the BandError (sup over all samples; the estimate fields are left to the caller).
-/// scale2 / scaleF: the largest ||H||_2 / ||H||_F of the band, the scale of "H vanishes".
-BandError assemble_band_error(CandidateResponse& reduced, std::vector<double> f_hz,
-                              const ReferenceSource& source, const SamplingPlan& plan,
-                              const BandErrorOptions& options, const Band& band, double scale2,
-                              double scaleF, int threads);
+BandError assemble_band_error(CandidateResponse& candidate, std::vector<double> f_hz,
+                              const SamplingPlan& plan, const Comparison& with);
 
 /// Frequencies Im(p) / 2 pi in the band of the poles p with damping ratio >= 1e-8, least damped
 /// first, at most `max` of them, with their damping ratios.
