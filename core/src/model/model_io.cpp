@@ -479,6 +479,15 @@ void write_reduction(const fs::path& dir, const ReducedModel& model, const Matri
   });
 }
 
+void write_mat_file(const fs::path& path, const std::vector<NamedMatrix>& matrices,
+                    const std::string& header) {
+  write_named_file_atomically(path, [&](const fs::path& tmp) {
+    detail::MatWriter out(tmp, path, header.c_str());
+    for (const NamedMatrix& m : matrices) out.write(m.name, m.value);
+    out.close();
+  });
+}
+
 ProjectionBases read_projection_bases(const fs::path& run_dir) {
   std::error_code ec;
   if (const fs::path V = find_matrix_market_file(run_dir, "V"); !V.empty()) {
