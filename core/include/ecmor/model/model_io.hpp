@@ -142,6 +142,13 @@ struct ModelSummary {
   Index size = 0, inputs = 0, outputs = 0;
   bool velocity_output = false;
   std::vector<MatrixSummary> matrices;
+  /// Descriptor models only: n of the second-order form x = [q; q'] that second_order_form()
+  /// recognises (model.hpp), 0 when it finds none.
+  Index second_order_size = 0;
+  /// ... and whether that form's M, D, K are all symmetric (relative asymmetry <= 1e-10, the
+  /// threshold of `definiteness`), which the krylov plugin's `structure: auto` needs (with M
+  /// positive definite) to reduce it as a second-order model.
+  bool second_order_symmetric = false;
 };
 /// Matrices listed: M, D, K, B, C[, Cv] (second order) or E, A, B, C (descriptor).
 ECMOR_API ModelSummary summarize(const Model& model);
