@@ -28,6 +28,7 @@
 #include "ecmor/model/matrix_market.hpp"
 #include "lattice.hpp"
 #include "solid.hpp"
+#include "solid_geometry.hpp"
 #include "triple_chain.hpp"
 
 namespace {

@@ -45,7 +45,6 @@
 /// default 6 outputs observe them. Cv is empty.
 
 #include "ecmor/base/types.hpp"
-#include "ecmor/body/fe_geometry.hpp"
 #include "ecmor/model/model.hpp"
 
 namespace ecmor::bench {
@@ -116,12 +115,5 @@ struct SolidOptions {
 /// seconds for N = 1e6. M stores only the diagonal of its 3x3 node blocks (m_pq I).
 /// \throws ConfigError from options.validate().
 SecondOrderModel solid(const SolidOptions& options);
-
-/// The mesh of solid(options) as nodes.csv/dofs.csv data (fe_geometry.hpp), for the mass
-/// invariants of the body (docs/multibody.md): every node of the box, clamped ones included, with
-/// id 1 + i + (nx + 1)(j + (ny + 1) k) at (i lx/nx, j ly/ny, k lz/nz); the DOF rows of the
-/// numbering in the file comment (directions 1..3). The ids do not depend on `clamped`, so the
-/// free box is the mass model of the clamped one. \throws ConfigError from options.validate().
-FeGeometry solid_geometry(const SolidOptions& options);
 
 }  // namespace ecmor::bench

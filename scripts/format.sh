@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Formats ecmor's C++ sources with clang-format 14 (Debian 12) and the repository's .clang-format
-# (Google base, 100 columns): the files git tracks under core/, strategies/, plugins/, apps/,
-# tests/, bench/, fuzz/ and examples/.
+# (Google base, 100 columns): the files git tracks under core/, interop/, strategies/, plugins/,
+# apps/, python/, tests/, bench/, fuzz/ and examples/.
 # Usage: scripts/format.sh          reformat in place
 #        scripts/format.sh --check  change nothing; list the files that differ, exit 1 if any
 # The check runs as the test `format_check` (label unit); the build target `format` applies it.
@@ -14,7 +14,7 @@ if ! command -v "$tool" >/dev/null 2>&1; then
   echo "format: $tool not found (bash scripts/setup.sh installs clang-format-14)" >&2
   exit 2
 fi
-folders=(core strategies plugins apps python tests bench fuzz examples)
+folders=(core interop strategies plugins apps python tests bench fuzz examples)
 if git rev-parse --is-inside-work-tree >/dev/null 2>&1; then
   specs=()  # git pathspecs (quoted: the shell must not expand them)
   for d in "${folders[@]}"; do specs+=("$d/*.cpp" "$d/*.hpp"); done

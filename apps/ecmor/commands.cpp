@@ -13,10 +13,9 @@
 #include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/threads.hpp"
-#include "ecmor/linalg/eigensolver.hpp"
 #include "ecmor/linalg/parallel.hpp"
-#include "ecmor/linalg/rigid_body.hpp"
-#include "ecmor/linalg/spectrum_slicer.hpp"
+#include "ecmor/linalg/shifted_solver.hpp"
+#include "ecmor/linalg/spectrum_summary.hpp"
 #include "ecmor/model/model.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/plugin/registry.hpp"
@@ -272,32 +271,23 @@ int plugins(const CommonOptions& common) {
 
 namespace {
 
-/// The lowest `nev` undamped eigenfrequencies sqrt(lambda)/2pi of K phi = lambda M phi, by the
-/// modal reducer's certified spectrum slicing, with its rigid-body modes (rigid_body.hpp) marked.
-void print_undamped_eigenfrequencies(const Model& model, const SecondOrderModel& so,
-                                     ShiftedSolver& solver, Index nev) {
-  if (relative_asymmetry(so.K) > 1e-12 || relative_asymmetry(so.M) > 1e-12) {
-    fmt::print(
-        "eigenfrequencies not computed: K and M must be symmetric for the undamped "
-        "eigenproblem\n");
-    return;
+/// The modes spectrum_summary() found, one line each.
+void print_spectrum(const SpectrumSummary& s) {
+  if (s.undamped) {
+    fmt::print("{}\n", s.rigid_body);
+    fmt::print("lowest {} undamped eigenfrequencies [Hz]:\n", s.modes.size());
+  } else {
+    fmt::print("{} eigenvalues of (A, E) nearest 0: |lambda|/2pi [Hz], damping ratio:\n",
+               s.modes.size());
   }
-  const RigidBodyModes rigid = rigid_body_modes(model, solver);
-  fmt::print("{}\n", rigid.describe());
-  SliceOptions options;
-  options.batch_size = std::max<Index>(nev, 20);
-  options.caller = "ecmor info";
-  SymmetricSlicer slicer(so.K, so.M, solver, pencil_factorizer(solver, true), true, options, 0.0,
-                         rigid);
-  while (slicer.known() < nev && !slicer.complete()) slicer.next_batch();
-  std::vector<double> lambda;
-  for (Index j = 0; j < slicer.known(); ++j) lambda.push_back(slicer.lambda(j));
-  std::sort(lambda.begin(), lambda.end());
-  lambda.resize(std::min<std::size_t>(lambda.size(), static_cast<std::size_t>(nev)));
-  fmt::print("lowest {} undamped eigenfrequencies [Hz]:\n", lambda.size());
-  for (std::size_t i = 0; i < lambda.size(); ++i) {
-    fmt::print("  {:>4}  {:.6e}{}\n", i + 1, slicer.frequency(lambda[i]),
-               slicer.is_rigid(lambda[i]) ? "  (rigid-body mode)" : "");
+  for (std::size_t i = 0; i < s.modes.size(); ++i) {
+    const SpectrumMode& m = s.modes[i];
+    if (m.damping_ratio) {
+      fmt::print("  {:>4}  {:.6e}  {:+.3e}\n", i + 1, m.frequency_hz, *m.damping_ratio);
+    } else {
+      fmt::print("  {:>4}  {:.6e}{}\n", i + 1, m.frequency_hz,
+                 m.rigid ? "  (rigid-body mode)" : "");
+    }
   }
 }
 
@@ -328,43 +318,21 @@ int info(const std::filesystem::path& model_path, int eigenfrequencies, const Co
       fmt::print("  {:<4} {:>12} {:>12}  {:>12.2e}  {}\n", m.name,
                  fmt::format("{}x{}", m.rows, m.cols), m.nnz, m.relative_asymmetry, m.definiteness);
     }
-    if (const auto* ds = std::get_if<DescriptorModel>(&model)) {
+    if (s.second_order_size > 0) {
       // Worth knowing before choosing a reducer: such a model can be reduced with its structure
       // (and stability) preserved, see the krylov plugin's `structure` key.
-      if (const auto so = second_order_form(*ds)) {
-        const bool symmetric = relative_asymmetry(so->M) <= 1e-10 &&
-                               relative_asymmetry(so->D) <= 1e-10 &&
-                               relative_asymmetry(so->K) <= 1e-10;
-        fmt::print(
-            "  second-order structure: x = [q; q'], M q'' + D q' + K q = B u with n = {}; "
-            "M, D, K {}\n",
-            so->size(),
-            symmetric ? "symmetric (krylov reduces it as second order: structure: auto)"
-                      : "not all symmetric (krylov keeps the first-order path)");
-      }
+      fmt::print(
+          "  second-order structure: x = [q; q'], M q'' + D q' + K q = B u with n = {}; "
+          "M, D, K {}\n",
+          s.second_order_size,
+          s.second_order_symmetric
+              ? "symmetric (krylov reduces it as second order: structure: auto)"
+              : "not all symmetric (krylov keeps the first-order path)");
     }
     if (eigenfrequencies <= 0) return 0;
-    const Index n = size_of(model);
-    const Index nev = std::min<Index>(eigenfrequencies, std::max<Index>(1, n - 2));
     auto solver = make_shifted_solver(model);
-    EigenOptions opt;
-    opt.nev = nev;
     try {
-      if (const auto* so = std::get_if<SecondOrderModel>(&model)) {
-        print_undamped_eigenfrequencies(model, *so, *solver, nev);
-      } else {
-        const auto& ds = std::get<DescriptorModel>(model);
-        const std::vector<Complex> w{-1.0, 0.0};  // A - 0 E
-        const auto f = solver->factorize_combination(w);
-        const GeneralEigenResult r = general_shift_invert(*f, ds.E, 0.0, opt);
-        fmt::print("{} eigenvalues of (A, E) nearest 0: |lambda|/2pi [Hz], damping ratio:\n",
-                   r.eigenvalues.size());
-        for (Index i = 0; i < r.eigenvalues.size(); ++i) {
-          const Complex l = r.eigenvalues(i);
-          fmt::print("  {:>4}  {:.6e}  {:+.3e}\n", i + 1, std::abs(l) / kTwoPi,
-                     -l.real() / std::abs(l));
-        }
-      }
+      print_spectrum(spectrum_summary(model, *solver, eigenfrequencies));
     } catch (const Error& e) {
       fmt::print("eigenfrequencies not computed: {}\n", e.what());
     }

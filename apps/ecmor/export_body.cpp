@@ -9,7 +9,7 @@
 
 #include "commands.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/body/body_export.hpp"
+#include "ecmor/interop/body_export.hpp"
 #include "ecmor/model/matrix_market.hpp"
 #include "ecmor/model/model_io.hpp"
 

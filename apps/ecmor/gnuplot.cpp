@@ -9,7 +9,7 @@
 #include <fstream>
 
 #include "ecmor/base/atomic_file.hpp"
-#include "ecmor/base/subprocess.hpp"
+#include "ecmor/interop/subprocess.hpp"
 
 namespace fs = std::filesystem;
 

@@ -3,7 +3,7 @@
 #include <fmt/format.h>
 
 #include "commands.hpp"
-#include "ecmor/body/calculix.hpp"
+#include "ecmor/interop/calculix.hpp"
 
 namespace ecmor::app {
 

@@ -16,8 +16,8 @@
 
 #include "arrays.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/body/body_export.hpp"
-#include "ecmor/body/fe_geometry.hpp"
+#include "ecmor/interop/body_export.hpp"
+#include "ecmor/interop/fe_geometry.hpp"
 #include "ecmor/measures/band_error.hpp"
 #include "ecmor/model/model_io.hpp"
 #include "ecmor/plugin/registry.hpp"

@@ -467,6 +467,29 @@ TEST(MatOutput, ReducedModelAndBasesRoundTripBitwise) {
   EXPECT_TRUE(bitwise_equal(read_reduced_model(dir.path()), ReducedModel(rd)));
 }
 
+// write_mat_file (model_io.hpp), the writer the interop library's .mat body uses: the variables in
+// the given order, bit for bit; a non-finite entry names the variable and leaves no file behind.
+TEST(MatOutput, NamedMatricesRoundTripInOrderAndNonFiniteOnesAreNamed) {
+  TempDir dir{"ecmor_test_mat"};
+  const fs::path mat = dir / "named.mat";
+  const Matrix a = Matrix::Random(3, 4), b = Matrix::Constant(1, 1, 1.0 / 3.0);
+  write_mat_file(mat, {{"zeta", a}, {"alpha", b}, {"empty", Matrix(0, 2)}}, "test header");
+  EXPECT_EQ(test::mat_variable_names(mat), (std::vector<std::string>{"zeta", "alpha", "empty"}));
+  EXPECT_TRUE(bitwise_equal(test::mat_read_dense(mat, "zeta"), a));
+  EXPECT_TRUE(bitwise_equal(test::mat_read_dense(mat, "alpha"), b));
+  EXPECT_EQ(test::mat_read_dense(mat, "empty").cols(), 2);
+
+  Matrix bad = Matrix::Zero(2, 2);
+  bad(1, 0) = std::numeric_limits<double>::quiet_NaN();
+  const fs::path other = dir / "other.mat";
+  const std::string msg = message_of<NumericalError>([&] {
+    write_mat_file(other, {{"ok", a}, {"bad", bad}}, "x");
+  });
+  EXPECT_NE(msg.find("variable bad"), std::string::npos) << msg;
+  EXPECT_NE(msg.find(other.string()), std::string::npos) << msg;
+  EXPECT_FALSE(fs::exists(other));
+}
+
 TEST(MatOutput, FormatsReplaceEachOther) {
   TempDir dir{"ecmor_test_mat"};
   const ReducedDescriptorModel rd{Matrix::Identity(2, 2), -Matrix::Identity(2, 2),

@@ -243,5 +243,24 @@ TEST(SecondOrderForm, ShippedFirstOrderModels) {
   }
 }
 
+// summarize() (model_io.hpp) reports the structure `ecmor info` prints: n of the second-order
+// form, and whether its M, D, K are all symmetric (the condition krylov's structure: auto needs).
+TEST(SecondOrderForm, SummaryReportsTheStructureAndItsSymmetry) {
+  DescriptorModel fo = small_model();
+  ModelSummary s = summarize(Model(fo));
+  EXPECT_EQ(s.second_order_size, 3);
+  EXPECT_TRUE(s.second_order_symmetric);
+  fo.A.coeffRef(4, 0) += 0.5;  // -K(1, 0) only: K is no longer symmetric, the form stays
+  s = summarize(Model(fo));
+  EXPECT_EQ(s.second_order_size, 3);
+  EXPECT_FALSE(s.second_order_symmetric);
+  fo.A.coeffRef(0, 0) = 1.0;  // A11 != 0: no second-order form
+  s = summarize(Model(fo));
+  EXPECT_EQ(s.second_order_size, 0);
+  EXPECT_FALSE(s.second_order_symmetric);
+  // A second-order model is what it is: the fields describe descriptor models only.
+  EXPECT_EQ(summarize(Model(*second_order_form(small_model()))).second_order_size, 0);
+}
+
 }  // namespace
 }  // namespace ecmor

@@ -19,8 +19,8 @@
 
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/body/calculix.hpp"
-#include "ecmor/body/fe_geometry.hpp"
+#include "ecmor/interop/calculix.hpp"
+#include "ecmor/interop/fe_geometry.hpp"
 #include "ecmor/linalg/eigensolver.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
 #include "ecmor/model/model_io.hpp"

@@ -1,7 +1,7 @@
 // End to end: a clamped steel bar (bench/solid.hpp) with nodes.csv/dofs.csv -> `ecmor reduce`
 // (modal) -> `ecmor export-body RUN --mass-model FREE` -> read_sid. The body read back has the
 // bar's mass rho lx ly lz, centre l / 2 and inertia about the origin (derived in the test as in
-// tests/core/test_flexible_body.cpp; exact for the consistent mass of affine hexahedra up to
+// tests/interop/test_flexible_body.cpp; exact for the consistent mass of affine hexahedra up to
 // rounding), the ROM's Mr and Kr as Me and Ke, and the input/output nodes as its frame. Without
 // the mass model the clamped face's mass is missing and the command says so; a changed model
 // and a model without nodes are refused by name, and so is a run of a model read from a .mat file.
@@ -17,10 +17,11 @@
 #include <vector>
 
 #include "../../bench/solid.hpp"
+#include "../../bench/solid_geometry.hpp"
 #include "common/mat_test_file.hpp"
 #include "common/run_ecmor.hpp"
-#include "ecmor/body/fe_geometry.hpp"
-#include "ecmor/body/sid.hpp"
+#include "ecmor/interop/fe_geometry.hpp"
+#include "ecmor/interop/sid.hpp"
 #include "ecmor/model/matrix_market.hpp"
 #include "ecmor/model/model_io.hpp"
 

@@ -262,6 +262,9 @@ SparseMatrix sparse_identity(Index n) {
 Index dense_nnz(const Matrix& A) { return (A.array() != 0.0).count(); }
 
 constexpr Index kMaxCholeskySize = 200000;
+// A matrix this close to symmetric is treated as symmetric by the summary (is_positive_definite's
+// default threshold).
+constexpr double kSymmetryTol = 1e-10;
 
 MatrixSummary summarize_sparse(const std::string& name, const SparseMatrix& A, bool check,
                                bool negate) {
@@ -272,7 +275,6 @@ MatrixSummary summarize_sparse(const std::string& name, const SparseMatrix& A, b
   s.nnz = A.nonZeros();
   s.relative_asymmetry = relative_asymmetry(A);
   s.definiteness = "not checked";
-  constexpr double kSymmetryTol = 1e-10;
   if (check && A.rows() == A.cols() && A.rows() <= kMaxCholeskySize &&
       s.relative_asymmetry <= kSymmetryTol) {
     const bool pd = negate ? is_positive_definite(SparseMatrix(-A), kSymmetryTol)
@@ -479,6 +481,15 @@ void write_reduction(const fs::path& dir, const ReducedModel& model, const Matri
   });
 }
 
+void write_mat_file(const fs::path& path, const std::vector<NamedMatrix>& matrices,
+                    const std::string& header) {
+  write_named_file_atomically(path, [&](const fs::path& tmp) {
+    detail::MatWriter out(tmp, path, header.c_str());
+    for (const NamedMatrix& m : matrices) out.write(m.name, m.value);
+    out.close();
+  });
+}
+
 ProjectionBases read_projection_bases(const fs::path& run_dir) {
   std::error_code ec;
   if (const fs::path V = find_matrix_market_file(run_dir, "V"); !V.empty()) {
@@ -538,6 +549,12 @@ ModelSummary summarize(const Model& model) {
     s.matrices.push_back(summarize_sparse("A", de.A, true, true));
     s.matrices.push_back(summarize_dense("B", de.B));
     s.matrices.push_back(summarize_dense("C", de.C));
+    if (const auto form = second_order_form(de)) {
+      s.second_order_size = form->size();
+      s.second_order_symmetric = relative_asymmetry(form->M) <= kSymmetryTol &&
+                                 relative_asymmetry(form->D) <= kSymmetryTol &&
+                                 relative_asymmetry(form->K) <= kSymmetryTol;
+    }
   }
   return s;
 }

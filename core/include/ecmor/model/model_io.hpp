@@ -76,6 +76,21 @@ ECMOR_API Model load_model(const std::filesystem::path& path);
 /// \throws IoError naming the file that cannot be written; NumericalError for a non-finite entry.
 ECMOR_API void write_reduced_model(const std::filesystem::path& dir, const ReducedModel& model);
 
+/// One variable of write_mat_file(): its name in the file and its value.
+struct NamedMatrix {
+  std::string name;
+  Matrix value;
+};
+
+/// Writes `matrices`, in this order, as dense double variables of a new MAT v5 file at `path`,
+/// atomically (a temporary file renamed over `path`); `header` is the file's descriptive text
+/// (MATLAB shows it with `whos -file`). For the tools that exchange other .mat files than models
+/// (the reduced elastic body of ecmor/interop/flexible_body.hpp), without matio in their build.
+/// \throws NumericalError for a non-finite entry (naming the variable), IoError naming `path` when
+///         it cannot be written.
+ECMOR_API void write_mat_file(const std::filesystem::path& path,
+                              const std::vector<NamedMatrix>& matrices, const std::string& header);
+
 /// Which files hold the reduced model and the bases in a run directory (YAML `output.format`).
 ///   Mtx:  the Matrix Market files of write_reduced_model, V.mtx and W.mtx (the default);
 ///   Mat:  one MAT v5 file, kReducedModelMatFile, instead;
@@ -127,6 +142,13 @@ struct ModelSummary {
   Index size = 0, inputs = 0, outputs = 0;
   bool velocity_output = false;
   std::vector<MatrixSummary> matrices;
+  /// Descriptor models only: n of the second-order form x = [q; q'] that second_order_form()
+  /// recognises (model.hpp), 0 when it finds none.
+  Index second_order_size = 0;
+  /// ... and whether that form's M, D, K are all symmetric (relative asymmetry <= 1e-10, the
+  /// threshold of `definiteness`), which the krylov plugin's `structure: auto` needs (with M
+  /// positive definite) to reduce it as a second-order model.
+  bool second_order_symmetric = false;
 };
 /// Matrices listed: M, D, K, B, C[, Cv] (second order) or E, A, B, C (descriptor).
 ECMOR_API ModelSummary summarize(const Model& model);

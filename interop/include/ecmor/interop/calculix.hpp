@@ -21,8 +21,8 @@
 #include <vector>
 
 #include "ecmor/base/types.hpp"
-#include "ecmor/body/fe_geometry.hpp"
-#include "ecmor/export.hpp"
+#include "ecmor/interop/export.hpp"
+#include "ecmor/interop/fe_geometry.hpp"
 
 namespace ecmor {
 
@@ -57,7 +57,7 @@ struct CalculixDeck {
 ///         first > last, *NODE, SYSTEM=..., *NSET without NSET=, *INCLUDE without INPUT= or of a
 ///         missing file, an *INCLUDE cycle, a *STEP without *END STEP, INPUT= on any other card
 ///         (ccx runs the deck elsewhere), a line longer than ccx's 132 columns.
-ECMOR_API CalculixDeck read_calculix_deck(const std::filesystem::path& path);
+ECMOR_INTEROP_API CalculixDeck read_calculix_deck(const std::filesystem::path& path);
 
 /// K and M as ccx stored them, expanded to full symmetric matrices (exact zeros dropped), and the
 /// meaning of each row.
@@ -73,9 +73,9 @@ struct CalculixMatrices {
 ///         `node.direction`), an index outside 1..N, an entry below the diagonal (row > column)
 ///         or out of ccx's column-by-column order (also a repeated entry), a non-finite value, a
 ///         thermal degree of freedom (direction 0) or a direction > 6, an empty .dof file.
-ECMOR_API CalculixMatrices read_calculix_matrices(const std::filesystem::path& sti,
-                                                  const std::filesystem::path& mas,
-                                                  const std::filesystem::path& dof);
+ECMOR_INTEROP_API CalculixMatrices read_calculix_matrices(const std::filesystem::path& sti,
+                                                          const std::filesystem::path& mas,
+                                                          const std::filesystem::path& dof);
 
 /// One group of inputs or outputs: a node set and the directions (one column of B, or one row of
 /// C, per direction).
@@ -115,9 +115,10 @@ struct CalculixImportConfig {
 /// \throws ConfigError naming file, line and key: unknown keys (with a suggestion), missing
 ///         required keys, an empty inputs/outputs list, a direction outside 1..6 or given twice,
 ///         a negative or non-finite alpha or beta.
-ECMOR_API CalculixImportConfig parse_calculix_import_config(const std::string& yaml,
-                                                            const std::string& name);
-ECMOR_API CalculixImportConfig load_calculix_import_config(const std::filesystem::path& path);
+ECMOR_INTEROP_API CalculixImportConfig parse_calculix_import_config(const std::string& yaml,
+                                                                    const std::string& name);
+ECMOR_INTEROP_API CalculixImportConfig
+load_calculix_import_config(const std::filesystem::path& path);
 
 /// What import_calculix() did.
 struct CalculixImportSummary {
@@ -138,6 +139,6 @@ struct CalculixImportSummary {
 ///         output set without a row for that direction: fixed by *BOUNDARY or not in any
 ///         element), IoError (ccx cannot be started, fails, or leaves no matrices: its *ERROR
 ///         lines and the path of its log are in the message; outputs that cannot be written).
-ECMOR_API CalculixImportSummary import_calculix(const CalculixImportConfig& config);
+ECMOR_INTEROP_API CalculixImportSummary import_calculix(const CalculixImportConfig& config);
 
 }  // namespace ecmor

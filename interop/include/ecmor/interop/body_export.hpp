@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/body/flexible_body.hpp"
-#include "ecmor/body/sid.hpp"
-#include "ecmor/export.hpp"
+#include "ecmor/interop/export.hpp"
+#include "ecmor/interop/flexible_body.hpp"
+#include "ecmor/interop/sid.hpp"
 #include "ecmor/model/model.hpp"
 
 namespace ecmor {
@@ -49,7 +49,7 @@ struct BodyExport {
 /// \throws InputError naming `origin` and the rule broken: bases of another size than the model,
 ///         W' A V not the run's reduced matrices, no rigid-body analysis of K, and the cases of
 ///         compute_body_invariants(), elastic_bases() and to_sid().
-ECMOR_API BodyExport export_body(const BodyExportInput& input);
+ECMOR_INTEROP_API BodyExport export_body(const BodyExportInput& input);
 
 /// The files of an export: the SID file at `sid_path` and the JSON and .mat files beside it (same
 /// stem, extensions .json and .mat).
@@ -57,6 +57,7 @@ struct BodyFiles {
   std::filesystem::path sid, json, mat;
 };
 /// Writes them, each atomically. \throws IoError.
-ECMOR_API BodyFiles write_body_files(const std::filesystem::path& sid_path, const BodyExport& body);
+ECMOR_INTEROP_API BodyFiles write_body_files(const std::filesystem::path& sid_path,
+                                             const BodyExport& body);
 
 }  // namespace ecmor

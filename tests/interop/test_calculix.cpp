@@ -9,8 +9,8 @@
 #include "common/reject_case.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/body/calculix.hpp"
-#include "ecmor/body/fe_geometry.hpp"
+#include "ecmor/interop/calculix.hpp"
+#include "ecmor/interop/fe_geometry.hpp"
 #include "ecmor/model/matrix_market.hpp"
 #include "ecmor/model/model_io.hpp"
 

@@ -8,7 +8,7 @@
 
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/base/subprocess.hpp"
+#include "ecmor/interop/subprocess.hpp"
 
 namespace ecmor {
 namespace {

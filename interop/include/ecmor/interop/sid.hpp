@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "ecmor/base/types.hpp"
-#include "ecmor/export.hpp"
+#include "ecmor/interop/export.hpp"
 
 namespace ecmor {
 
@@ -68,16 +68,16 @@ struct SidBody {
 };
 
 /// The structure code of a block's content: 0 all zero, 1 diagonal, 2 symmetric (square), 3 full.
-ECMOR_API int sid_structure(const SidMatrix& m);
+ECMOR_INTEROP_API int sid_structure(const SidMatrix& m);
 
 /// The SID text of `body` (structures derived from the content; zero entries omitted; 17
 /// significant digits, so that read_sid() gives the same numbers back bit for bit).
 /// \throws InputError when a block's size does not fit nq (the sizes in the SidBody comments) or
 ///         an entry is not finite.
-ECMOR_API std::string format_sid(const SidBody& body);
+ECMOR_INTEROP_API std::string format_sid(const SidBody& body);
 
 /// Writes format_sid(body) to `path` atomically. \throws InputError (format_sid), IoError.
-ECMOR_API void write_sid(const std::filesystem::path& path, const SidBody& body);
+ECMOR_INTEROP_API void write_sid(const std::filesystem::path& path, const SidBody& body);
 
 /// Reads a SID file in the layout above (the first line optional; lines may be indented; tabs
 /// count as blanks). \throws InputError "FILE: line L: RULE" for: a keyword other than the one
@@ -87,9 +87,9 @@ ECMOR_API void write_sid(const std::filesystem::path& path, const SidBody& body)
 /// different values at (i, j) and (j, i) of a symmetric block), m1 entries in an order-0 block,
 /// nq or a block's size not fitting nelastq, ielastq numbered out of order, the first line's
 /// counts not matching the file, text after `end part`, and an early end of file.
-ECMOR_API SidBody read_sid(const std::filesystem::path& path);
+ECMOR_INTEROP_API SidBody read_sid(const std::filesystem::path& path);
 
 /// The same parser on text in memory; `origin` names it in messages.
-ECMOR_API SidBody parse_sid(const std::string& text, const std::string& origin);
+ECMOR_INTEROP_API SidBody parse_sid(const std::string& text, const std::string& origin);
 
 }  // namespace ecmor

@@ -9,14 +9,14 @@
 #include <set>
 #include <unordered_map>
 
-#include "base/text_fields.hpp"
 #include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/parameters.hpp"
-#include "ecmor/base/subprocess.hpp"
-#include "ecmor/body/calculix.hpp"
+#include "ecmor/interop/calculix.hpp"
+#include "ecmor/interop/subprocess.hpp"
 #include "ecmor/model/matrix_market.hpp"
 #include "ecmor/model/model.hpp"
+#include "text_fields.hpp"
 
 namespace ecmor {
 namespace {

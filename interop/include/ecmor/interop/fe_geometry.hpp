@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "ecmor/base/types.hpp"
-#include "ecmor/export.hpp"
+#include "ecmor/interop/export.hpp"
 
 namespace ecmor {
 
@@ -43,19 +43,21 @@ struct FeGeometry {
 /// `geometry` is taken as is and not sorted); directions 1..6; every dof's node among the nodes;
 /// each (node, direction) pair at most once. `origin` prefixes the messages. \throws InputError
 /// naming the row or node and the rule broken.
-ECMOR_API void validate(const FeGeometry& geometry, Index model_size, const std::string& origin);
+ECMOR_INTEROP_API void validate(const FeGeometry& geometry, Index model_size,
+                                const std::string& origin);
 
 /// Reads DIR/nodes.csv and DIR/dofs.csv and validates them against a model of size N =
 /// `model_size` (the rules of validate()). Returns nothing when neither file is there.
 /// \throws InputError "DIR/dofs.csv: line 7: row 3 given twice (first at line 5)", a malformed
 ///         line (wrong header, field count, a number that does not parse), one file without the
 ///         other, a rule of validate() broken (with the line of the offending entry).
-ECMOR_API std::optional<FeGeometry> read_fe_geometry(const std::filesystem::path& dir,
-                                                     Index model_size);
+ECMOR_INTEROP_API std::optional<FeGeometry> read_fe_geometry(const std::filesystem::path& dir,
+                                                             Index model_size);
 
 /// Writes DIR/nodes.csv and DIR/dofs.csv (atomically; coordinates in the shortest form that reads
 /// back bitwise). Validates first: nothing is written for invalid geometry.
 /// \throws InputError (validate()), IoError naming a file that cannot be written.
-ECMOR_API void write_fe_geometry(const std::filesystem::path& dir, const FeGeometry& geometry);
+ECMOR_INTEROP_API void write_fe_geometry(const std::filesystem::path& dir,
+                                         const FeGeometry& geometry);
 
 }  // namespace ecmor

@@ -1,6 +1,6 @@
 // sid.cpp: SID files (sid.hpp): the writer and a strict reader of the same layout. The reader
 // checks every rule where it meets the line, so that a message points at the offending line.
-#include "ecmor/body/sid.hpp"
+#include "ecmor/interop/sid.hpp"
 
 #include <fmt/format.h>
 
@@ -10,9 +10,9 @@
 #include <optional>
 #include <sstream>
 
-#include "base/text_fields.hpp"
 #include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
+#include "text_fields.hpp"
 
 namespace ecmor {
 namespace {

@@ -1,8 +1,9 @@
 #pragma once
 // text_fields.hpp: line-oriented text input shared by the small text readers (fe_geometry.cpp,
-// calculix.cpp): whole-file lines with their numbers, trimming, splitting, and numbers that must
-// parse completely. Private to the core's sources. Every failure is an InputError that names the
-// file and the line, so the readers only add the rule.
+// calculix_deck.cpp, calculix_import.cpp, sid.cpp): whole-file lines with their numbers, trimming,
+// splitting, and numbers that must parse completely. Private to the interop library's sources.
+// Every failure is an InputError that names the file and the line, so the readers only add the
+// rule.
 #include <charconv>
 #include <cmath>
 #include <filesystem>

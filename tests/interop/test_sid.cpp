@@ -11,9 +11,10 @@
 #include <string>
 
 #include "../../bench/solid.hpp"
+#include "../../bench/solid_geometry.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/body/flexible_body.hpp"
-#include "ecmor/body/sid.hpp"
+#include "ecmor/interop/flexible_body.hpp"
+#include "ecmor/interop/sid.hpp"
 
 namespace {
 

@@ -8,7 +8,7 @@
 #include "common/reject_case.hpp"
 #include "common/test_support.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/body/fe_geometry.hpp"
+#include "ecmor/interop/fe_geometry.hpp"
 
 namespace ecmor {
 namespace {

@@ -22,9 +22,9 @@
 #include <vector>
 
 #include "ecmor/base/types.hpp"
-#include "ecmor/body/fe_geometry.hpp"
-#include "ecmor/body/sid.hpp"
-#include "ecmor/export.hpp"
+#include "ecmor/interop/export.hpp"
+#include "ecmor/interop/fe_geometry.hpp"
+#include "ecmor/interop/sid.hpp"
 
 namespace ecmor {
 
@@ -99,7 +99,7 @@ struct BodyInvariants {
 /// \throws InputError when the geometry does not fit M (validate()), V or W do not have N rows or
 ///         differ in width, D or K are not N x N, the mass model's geometry lacks a (node,
 ///         direction) of the model, or a mass model's node has other coordinates than the model's.
-ECMOR_API BodyInvariants compute_body_invariants(const BodyModel& body);
+ECMOR_INTEROP_API BodyInvariants compute_body_invariants(const BodyModel& body);
 
 /// The bases of a body whose elastic coordinates exclude the rigid-body motion (elastic_bases()).
 struct ElasticBases {
@@ -131,12 +131,12 @@ struct ElasticBases {
 /// \throws InputError for the cases of compute_body_invariants(); for a V that is rank deficient
 ///         in the mass inner product; when K's null space is not made of rigid motions of the
 ///         geometry (a mechanism, or more zero-energy modes than the geometry's rigid motions).
-ECMOR_API ElasticBases elastic_bases(const BodyModel& body, Index rigid_modes);
+ECMOR_INTEROP_API ElasticBases elastic_bases(const BodyModel& body, Index rigid_modes);
 
 /// The six rigid-body motions of a geometry as columns (N x 6): translations along x, y, z
 /// (1 at the rows of that direction), then rotations about x, y, z (e_a x X at translational rows,
 /// 1 at the rotational rows about a). Rows are those of `geometry.dofs` (1-based row r -> r - 1).
-ECMOR_API Matrix rigid_body_modes(const FeGeometry& geometry);
+ECMOR_INTEROP_API Matrix rigid_body_modes(const FeGeometry& geometry);
 
 /// What to_sid() puts into the file besides the invariants.
 struct SidExportOptions {
@@ -153,22 +153,24 @@ struct SidExportOptions {
 /// (psi, zero for nodes without rotational degrees of freedom) of the columns of V, AP = I +
 /// sum_k psi_k~ q_k. \throws InputError for a frame node the geometry does not have, or
 /// `ielastq` of the wrong length.
-ECMOR_API SidBody to_sid(const BodyInvariants& invariants, const FeGeometry& geometry,
-                         const Matrix& V, const SidExportOptions& options);
+ECMOR_INTEROP_API SidBody to_sid(const BodyInvariants& invariants, const FeGeometry& geometry,
+                                 const Matrix& V, const SidExportOptions& options);
 
 /// Writes the invariants (both the V and the W variants of C_t and C_r), the frame nodes of
 /// `sid`, the reduced matrices and how the body's coordinates relate to the run's (`coordinates`:
 /// free_motions, removed, T) as JSON (docs/multibody.md, "The JSON file"), atomically.
 /// \throws IoError.
-ECMOR_API void write_body_json(const std::filesystem::path& path, const BodyInvariants& invariants,
-                               const SidBody& sid, const ElasticBases& coordinates);
+ECMOR_INTEROP_API void write_body_json(const std::filesystem::path& path,
+                                       const BodyInvariants& invariants, const SidBody& sid,
+                                       const ElasticBases& coordinates);
 
 /// The same data as write_body_json() as a MAT v5 file of dense double variables, atomically
 /// (docs/multibody.md, "The .mat file"). A term linear in the n coordinates is one variable whose
 /// blocks for q_1 .. q_n stand side by side: J1 is 3 x 3n, and reshape(J1, 3, 3, n) gives
 /// J1(:, :, k) in MATLAB. \throws IoError; NumericalError for a non-finite entry.
-ECMOR_API void write_body_mat(const std::filesystem::path& path, const BodyInvariants& invariants,
-                              const SidBody& sid, const ElasticBases& coordinates);
+ECMOR_INTEROP_API void write_body_mat(const std::filesystem::path& path,
+                                      const BodyInvariants& invariants, const SidBody& sid,
+                                      const ElasticBases& coordinates);
 
 /// The 6-component symmetric layout index pairs of J (xx, yy, zz, xy, xz, yz) and of Oe's columns
 /// (xx, yy, zz, xy, yz, xz), FEMBS's orders (docs/multibody.md).

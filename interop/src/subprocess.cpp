@@ -1,6 +1,6 @@
 // subprocess.cpp: fork/exec with the child's failures reported back through a close-on-exec pipe,
 // so that "program not found" is told apart from a program that exits with 127 itself.
-#include "ecmor/base/subprocess.hpp"
+#include "ecmor/interop/subprocess.hpp"
 
 #include <fcntl.h>
 #include <fmt/format.h>

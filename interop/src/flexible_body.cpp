@@ -2,7 +2,7 @@
 // Every invariant is a mass-weighted inner product f' M g of two fields of the finite-element
 // space. Nothing N x N is formed: the work is 3n + 6n + 9 sparse products with M for n elastic
 // coordinates, and dense products of N x n blocks.
-#include "ecmor/body/flexible_body.hpp"
+#include "ecmor/interop/flexible_body.hpp"
 
 #include <fmt/format.h>
 
@@ -14,7 +14,7 @@
 #include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
 #include "ecmor/linalg/rigid_body.hpp"
-#include "model/mat_file.hpp"
+#include "ecmor/model/model_io.hpp"
 
 namespace ecmor {
 namespace {
@@ -519,37 +519,38 @@ void write_body_mat(const std::filesystem::path& path, const BodyInvariants& inv
     phi.middleCols(f * n, n) = p.phi.m0;
     psi.middleCols(f * n, n) = p.psi.m0;
   }
-  write_named_file_atomically(path, [&](const std::filesystem::path& tmp) {
-    detail::MatWriter out(tmp, path, "ecmor reduced elastic body (seed Eq. 5)");
-    out.write("mass", scalar(inv.mass));
-    out.write("mass_by_direction", Eigen::Map<const Matrix>(inv.mass_by_direction.data(), 1, 3));
-    out.write("mc0", inv.mc.a0);
-    out.write("mc1", side_by_side(inv.mc.a1, 3, 1));
-    out.write("J0", inv.J.a0);
-    out.write("J1", side_by_side(inv.J.a1, 3, 3));
-    out.write("Ct_v", inv.Ct_v);
-    out.write("Ct_w", inv.Ct_w);
-    out.write("Cr_v0", inv.Cr_v.a0);
-    out.write("Cr_v1", side_by_side(inv.Cr_v.a1, n, 3));
-    out.write("Cr_w0", inv.Cr_w.a0);
-    out.write("Cr_w1", side_by_side(inv.Cr_w.a1, n, 3));
-    out.write("Gr", side_by_side(inv.Gr, 3, 3));
-    out.write("Ge", side_by_side(inv.Ge, n, 3));
-    out.write("Oe0", inv.Oe.a0);
-    out.write("Oe1", side_by_side(inv.Oe.a1, n, 6));
-    out.write("Me", inv.Me);
-    out.write("De", inv.De);
-    out.write("Ke", inv.Ke);
-    out.write("constrained_dofs", scalar(static_cast<double>(inv.constrained_dofs)));
-    out.write("free_rigid_motions", scalar(static_cast<double>(coordinates.free_motions)));
-    out.write("removed_coordinates", scalar(static_cast<double>(coordinates.removed)));
-    out.write("T", coordinates.T);
-    out.write("frame_ids", ids);
-    out.write("frame_positions", positions);
-    out.write("frame_phi", phi);
-    out.write("frame_psi", psi);
-    out.close();
-  });
+  write_mat_file(
+      path,
+      {
+          {"mass", scalar(inv.mass)},
+          {"mass_by_direction", Eigen::Map<const Matrix>(inv.mass_by_direction.data(), 1, 3)},
+          {"mc0", inv.mc.a0},
+          {"mc1", side_by_side(inv.mc.a1, 3, 1)},
+          {"J0", inv.J.a0},
+          {"J1", side_by_side(inv.J.a1, 3, 3)},
+          {"Ct_v", inv.Ct_v},
+          {"Ct_w", inv.Ct_w},
+          {"Cr_v0", inv.Cr_v.a0},
+          {"Cr_v1", side_by_side(inv.Cr_v.a1, n, 3)},
+          {"Cr_w0", inv.Cr_w.a0},
+          {"Cr_w1", side_by_side(inv.Cr_w.a1, n, 3)},
+          {"Gr", side_by_side(inv.Gr, 3, 3)},
+          {"Ge", side_by_side(inv.Ge, n, 3)},
+          {"Oe0", inv.Oe.a0},
+          {"Oe1", side_by_side(inv.Oe.a1, n, 6)},
+          {"Me", inv.Me},
+          {"De", inv.De},
+          {"Ke", inv.Ke},
+          {"constrained_dofs", scalar(static_cast<double>(inv.constrained_dofs))},
+          {"free_rigid_motions", scalar(static_cast<double>(coordinates.free_motions))},
+          {"removed_coordinates", scalar(static_cast<double>(coordinates.removed))},
+          {"T", coordinates.T},
+          {"frame_ids", ids},
+          {"frame_positions", positions},
+          {"frame_phi", phi},
+          {"frame_psi", psi},
+      },
+      "ecmor reduced elastic body (seed Eq. 5)");
 }
 
 }  // namespace ecmor

@@ -1,6 +1,6 @@
 // fe_geometry.cpp: nodes.csv and dofs.csv of a model directory. The rules are checked once, in
 // check(); reading only adds the line of each entry so that a message points into the file.
-#include "ecmor/body/fe_geometry.hpp"
+#include "ecmor/interop/fe_geometry.hpp"
 
 #include <fmt/format.h>
 
@@ -8,9 +8,9 @@
 #include <ostream>
 #include <unordered_map>
 
-#include "base/text_fields.hpp"
 #include "ecmor/base/atomic_file.hpp"
 #include "ecmor/base/error.hpp"
+#include "text_fields.hpp"
 
 namespace ecmor {
 namespace {

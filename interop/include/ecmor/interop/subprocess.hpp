@@ -7,12 +7,12 @@
 #include <string>
 #include <vector>
 
-#include "ecmor/export.hpp"
+#include "ecmor/interop/export.hpp"
 
 namespace ecmor {
 
 /// How a program run ended.
-struct ECMOR_API ProgramExit {
+struct ECMOR_INTEROP_API ProgramExit {
   bool signalled = false;  ///< killed by a signal (then `code` is the signal number)
   int code = 0;            ///< exit status (0..255), or the signal number
   double seconds = 0.0;    ///< wall time
@@ -28,8 +28,9 @@ struct ECMOR_API ProgramExit {
 /// \throws IoError naming the program and the cause when it cannot be started: not found or not
 ///         executable, `dir` cannot be entered, `log` cannot be opened, fork fails. What the
 ///         program itself does (its exit status) is the caller's to judge.
-ECMOR_API ProgramExit run_program(const std::string& program, const std::vector<std::string>& args,
-                                  const std::filesystem::path& dir,
-                                  const std::filesystem::path& log, bool stdout_to_log);
+ECMOR_INTEROP_API ProgramExit run_program(const std::string& program,
+                                          const std::vector<std::string>& args,
+                                          const std::filesystem::path& dir,
+                                          const std::filesystem::path& log, bool stdout_to_log);
 
 }  // namespace ecmor

@@ -16,8 +16,9 @@
 #include <vector>
 
 #include "../../bench/solid.hpp"
+#include "../../bench/solid_geometry.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/body/flexible_body.hpp"
+#include "ecmor/interop/flexible_body.hpp"
 #include "ecmor/linalg/rigid_body.hpp"
 
 namespace {

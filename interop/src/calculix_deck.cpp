@@ -9,9 +9,9 @@
 #include <unordered_map>
 #include <unordered_set>
 
-#include "base/text_fields.hpp"
 #include "ecmor/base/error.hpp"
-#include "ecmor/body/calculix.hpp"
+#include "ecmor/interop/calculix.hpp"
+#include "text_fields.hpp"
 
 namespace ecmor {
 namespace {

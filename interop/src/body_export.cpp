@@ -1,6 +1,6 @@
 // body_export.cpp: see body_export.hpp. No numerics of its own beyond comparing W' A V with the
 // run's reduced matrices; the invariants and the SID layout are flexible_body.cpp's and sid.cpp's.
-#include "ecmor/body/body_export.hpp"
+#include "ecmor/interop/body_export.hpp"
 
 #include <fmt/format.h>
 
