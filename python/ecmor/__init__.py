@@ -284,8 +284,9 @@ def _plain(x):
     raise TypeError(f"{type(x).__name__} is not a configuration value")
 
 
-_SECTIONS = ("model", "band", "target", "reducer", "strategy", "error", "solver", "backend",
-             "output", "plugins", "check", "compress")
+# The sections a loose keyword option may belong to besides the reducer's and strategy's: the
+# others (model, band, target, output, check) have their own arguments or are given as dicts.
+_LOOSE_SECTIONS = ("error", "solver", "backend")
 
 
 def _route(options, reducer, strategy):
@@ -298,9 +299,13 @@ def _route(options, reducer, strategy):
         for r in reducers:
             if r["name"] == reducer:
                 owners["reducer"] = {p["name"] for p in r["parameters"]}
-    owners["strategy"] = {p["name"] for p in strategies.get(strategy, [])} | {"time_limit_s"}
+    owners["strategy"] = {p["name"] for p in strategies.get(strategy, [])}
     for name, params in sections.items():
-        owners[name] = {p["name"] for p in params}
+        names = {p["name"] for p in params}
+        if name in ("reducer", "strategy"):  # the section's own keys (time_limit_s), not `name`
+            owners[name] = owners.get(name, set()) | (names - {"name"})
+        elif name in _LOOSE_SECTIONS:
+            owners[name] = names
     routed = {}
     for key, value in options.items():
         where = [s for s, names in owners.items() if key in names]
@@ -329,7 +334,7 @@ def _keyword_config(band, tol, norm, reducer, strategy, options):
            "target": {"tolerance": 1e-3 if tol is None else tol}}
     if norm is not None:
         cfg["target"]["norm"] = norm
-    sections = {k: options.pop(k) for k in list(options) if k in _SECTIONS}
+    sections = {k: options.pop(k) for k in list(options) if k in _ecmor.config_keys()}
     if "model" in sections:
         raise Error("ecmor.reduce: the model is the first argument; model= names none")
     strategy_section = dict(strategy) if isinstance(strategy, dict) else {

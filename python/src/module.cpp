@@ -16,6 +16,7 @@
 
 #include "arrays.hpp"
 #include "ecmor/base/error.hpp"
+#include "ecmor/base/options.hpp"
 #include "ecmor/interop/body_export.hpp"
 #include "ecmor/interop/fe_geometry.hpp"
 #include "ecmor/measures/band_error.hpp"
@@ -318,13 +319,7 @@ Reduced run_reduced(const Run& run) {
 }
 
 void run_save(const Run& run, const std::filesystem::path& dir, const std::string& format) {
-  OutputFormat f = OutputFormat::Mtx;
-  if (format == "mat")
-    f = OutputFormat::Mat;
-  else if (format == "both")
-    f = OutputFormat::Both;
-  else if (format != "mtx")
-    throw ConfigError("format = '" + format + "': must be one of mtx, mat, both");
+  const OutputFormat f = value_of(output_format_names(), format, "format");
   py::gil_scoped_release release;
   write_run_outputs(*run.result, dir, f);
 }
@@ -547,6 +542,12 @@ PYBIND11_MODULE(_ecmor, m) {
   m.def("reduced_descriptor", &reduced_descriptor);
   m.def("load", &load);
   m.def("plugins", &plugins);
+  // The configuration's top-level keys: its sections, then plugins and compress.
+  m.def("config_keys", [] {
+    std::vector<std::string> keys = option_section_names();
+    for (const ParameterDoc& d : top_level_options()) keys.push_back(d.name);
+    return keys;
+  });
   m.def("reduce", &reduce);
   m.def("response_full", &response_full);
   m.def("response_reduced", &response_reduced);

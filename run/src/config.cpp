@@ -23,17 +23,18 @@ namespace ecmor {
 
 namespace {
 
-const std::vector<std::string> kSections = {"model",    "band",    "target", "reducer",
-                                            "strategy", "error",   "solver", "backend",
-                                            "output",   "plugins", "check",  "compress"};
-
-// The keys of a portfolio's strategy section that are not options: `members` (a list of
-// mappings) and the run's time_limit_s.
+// The keys of a portfolio's strategy section besides its options: `members` (a list of mappings)
+// and the run-level keys of strategy_specs().
 const std::vector<std::string> kPortfolioStructure = {"name", "members", "time_limit_s"};
 
 // The portfolio strategy's own options (the defaults are RunConfig's).
 const OptionSpecs<RunConfig>& portfolio_specs() {
   static const OptionSpecs<RunConfig> specs({
+      structured<RunConfig>(
+          "members", "list of mapping", "the bundled reducers suited to the model",
+          "the members, tried in order: each `{reducer: {name: ..., <parameters>}, strategy: "
+          "{name: ..., <parameters>}, fallback: true|false}` (strategy default `grow_order`; "
+          "`fallback: true` runs only when no member before it met the target)"),
       option("prune", &RunConfig::portfolio_prune,
              "stop a grow_order member once its order reaches the smallest order that met the "
              "target so far without meeting it (it can no longer win)"),
@@ -53,65 +54,8 @@ const OptionSpecs<RunConfig>& error_specs() {
   using E = BandErrorOptions;
   using C = RunConfig;
   static const OptionSpecs<C> specs = [] {
-    const OptionSpecs<E> estimator({
-        option("grid_points", &E::grid_points, "initial log-spaced frequencies over the band")
-            .range(Range::closed(2, 1e6)),
-        option("pole_samples", &E::pole_samples,
-               "also sample at Im(p)/2π of the reduced poles inside the band (resonances)"),
-        option("max_pole_samples", &E::max_pole_samples,
-               "at most this many pole samples, least damped first")
-            .range(Range::at_least(0)),
-        option("refine_peaks", &E::refine_peaks, "local maxima of the error refined per evaluation")
-            .range(Range::at_least(0)),
-        option("refine_evaluations", &E::refine_evaluations,
-               "golden-section steps per refined peak at most; a peak stops earlier when its "
-               "value has not risen for 6 steps")
-            .range(Range::closed(0, 200)),
-        option("zero_threshold", &E::zero_threshold,
-               "`‖H(f)‖ <= zero_threshold · max_f ‖H‖` counts as \"H vanishes\": relative error "
-               "undefined there, excluded and reported")
-            .range(Range::closed_open(0, 1)),
-        // Mapped here rather than by parse_error_verify (band_error.cpp): the config reader
-        // stays free of the error engine (the fuzz build links the readers alone).
-        choice("verify", &E::verify,
-               {{"dense", ErrorVerify::Dense},
-                {"estimate", ErrorVerify::Estimate},
-                {"auto", ErrorVerify::Auto}},
-               "how the full model's H is obtained: `dense` = a full-model solve (sparse "
-               "factorisation) at every sample; `estimate` = a reference model grown from the "
-               "run's full solves stands in for H, and full solves are made only where the "
-               "estimate peaks, at random and at the band edges; `auto` = `dense` up to "
-               "`dense_max_states`, else `estimate` until its reference model has cost more than "
-               "the dense sampling would (counted in flops, so every run decides alike), then "
-               "`dense` ([error-measures.md](error-measures.md#the-estimator-error-control-"
-               "without-a-full-solve-per-frequency-errorverify))"),
-        option("dense_max_states", &E::dense_max_states,
-               "`auto` chooses `dense` for full models with at most this many states N")
-            .range(Range::at_least(0)),
-        option("estimate_points", &E::estimate_points,
-               "estimate mode: log-spaced samples of the estimate (no full solve each)")
-            .range(Range::closed(2, 1e6)),
-        option("reference_points", &E::reference_points,
-               "estimate mode: full solves that seed the reference model: the band edges and "
-               "golden-ratio points in log f between them")
-            .range(Range::closed(2, 10000)),
-        option("check_peaks", &E::check_peaks,
-               "estimate mode: largest local maxima of the estimate solved per round of the "
-               "re-check")
-            .range(Range::at_least(1)),
-        option("random_checks", &E::random_checks,
-               "estimate mode: log-uniform random frequencies solved per re-check (fixed seed)")
-            .range(Range::at_least(0)),
-        option("check_rounds", &E::check_rounds,
-               "estimate mode: rounds of (estimate, solve its peaks) per re-check")
-            .range(Range::at_least(1)),
-        option("probe_solves", &E::probe_solves,
-               "estimate mode: full solves per evaluation at the estimate's peak when it has none "
-               "there")
-            .range(Range::at_least(0)),
-    });
     std::vector<Option<C>> options;
-    for (const auto& o : estimator.options()) options.push_back(o.nested(&C::error));
+    for (const auto& o : E::specs().options()) options.push_back(o.nested(&C::error));
     // The re-check grid must be denser than the estimator's to be a check at all.
     options.push_back(option("verify_factor", &C::verify_factor,
                              "dense mode: the independent re-check grid is this many times "
@@ -169,11 +113,134 @@ const OptionSpecs<RunConfig>& backend_specs() {
   return specs;
 }
 
-// The sections of plain key/value options, read through their specs.
+// model: a model directory or a .mat file. Both keys fill ModelSource::path; which of them was
+// given, and whether variables fits it, the parser checks (parse_model).
+const OptionSpecs<RunConfig>& model_specs() {
+  using M = ModelSource;
+  static const OptionSpecs<RunConfig> specs = [] {
+    OptionSpecs<RunConfig> out({});
+    return out.include(
+        &RunConfig::model,
+        OptionSpecs<M>({
+            option("dir", &M::path,
+                   "directory with the model's `.mtx` (or `.mtx.gz`) files "
+                   "([conventions](user-guide.md#model-directories)); exactly one of `dir` and "
+                   "`file` is given"),
+            option("file", &M::path,
+                   "a MATLAB file, its name ending in `.mat`, holding the model's matrices as "
+                   "variables ([conventions](user-guide.md#matlab-mat-files))"),
+            structured<M>("variables", "mapping", "{}",
+                          "with `file` only: the variable holding each matrix, by role (`M D K B "
+                          "C Cv E A`), e.g. `{M: Mass, K: Stiff}`; matrices not listed are read "
+                          "from the variable of their own name"),
+        }));
+  }();
+  return specs;
+}
+
+const OptionSpecs<RunConfig>& band_specs() {
+  static const OptionSpecs<RunConfig> specs =
+      OptionSpecs<RunConfig>({}).include(&RunConfig::band, Band::specs());
+  return specs;
+}
+
+const OptionSpecs<RunConfig>& target_specs() {
+  using C = RunConfig;
+  static const OptionSpecs<C> specs({
+      option("tolerance", &C::tolerance,
+             "the target: the largest relative error over the band the reduced model may have")
+          .range(Range::open_closed(0, 1e3))
+          .required(),
+      choice("norm", &C::norm, error_norm_names(),
+             "the norm of the relative error: `spectral` = ‖H - Hr‖₂ / ‖H‖₂ (the seed's Eq. 22), "
+             "`frobenius` = the same in the Frobenius norm (Eq. 23)"),
+  });
+  return specs;
+}
+
+// The reducer section's own key; the others are the reducer's options (its README).
+const OptionSpecs<RunConfig>& reducer_specs() {
+  static const OptionSpecs<RunConfig> specs({
+      option("name", &RunConfig::reducer_name,
+             "the reducer (`ecmor plugins` lists them); the section's other keys are its options")
+          .required(),
+  });
+  return specs;
+}
+
+// The strategy section's own keys; the others are the strategy's options (strategies.md).
+const OptionSpecs<RunConfig>& strategy_specs() {
+  static const OptionSpecs<RunConfig> specs({
+      option("name", &RunConfig::strategy_name,
+             "the strategy ([strategies.md](strategies.md)), or `portfolio`; the section's other "
+             "keys are its options"),
+      option("time_limit_s", &RunConfig::time_limit_s,
+             "wall-clock budget of the whole run: when it is used up the run stops and reports "
+             "the best model so far, saying so; 0 = no limit")
+          .range(Range::at_least(0).finite())
+          .unit("s"),
+  });
+  return specs;
+}
+
+const OptionSpecs<RunConfig>& output_specs() {
+  static const OptionSpecs<RunConfig> specs({
+      option("dir", &RunConfig::output_dir,
+             "output directory, created if needed (`-o` overrides it): the reduced model, its "
+             "bases, the history, summary.json and the error plots")
+          .required(),
+      choice("format", &RunConfig::output_format, output_format_names(),
+             "the reduced model and bases as Matrix Market files (`mtx`), one MATLAB file "
+             "(`mat`, reduced_model.mat), or `both`"),
+  });
+  return specs;
+}
+
+// check: budgets of `ecmor check`, each 0 = no budget.
+const OptionSpecs<RunConfig>& check_specs() {
+  static const OptionSpecs<RunConfig> specs({
+      option("max_order", &RunConfig::check_max_order,
+             "`ecmor check` fails when the reduced order exceeds this; 0 = no budget")
+          .range(Range::at_least(0)),
+      option("max_seconds", &RunConfig::check_max_seconds,
+             "`ecmor check` fails when the run takes longer; 0 = no budget")
+          .range(Range::at_least(0).finite())
+          .unit("s"),
+  });
+  return specs;
+}
+
+// The keys at the top level that are not sections.
+const OptionSpecs<RunConfig>& top_level_specs() {
+  static const OptionSpecs<RunConfig> specs({
+      option("plugins", &RunConfig::plugins,
+             "extra plugin libraries, or directories of them, loaded besides the bundled ones "
+             "([user-guide.md](user-guide.md#plugins)); one path is a list of one"),
+      option("compress", &RunConfig::compress,
+             "search the accepted model for the smallest model inside it that still meets the "
+             "target ([strategies.md](strategies.md#compression-after-acceptance-compress-true-"
+             "the-default)); false: the model as accepted"),
+  });
+  return specs;
+}
+
+// Every section and its specs, in the order of the file and of docs/user-guide.md. The sections
+// reducer and strategy are open: their other keys are the reducer's or strategy's options.
 const std::vector<std::pair<std::string, const OptionSpecs<RunConfig>*>>& option_sections() {
   static const std::vector<std::pair<std::string, const OptionSpecs<RunConfig>*>> sections = {
-      {"error", &error_specs()}, {"solver", &solver_specs()}, {"backend", &backend_specs()}};
+      {"model", &model_specs()},     {"band", &band_specs()},         {"target", &target_specs()},
+      {"reducer", &reducer_specs()}, {"strategy", &strategy_specs()}, {"error", &error_specs()},
+      {"solver", &solver_specs()},   {"backend", &backend_specs()},   {"output", &output_specs()},
+      {"check", &check_specs()}};
   return sections;
+}
+
+// The keys of the configuration's top level: the sections and the keys of top_level_specs().
+std::vector<std::string> top_level_keys() {
+  std::vector<std::string> keys;
+  for (const auto& [name, specs] : option_sections()) keys.push_back(name);
+  for (const std::string& key : top_level_specs().keys()) keys.push_back(key);
+  return keys;
 }
 
 std::string node_kind(const YAML::Node& node) {
@@ -262,32 +329,8 @@ class Parser {
                                                                        const std::string& sec,
                                                                        const std::string& key,
                                                                        bool required);
-  std::optional<double> number(const YAML::Node& map, const std::string& sec,
-                               const std::string& key, bool required);
-  std::optional<long long> integer(const YAML::Node& map, const std::string& sec,
-                                   const std::string& key, long long min);
   std::optional<std::string> text(const YAML::Node& map, const std::string& sec,
                                   const std::string& key, bool required);
-  std::filesystem::path path_value(const YAML::Node& map, const std::string& sec,
-                                   const std::string& key);
-  /// A text value that must be one of the names in `options` (each with the value it stands
-  /// for); the error lists the names and suggests the nearest.
-  template <class T>
-  std::optional<T> choice(const YAML::Node& map, const std::string& sec, const std::string& key,
-                          const std::vector<std::pair<std::string, T>>& options) {
-    const auto v = text(map, sec, key, false);
-    if (!v) return std::nullopt;
-    std::vector<std::string> names;
-    for (const auto& [name, value] : options) {
-      if (*v == name) return value;
-      names.push_back(name);
-    }
-    const std::string near = nearest(*v, names);
-    fail(at(map[key]),
-         fmt::format("{}.{} = '{}': must be one of {}{}", sec, key, *v, fmt::join(names, ", "),
-                     near.empty() ? std::string() : " (did you mean '" + near + "'?)"));
-  }
-
   /// Every key but those in `skip` becomes a parameter of the reducer/strategy.
   void collect_parameters(const YAML::Node& map, const std::string& sec, ParameterMap& params,
                           const std::vector<std::string>& skip = {"name"});
@@ -302,18 +345,21 @@ class Parser {
   /// require_sections: a const YAML::Node's operator[] makes an invalid node of a missing key.
   bool names_portfolio();
   void require_sections(bool portfolio);
-  /// One function per section: reads it into `config`.
+  /// The sections whose keys are not all options: model (dir or file), the reducer and strategy
+  /// (whose other keys are the plugin's options).
   void parse_model(RunConfig& config);
-  void parse_band(RunConfig& config);
-  void parse_target(RunConfig& config);
   void parse_strategy(bool portfolio, RunConfig& config);
-  void parse_check(RunConfig& config);
-  void parse_output(RunConfig& config);
-  /// A section of plain key/value options (error, solver, backend), read through its specs.
-  void read_section(const std::string& name, const OptionSpecs<RunConfig>& specs,
-                    RunConfig& config);
-  void parse_plugins(RunConfig& config);
-  void parse_compress(RunConfig& config);
+  /// A section read through its specs: keys checked (an `open` section passes its other keys to
+  /// a plugin), required keys present (unless `required` is false), values read into `config`.
+  /// Returns the section's node.
+  YAML::Node read_section(const std::string& name, const OptionSpecs<RunConfig>& specs,
+                          RunConfig& config, bool open = false, bool required = true);
+  /// The values of the specs' keys in `map` (structured keys left to their parser); text-typed
+  /// options (names, paths, choices) take the value as written: a directory may be called 2024.
+  ParameterMap options_of(const YAML::Node& map, const std::string& sec,
+                          const OptionSpecs<RunConfig>& specs);
+  /// The top level's keys that are not sections (plugins, compress).
+  void parse_top_level(RunConfig& config);
   ParameterValue parameter(const YAML::Node& key, const YAML::Node& value,
                            const std::string& full_key);
 
@@ -373,43 +419,6 @@ std::optional<std::pair<ParameterValue::Storage, YAML::Node>> Parser::scalar(con
   return std::make_pair(classify_scalar(node), node);
 }
 
-std::optional<double> Parser::number(const YAML::Node& map, const std::string& sec,
-                                     const std::string& key, bool required) {
-  auto v = scalar(map, sec, key, required);
-  if (!v) return std::nullopt;
-  double result = 0.0;
-  if (const double* d = std::get_if<double>(&v->first)) {
-    result = *d;
-  } else if (const long long* i = std::get_if<long long>(&v->first)) {
-    result = static_cast<double>(*i);
-  } else {
-    fail(at(v->second),
-         fmt::format("{}.{} = '{}': must be a number", sec, key, v->second.Scalar()));
-  }
-  if (!std::isfinite(result))
-    fail(at(v->second), fmt::format("{}.{} = {}: must be finite", sec, key, v->second.Scalar()));
-  return result;
-}
-
-std::optional<long long> Parser::integer(const YAML::Node& map, const std::string& sec,
-                                         const std::string& key, long long min) {
-  auto v = scalar(map, sec, key, false);
-  if (!v) return std::nullopt;
-  long long result = 0;
-  if (const long long* i = std::get_if<long long>(&v->first)) {
-    result = *i;
-  } else if (const double* d = std::get_if<double>(&v->first);
-             d != nullptr && std::isfinite(*d) && *d == std::trunc(*d) && std::abs(*d) < 9e18) {
-    result = static_cast<long long>(*d);  // 1e3 is an integer written as a float
-  } else {
-    fail(at(v->second),
-         fmt::format("{}.{} = {}: must be an integer", sec, key, v->second.Scalar()));
-  }
-  if (result < min)
-    fail(at(v->second), fmt::format("{}.{} = {}: must be >= {}", sec, key, result, min));
-  return result;
-}
-
 std::optional<std::string> Parser::text(const YAML::Node& map, const std::string& sec,
                                         const std::string& key, bool required) {
   auto v = scalar(map, sec, key, required);
@@ -418,11 +427,6 @@ std::optional<std::string> Parser::text(const YAML::Node& map, const std::string
   const std::string& s = v->second.Scalar();
   if (s.empty()) fail(at(v->second), fmt::format("{}.{} must not be empty", sec, key));
   return s;
-}
-
-std::filesystem::path Parser::path_value(const YAML::Node& map, const std::string& sec,
-                                         const std::string& key) {
-  return std::filesystem::absolute(*text(map, sec, key, true)).lexically_normal();
 }
 
 ParameterValue Parser::parameter(const YAML::Node& key, const YAML::Node& value,
@@ -470,14 +474,35 @@ void Parser::collect_parameters(const YAML::Node& map, const std::string& sec, P
   for (auto it = map.begin(); it != map.end(); ++it) {
     const std::string& key = it->first.Scalar();
     if (std::find(skip.begin(), skip.end(), key) != skip.end()) continue;
-    // The driver's wall-clock budget in the strategy section is not a strategy parameter.
-    if (sec == "strategy" && key == "time_limit_s") continue;
     params.set(key, parameter(it->first, it->second, sec + "." + key));
   }
 }
 
+ParameterMap Parser::options_of(const YAML::Node& map, const std::string& sec,
+                                const OptionSpecs<RunConfig>& specs) {
+  ParameterMap params = ParameterMap::section(sec);
+  if (!map.IsMap()) return params;
+  for (auto it = map.begin(); it != map.end(); ++it) {
+    const std::string& key = it->first.Scalar();
+    const std::string full_key = sec.empty() ? key : sec + "." + key;
+    for (const auto& opt : specs.options()) {
+      if (opt.key() != key || opt.is_structured()) continue;
+      ParameterValue value = parameter(it->first, it->second, full_key);
+      const bool text = opt.type() == "string" || opt.type() == "path";
+      if (text && it->second.IsScalar()) value.value = it->second.Scalar();
+      if (opt.type() == "list of path" && it->second.IsSequence()) {
+        std::vector<std::string> items;
+        for (const YAML::Node& item : it->second) items.push_back(item.Scalar());
+        if (!items.empty()) value.value = items;
+      }
+      params.set(key, std::move(value));
+    }
+  }
+  return params;
+}
+
 void Parser::parse_portfolio(const YAML::Node& strategy, RunConfig& config) {
-  std::vector<std::string> keys = kPortfolioStructure;
+  std::vector<std::string> keys = strategy_specs().keys();
   for (const std::string& key : portfolio_specs().keys()) keys.push_back(key);
   check_keys(strategy, "'strategy' (portfolio)", keys);
   ParameterMap options("strategy 'portfolio'");
@@ -552,16 +577,17 @@ RunConfig Parser::parse(const std::string& yaml) {
   const bool portfolio = names_portfolio();
   require_sections(portfolio);
   RunConfig config;
-  if (m_req.model) parse_model(config);
-  parse_band(config);
-  parse_target(config);
-  parse_strategy(portfolio, config);
+  for (const auto& [name, specs] : option_sections()) {
+    if (name == "model") {
+      if (m_req.model) parse_model(config);
+    } else if (name == "reducer") {
+      parse_strategy(portfolio, config);
+    } else if (name != "strategy") {
+      read_section(name, *specs, config, false, name != "output" || m_req.output);
+    }
+  }
   config.error.norm = config.norm;
-  for (const auto& [name, specs] : option_sections()) read_section(name, *specs, config);
-  parse_check(config);
-  parse_output(config);
-  parse_plugins(config);
-  parse_compress(config);
+  parse_top_level(config);
   return config;
 }
 
@@ -573,13 +599,14 @@ void Parser::load(const std::string& yaml) {
   } catch (const YAML::Exception& e) {
     fail(at(e.mark), "cannot read YAML: " + e.msg);
   }
+  const std::vector<std::string> keys = top_level_keys();
   if (!m_root.IsDefined() || m_root.IsNull())
     fail(m_name,
-         fmt::format("the file is empty (expected the sections {})", fmt::join(kSections, ", ")));
+         fmt::format("the file is empty (expected the sections {})", fmt::join(keys, ", ")));
   if (!m_root.IsMap())
     fail(at(m_root), fmt::format("expected a mapping of sections ({}), found {}",
-                                 fmt::join(kSections, ", "), node_kind(m_root)));
-  check_keys(m_root, "the configuration", kSections);
+                                 fmt::join(keys, ", "), node_kind(m_root)));
+  check_keys(m_root, "the configuration", keys);
 }
 
 bool Parser::names_portfolio() {
@@ -609,7 +636,7 @@ void Parser::require_sections(bool portfolio) {
 
 // model: {dir: D} (Matrix Market files) or {file: F.mat, variables: {M: Mass, ...}}.
 void Parser::parse_model(RunConfig& config) {
-  const YAML::Node model = section(m_root, "model", {"dir", "file", "variables"});
+  const YAML::Node model = section(m_root, "model", model_specs().keys());
   const bool by_dir = model["dir"].IsDefined();
   const bool by_file = model["file"].IsDefined();
   if (by_dir && by_file)
@@ -618,15 +645,14 @@ void Parser::parse_model(RunConfig& config) {
   if (!by_dir && !by_file)
     fail(model.IsNull() ? key_location(m_root, "model") : at(model),
          "missing required key 'model.dir' (a model directory) or 'model.file' (a .mat file)");
+  model_specs().read_into(options_of(model, "model", model_specs()), config);
   if (by_dir) {
-    config.model.path = path_value(model, "model", "dir");
     if (model["variables"].IsDefined())
       fail(at(model["variables"]),
            "model.variables renames the variables of a .mat file (model.file); the files of a "
            "model directory have fixed names");
     return;
   }
-  config.model.path = path_value(model, "model", "file");
   if (!is_mat_file_name(config.model.path))
     fail(at(model["file"]), fmt::format("model.file = '{}': must name a MATLAB file ending in "
                                         ".mat (a model directory is model.dir)",
@@ -645,121 +671,37 @@ void Parser::parse_model(RunConfig& config) {
   }
 }
 
-void Parser::parse_band(RunConfig& config) {
-  const YAML::Node band = section(m_root, "band", {"f_min_hz", "f_max_hz"});
-  config.band.f_min_hz = *number(band, "band", "f_min_hz", true);
-  config.band.f_max_hz = *number(band, "band", "f_max_hz", true);
-  // Band::validate is the lead's; these are the same rules with the line attached.
-  if (!(config.band.f_min_hz > 0.0))
-    fail(at(band["f_min_hz"]),
-         fmt::format("band.f_min_hz = {}: must be > 0 (the band is sampled in log scale, and "
-                     "f = 0 is a pole of H for a model with rigid-body modes, e.g. a "
-                     "free-floating body)",
-                     band["f_min_hz"].Scalar()));
-  if (!(config.band.f_max_hz > config.band.f_min_hz))
-    fail(at(band["f_max_hz"]), fmt::format("band.f_max_hz = {}: must be > band.f_min_hz = {}",
-                                           band["f_max_hz"].Scalar(), band["f_min_hz"].Scalar()));
-}
-
-void Parser::parse_target(RunConfig& config) {
-  const YAML::Node target = section(m_root, "target", {"tolerance", "norm"});
-  config.tolerance = *number(target, "target", "tolerance", true);
-  if (!(config.tolerance > 0.0 && config.tolerance <= 1e3))
-    fail(at(target["tolerance"]),
-         fmt::format("target.tolerance = {}: must be in (0, 1e3]", target["tolerance"].Scalar()));
-  // Parsed here rather than with parse_error_norm so the message carries the line.
-  if (auto norm = choice<ErrorNorm>(
-          target, "target", "norm",
-          {{"spectral", ErrorNorm::Spectral}, {"frobenius", ErrorNorm::Frobenius}}))
-    config.norm = *norm;
-}
-
 // strategy (with reducer), or a portfolio's strategy section with its members.
 void Parser::parse_strategy(bool portfolio, RunConfig& config) {
-  const YAML::Node strategy = section(m_root, "strategy", {"name"}, true);
   if (portfolio) {
+    const YAML::Node strategy = section(m_root, "strategy", {}, true);
+    strategy_specs().read_into(options_of(strategy, "strategy", strategy_specs()), config);
     config.reducer_name = "portfolio";
-    config.strategy_name = "portfolio";
     parse_portfolio(strategy, config);
-  } else {
-    const YAML::Node reducer = section(m_root, "reducer", {"name"}, true);
-    config.reducer_name = *text(reducer, "reducer", "name", true);
-    config.reducer_params = ParameterMap("reducer '" + config.reducer_name + "'");
-    collect_parameters(reducer, "reducer", config.reducer_params);
-    if (auto name = text(strategy, "strategy", "name", false)) config.strategy_name = *name;
-    config.strategy_params = ParameterMap("strategy '" + config.strategy_name + "'");
-    collect_parameters(strategy, "strategy", config.strategy_params);
+    return;
   }
-  if (auto v = number(strategy, "strategy", "time_limit_s", false)) {
-    if (!(*v > 0.0))
-      fail(at(strategy["time_limit_s"]),
-           fmt::format("strategy.time_limit_s = {}: must be > 0 (seconds of wall-clock time)",
-                       strategy["time_limit_s"].Scalar()));
-    config.time_limit_s = *v;
-  }
+  const YAML::Node reducer = read_section("reducer", reducer_specs(), config, true);
+  config.reducer_params = ParameterMap("reducer '" + config.reducer_name + "'");
+  collect_parameters(reducer, "reducer", config.reducer_params, reducer_specs().keys());
+  const YAML::Node strategy = read_section("strategy", strategy_specs(), config, true);
+  config.strategy_params = ParameterMap("strategy '" + config.strategy_name + "'");
+  collect_parameters(strategy, "strategy", config.strategy_params, strategy_specs().keys());
 }
 
-void Parser::read_section(const std::string& name, const OptionSpecs<RunConfig>& specs,
-                          RunConfig& config) {
-  const YAML::Node node = section(m_root, name, specs.keys());
-  ParameterMap options("section '" + name + "'");
-  if (node.IsMap()) collect_parameters(node, name, options, {});
-  specs.read_into(options, config);
+YAML::Node Parser::read_section(const std::string& name, const OptionSpecs<RunConfig>& specs,
+                                RunConfig& config, bool open, bool required) {
+  const YAML::Node node = section(m_root, name, specs.keys(), open);
+  const ParameterMap options = options_of(node, name, specs);
+  if (const auto* missing = required ? specs.missing_required(options) : nullptr)
+    fail(node.IsMap() ? at(node) : key_location(m_root, name),
+         fmt::format("missing required key '{}.{}'", name, missing->key()));
+  specs.read_into(options, config, required);
+  return node;
 }
 
-// check: budgets of `ecmor check`. Not read through option specs: the defaults (0: no budget)
-// lie outside the valid values, and a spec's range holds for its default too.
-void Parser::parse_check(RunConfig& config) {
-  const YAML::Node check = section(m_root, "check", {"max_order", "max_seconds"});
-  if (auto v = integer(check, "check", "max_order", 1)) config.check_max_order = *v;
-  if (auto v = number(check, "check", "max_seconds", false)) {
-    if (!(*v > 0.0))
-      fail(at(check["max_seconds"]),
-           fmt::format("check.max_seconds = {}: must be > 0", check["max_seconds"].Scalar()));
-    config.check_max_seconds = *v;
-  }
-}
-
-void Parser::parse_output(RunConfig& config) {
-  const YAML::Node output = section(m_root, "output", {"dir", "format"});
-  if (m_req.output || output["dir"].IsDefined())
-    config.output_dir = path_value(output, "output", "dir");
-  if (auto format = choice<OutputFormat>(
-          output, "output", "format",
-          {{"mtx", OutputFormat::Mtx}, {"mat", OutputFormat::Mat}, {"both", OutputFormat::Both}}))
-    config.output_format = *format;
-}
-
-// plugins: a list of paths, or a single path (a list of one).
-void Parser::parse_plugins(RunConfig& config) {
-  const YAML::Node plugins = m_root["plugins"];
-  if (!plugins.IsDefined() || plugins.IsNull()) return;
-  auto add = [&](const YAML::Node& item) {
-    if (!item.IsScalar() || item.Scalar().empty())
-      fail(at(item), fmt::format("plugins: each entry must be a path, found {}",
-                                 item.IsScalar() ? "an empty string" : node_kind(item)));
-    config.plugins.push_back(std::filesystem::absolute(item.Scalar()).lexically_normal());
-  };
-  if (plugins.IsSequence()) {
-    for (const YAML::Node& item : plugins) add(item);
-  } else if (plugins.IsScalar()) {
-    add(plugins);
-  } else {
-    fail(at(plugins), "'plugins' must be a list of paths, found " + node_kind(plugins));
-  }
-}
-
-// compress: true | false (the compression of the accepted model, driver.hpp).
-void Parser::parse_compress(RunConfig& config) {
-  const YAML::Node node = m_root["compress"];
-  if (!node.IsDefined()) return;
-  const std::string text = node.IsScalar() ? node.Scalar() : std::string();
-  if (text != "true" && text != "false")
-    fail(node.IsNull() ? key_location(m_root, "compress") : at(node),
-         fmt::format("compress = '{}': must be true (search the accepted model for the smallest "
-                     "model that still meets the target) or false",
-                     node.IsScalar() ? text : node_kind(node)));
-  config.compress = text == "true";
+// The top level's plain keys (plugins, compress), read through their specs like a section's.
+void Parser::parse_top_level(RunConfig& config) {
+  top_level_specs().read_into(options_of(m_root, "", top_level_specs()), config);
 }
 
 }  // namespace
@@ -777,6 +719,8 @@ std::vector<ParameterDoc> section_options(const std::string& section) {
     if (name == section) return specs->docs();
   throw std::invalid_argument("section_options: '" + section + "' is no section of options");
 }
+
+std::vector<ParameterDoc> top_level_options() { return top_level_specs().docs(); }
 
 RunConfig parse_run_config(const std::string& yaml, const std::string& name,
                            const ConfigRequirements& requirements) {

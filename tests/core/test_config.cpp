@@ -179,9 +179,8 @@ TEST(RunConfig, BackendSection) {
   EXPECT_EQ(parse_run_config(kMinimal + "backend: {name: petsc}\n", "run.yaml").solver.backend,
             "petsc");
   const std::string e = parse_error(kMinimal + "backend: {name: mpi}\n");
-  EXPECT_NE(
-      e.find("run.yaml:12: section 'backend': name = 'mpi': must be one of suitesparse, petsc"),
-      std::string::npos)
+  EXPECT_NE(e.find("run.yaml:12: backend.name = 'mpi': must be one of suitesparse, petsc"),
+            std::string::npos)
       << e;
   EXPECT_NE(parse_error(kMinimal + "backend: {name: petsc, ranks: 2}\n").find("ranks"),
             std::string::npos);
@@ -199,13 +198,13 @@ TEST(RunConfig, SolverOrderingAndComplexSymmetricFactorisation) {
   EXPECT_EQ(c.solver.complex_symmetric, "ldlt");
   EXPECT_EQ(c.solver.ldlt_memory_fraction, 0.5);
   EXPECT_EQ(parse_error(kMinimal + "solver: {ordering: nd}\n"),
-            "run.yaml:12: section 'solver': ordering = 'nd': must be one of auto, amd, metis "
+            "run.yaml:12: solver.ordering = 'nd': must be one of auto, amd, metis "
             "(did you mean 'amd'?)");
   EXPECT_EQ(parse_error(kMinimal + "solver: {complex_symmetric: llt}\n"),
-            "run.yaml:12: section 'solver': complex_symmetric = 'llt': must be one of auto, ldlt, "
+            "run.yaml:12: solver.complex_symmetric = 'llt': must be one of auto, ldlt, "
             "lu (did you mean 'ldlt'?)");
   EXPECT_EQ(parse_error(kMinimal + "solver: {ldlt_memory_fraction: 2}\n"),
-            "run.yaml:12: section 'solver': ldlt_memory_fraction = 2: must be in [0, 1]");
+            "run.yaml:12: solver.ldlt_memory_fraction = 2: must be in [0, 1]");
 }
 
 TEST(RunConfig, CheckSectionAndHinfDenseStates) {
@@ -225,7 +224,7 @@ TEST(RunConfig, CheckSectionAndHinfDenseStates) {
                 .find("check.max_seconds = -1: must be > 0"),
             std::string::npos);
   EXPECT_EQ(parse_error(kMinimal + "error: {stability_dense_states: 7000}\n"),
-            "run.yaml:12: section 'error': stability_dense_states = 7000: must be in [0, 6000]");
+            "run.yaml:12: error.stability_dense_states = 7000: must be in [0, 6000]");
   EXPECT_NE(parse_error(kMinimal + "error: {hinf_dense_states: 7000}\n")
                 .find("hinf_dense_states = 7000: must be in [0, 6000]"),
             std::string::npos);
@@ -301,7 +300,7 @@ TEST(RunConfig, ErrorControlModeAndItsBudgets) {
   EXPECT_EQ(c.error.probe_solves, 0);
   EXPECT_EQ(parse_run_config(kMinimal, "run.yaml").error.verify, BandErrorOptions{}.verify);
   EXPECT_EQ(parse_error(kMinimal + "error: {verify: estimat}\n"),
-            "run.yaml:12: section 'error': verify = 'estimat': must be one of dense, estimate, "
+            "run.yaml:12: error.verify = 'estimat': must be one of dense, estimate, "
             "auto (did you mean 'estimate'?)");
   EXPECT_NE(parse_error(kMinimal + "error: {reference_points: 1}\n").find("reference_points"),
             std::string::npos);
@@ -351,12 +350,12 @@ TEST(RunConfig, WrongTypes) {
                                 "band: [0.1, 100]\n")),
             "run.yaml:3: 'band' must be a mapping of keys (f_min_hz, f_max_hz), found a list");
   EXPECT_EQ(parse_error(kMinimal + "error: {grid_points: 20.5}\n"),
-            "run.yaml:12: section 'error': grid_points = 20.5: must be an integer");
+            "run.yaml:12: error.grid_points = 20.5: must be an integer");
   EXPECT_EQ(parse_error(kMinimal + "error: {pole_samples: maybe}\n"),
-            "run.yaml:12: section 'error': pole_samples = 'maybe': must be true or false, not a "
+            "run.yaml:12: error.pole_samples = 'maybe': must be true or false, not a "
             "string");
   EXPECT_EQ(parse_error(kMinimal + "solver: {use_cholesky: 1}\n"),
-            "run.yaml:12: section 'solver': use_cholesky = 1: must be true or false, not an "
+            "run.yaml:12: solver.use_cholesky = 1: must be true or false, not an "
             "integer");
   EXPECT_EQ(parse_error(replace(kMinimal, "  name: modal\n", "  name: [modal]\n")),
             "run.yaml:9: reducer.name must be a single value, found a list");
@@ -396,18 +395,18 @@ TEST(RunConfig, RangesAreChecked) {
       parse_run_config(replace(kMinimal, "tolerance: 1.0e-3", "tolerance: 1e3"), "r").tolerance,
       1e3);
   EXPECT_EQ(parse_error(kMinimal + "error: {grid_points: 1}\n"),
-            "run.yaml:12: section 'error': grid_points = 1: must be in [2, 1000000]");
+            "run.yaml:12: error.grid_points = 1: must be in [2, 1000000]");
   EXPECT_EQ(parse_error(kMinimal + "error: {refine_peaks: -1}\n"),
-            "run.yaml:12: section 'error': refine_peaks = -1: must be >= 0");
+            "run.yaml:12: error.refine_peaks = -1: must be >= 0");
   // A re-check grid no denser than the estimator's would check nothing.
   EXPECT_EQ(parse_error(kMinimal + "error: {verify_factor: 1}\n"),
-            "run.yaml:12: section 'error': verify_factor = 1: must be >= 2");
+            "run.yaml:12: error.verify_factor = 1: must be >= 2");
   EXPECT_EQ(parse_error(kMinimal + "error: {zero_threshold: 1}\n"),
-            "run.yaml:12: section 'error': zero_threshold = 1: must be in [0, 1)");
+            "run.yaml:12: error.zero_threshold = 1: must be in [0, 1)");
   EXPECT_EQ(parse_error(kMinimal + "solver: {threads: -2}\n"),
-            "run.yaml:12: section 'solver': threads = -2: must be in [0, 65536]");
+            "run.yaml:12: solver.threads = -2: must be in [0, 65536]");
   EXPECT_EQ(parse_error(kMinimal + "solver: {symmetry_tol: -1e-3}\n"),
-            "run.yaml:12: section 'solver': symmetry_tol = -0.001: must be in [0, 1)");
+            "run.yaml:12: solver.symmetry_tol = -0.001: must be in [0, 1)");
   EXPECT_EQ(parse_error(replace(kMinimal, "tolerance: 1.0e-3\n",
                                 "tolerance: 1.0e-3\n  norm: "
                                 "frobenus\n")),

@@ -4,8 +4,10 @@
 // specs document are the keys the code reads.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -143,24 +145,62 @@ TEST(OptionDocs, StrategyGuidePrintsTheSpecs) {
   expect_table(file, "portfolio", run_strategy_options("portfolio"));
 }
 
-// The configuration's sections of plain options: their tables in the user guide, and each
-// documented key, given its documented default, is read.
-TEST(OptionDocs, UserGuidePrintsTheSectionSpecs) {
-  const std::string head =
-      "model: {dir: m}\nband: {f_min_hz: 1, f_max_hz: 10}\ntarget: {tolerance: 1.0e-3}\n"
-      "reducer: {name: modal}\noutput: {dir: o}\n";
-  ASSERT_EQ(option_section_names(), (std::vector<std::string>{"error", "solver", "backend"}));
+std::string replace_first(std::string text, const std::string& from, const std::string& to) {
+  const std::size_t at = text.find(from);
+  if (at == std::string::npos) throw std::logic_error("replace_first: '" + from + "' not found");
+  return text.replace(at, from.size(), to);
+}
+
+// Every section of the configuration is read through option specs: its table in the user guide
+// is the specs' documentation, and every key has a meaning.
+TEST(OptionDocs, UserGuidePrintsEverySectionsSpecs) {
+  ASSERT_EQ(option_section_names(),
+            (std::vector<std::string>{"model", "band", "target", "reducer", "strategy", "error",
+                                      "solver", "backend", "output", "check"}));
   for (const std::string& section : option_section_names()) {
     const auto docs = section_options(section);
     ASSERT_FALSE(docs.empty()) << section;
     expect_table("docs/user-guide.md", section, docs);
-    for (const auto& doc : docs) {
+    for (const auto& doc : docs)
+      EXPECT_FALSE(doc.description.empty()) << section << "." << doc.name;
+  }
+  expect_table("docs/user-guide.md", "top-level", top_level_options());
+  EXPECT_THROW(section_options("compress"), std::invalid_argument);
+}
+
+// The reader knows no key without a spec: in every section whose keys are all its own (all but
+// reducer and strategy, whose other keys are the plugin's options) and at the top level, a key
+// outside the specs is refused; and each documented key of the optional sections, given its
+// documented default, is read.
+TEST(OptionDocs, TheReaderKnowsExactlyTheDocumentedKeys) {
+  const std::string head =
+      "model: {dir: m}\nband: {f_min_hz: 1, f_max_hz: 10}\ntarget: {tolerance: 1.0e-3}\n"
+      "reducer: {name: modal}\noutput: {dir: o}\n";
+  const std::vector<std::string> in_head = {"model", "band", "target", "reducer", "output"};
+  for (const std::string& section : option_section_names()) {
+    if (section == "reducer" || section == "strategy") continue;
+    const bool given = std::find(in_head.begin(), in_head.end(), section) != in_head.end();
+    const std::string yaml = given ? replace_first(head, section + ": {", section + ": {extra: 1, ")
+                                   : head + section + ": {extra: 1}\n";
+    try {
+      parse_run_config(yaml, "run.yaml");
+      ADD_FAILURE() << section << " accepts a key without a spec";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("unknown key 'extra' in '" + section + "'"),
+                std::string::npos)
+          << e.what();
+    }
+    if (given) continue;
+    for (const auto& doc : section_options(section)) {
       EXPECT_NO_THROW(parse_run_config(
           head + section + ":\n  " + doc.name + ": " + doc.default_value + "\n", "run.yaml"))
           << section << "." << doc.name;
     }
   }
-  EXPECT_THROW(section_options("check"), std::invalid_argument);
+  EXPECT_THROW(parse_run_config(head + "extra: 1\n", "run.yaml"), ConfigError);
+  for (const auto& doc : top_level_options())
+    EXPECT_NO_THROW(parse_run_config(head + doc.name + ": " + doc.default_value + "\n", "run.yaml"))
+        << doc.name;
 }
 
 TEST(OptionDocs, EveryDocumentedReducerKeyIsRead) {

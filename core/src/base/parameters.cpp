@@ -62,6 +62,12 @@ std::string join(const std::vector<std::string>& words) {
 
 ParameterMap::ParameterMap(std::string owner) : m_owner(std::move(owner)) {}
 
+ParameterMap ParameterMap::section(const std::string& name) {
+  ParameterMap map(name);
+  map.m_section = true;
+  return map;
+}
+
 void ParameterMap::set(const std::string& key, ParameterValue value) {
   m_values[key] = std::move(value);
 }
@@ -91,9 +97,7 @@ namespace {
 // "run.yaml:7: reducer 'modal': batch_size = -3: must be >= 1"
 [[noreturn]] void reject(const ParameterMap& map, const std::string& key, const ParameterValue& v,
                          const std::string& rule) {
-  std::string prefix = v.location.empty() ? std::string() : v.location + ": ";
-  throw ConfigError(
-      fmt::format("{}{}: {} = {}: {}", prefix, map.owner(), key, describe(v.value), rule));
+  map.fail_at(v.location, fmt::format("{} = {}: {}", key, describe(v.value), rule));
 }
 
 }  // namespace
@@ -179,8 +183,33 @@ std::vector<double> ParameterMap::get_doubles(const std::string& key,
 }
 
 void ParameterMap::fail(const std::string& key, const std::string& what) const {
-  const std::string where = location(key);
-  throw ConfigError(fmt::format("{}{}: {}", where.empty() ? "" : where + ": ", m_owner, what));
+  fail_at(location(key), what);
+}
+
+void ParameterMap::fail_at(const std::string& location, const std::string& what) const {
+  std::string owner = m_owner + ": ";
+  if (m_section) owner = m_owner.empty() ? std::string() : m_owner + ".";
+  throw ConfigError(fmt::format("{}{}{}", location.empty() ? "" : location + ": ", owner, what));
+}
+
+std::vector<std::string> ParameterMap::get_strings(const std::string& key,
+                                                   const std::vector<std::string>& fallback) const {
+  const ParameterValue* v = find(key);
+  if (v == nullptr) return fallback;
+  std::vector<std::string> result;
+  if (const auto* list = std::get_if<std::vector<std::string>>(&v->value)) {
+    result = *list;
+  } else if (const std::string* s = std::get_if<std::string>(&v->value)) {
+    result = {*s};  // a single string is a list of one
+  } else if (const auto* numbers = std::get_if<std::vector<double>>(&v->value);
+             numbers != nullptr && numbers->empty()) {
+    // `[]`: an empty list has no item type, so it is an empty list of strings too
+  } else {
+    reject(*this, key, *v, "must be a list of strings, not " + type_name(v->value));
+  }
+  for (const std::string& s : result)
+    if (s.empty()) reject(*this, key, *v, "must not contain an empty string");
+  return result;
 }
 
 void ParameterMap::declare(const std::vector<std::string>& keys) const {
@@ -189,12 +218,14 @@ void ParameterMap::declare(const std::vector<std::string>& keys) const {
 
 void ParameterMap::check_unused() const {
   const std::vector<std::string> known(m_known.begin(), m_known.end());
+  std::string where = m_owner;
+  if (m_section) where = m_owner.empty() ? "the configuration" : "'" + m_owner + "'";
   std::vector<std::string> problems;
   for (const auto& [key, value] : m_values) {
     if (m_known.count(key) != 0) continue;
     std::string prefix = value.location.empty() ? std::string() : value.location + ": ";
     problems.push_back(
-        fmt::format("{}unknown key '{}' in {}{}", prefix, key, m_owner, suggestion(key, known)));
+        fmt::format("{}unknown key '{}' in {}{}", prefix, key, where, suggestion(key, known)));
   }
   if (problems.empty()) return;
   throw ConfigError(fmt::format("{}", fmt::join(problems, "; ")));

@@ -1,29 +1,33 @@
-// band.cpp: see ecmor/model/band.hpp.
+// band.cpp: the band's rules, stated once: the YAML reader (section `band`) and Band::validate()
+// apply these specs (see ecmor/model/band.hpp).
 #include "ecmor/model/band.hpp"
 
-#include <cmath>
-#include <sstream>
-#include <string>
-
-#include "ecmor/base/error.hpp"
+#include "ecmor/base/options.hpp"
 
 namespace ecmor {
 
-void Band::validate() const {
-  auto fmt = [](double v) {
-    std::ostringstream os;
-    os << v;
-    return os.str();
-  };
-  if (!std::isfinite(f_min_hz) || !(f_min_hz > 0.0)) {
-    throw ConfigError("band.f_min_hz = " + fmt(f_min_hz) +
-                      ": must be a finite frequency > 0 Hz (the band is sampled in log scale; use "
-                      "e.g. 1e-3 * f_max_hz for a band starting near 0)");
-  }
-  if (!std::isfinite(f_max_hz) || !(f_max_hz > f_min_hz)) {
-    throw ConfigError("band.f_max_hz = " + fmt(f_max_hz) +
-                      ": must be finite and > band.f_min_hz = " + fmt(f_min_hz));
-  }
+const OptionSpecs<Band>& Band::specs() {
+  static const OptionSpecs<Band> specs(
+      {
+          option("f_min_hz", &Band::f_min_hz,
+                 "lower edge of the band. The band is sampled in log scale, and f = 0 is a pole "
+                 "of H for a model with rigid-body modes (a free-floating body): for a band "
+                 "starting near 0 give e.g. 1e-3 · f_max_hz")
+              .range(Range::above(0).finite())
+              .unit("Hz")
+              .required(),
+          option("f_max_hz", &Band::f_max_hz, "upper edge of the band, > f_min_hz")
+              .range(Range::above(0).finite())
+              .unit("Hz")
+              .required(),
+      },
+      {[](const Band& b, const OptionCheck<Band>& check) {
+        if (!(b.f_max_hz > b.f_min_hz))
+          check.fail(b.f_max_hz, "must be > f_min_hz = " + option_number(b.f_min_hz));
+      }});
+  return specs;
 }
+
+void Band::validate() const { specs().validate(*this, ParameterMap::section("band")); }
 
 }  // namespace ecmor

@@ -32,6 +32,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <functional>
 #include <limits>
 #include <stdexcept>
@@ -40,6 +41,7 @@
 #include <utility>
 #include <vector>
 
+#include "ecmor/base/error.hpp"
 #include "ecmor/base/parameters.hpp"
 #include "ecmor/export.hpp"
 
@@ -156,12 +158,21 @@ class Option {
     if (m_type == "list of double") m_type = "list of int";
     return *this;
   }
+  /// The key must be given: the documentation says "required" where the default would stand,
+  /// and missing_required() names it.
+  Option& required() {
+    m_required = true;
+    return *this;
+  }
 
   const std::string& key() const { return m_key; }
   const std::string& type() const { return m_type; }
   const Range& valid_range() const { return m_range; }
   const std::vector<std::string>& choices() const { return m_choices; }
   bool integer_items() const { return m_integers; }
+  bool is_required() const { return m_required; }
+  /// A structured() key: its value is no parameter (a mapping), and its owner's parser reads it.
+  bool is_structured() const { return m_structured; }
 
   /// The field's value in `o` as text ("20", "band", "[1, 2]").
   std::string value_text(const O& o) const { return m_show(o); }
@@ -185,7 +196,7 @@ class Option {
     if (!m_condition.empty()) text += "; " + m_condition;
     const std::string valid = valid_text();
     if (!valid.empty()) text += "; valid: " + valid;
-    return {m_key, m_type, default_text(), text};
+    return {m_key, m_type, m_required ? "required" : default_text(), text};
   }
 
   /// Reads the key into o (o's field is the fallback). \throws ConfigError.
@@ -227,6 +238,8 @@ class Option {
     outer.m_choices = m_choices;
     outer.m_integers = m_integers;
     outer.m_condition = m_condition;
+    outer.m_required = m_required;
+    outer.m_structured = m_structured;
     if (m_check) {
       outer.m_check = [inner, member](const Option<Outer>&, const ParameterMap& p, const Outer& o) {
         inner.check_value(p, o.*member);
@@ -240,6 +253,8 @@ class Option {
 
   /// Used by choice(): the names, in order.
   void set_choices(std::vector<std::string> names) { m_choices = std::move(names); }
+  /// Used by structured().
+  void set_structured() { m_structured = true; }
 
  private:
   template <class>
@@ -249,6 +264,8 @@ class Option {
   Range m_range;
   std::vector<std::string> m_choices;
   bool m_integers = false;
+  bool m_required = false;
+  bool m_structured = false;
   Read m_read;
   Show m_show;
   Address m_address;
@@ -362,6 +379,38 @@ Option<O> option(std::string key, std::vector<double> O::*field, std::string doc
   return opt;
 }
 
+/// The names of an enum's values, stated once: a choice() option, to_string and the parsers of
+/// the APIs all read the same list.
+template <class T>
+using NameList = std::vector<std::pair<std::string, T>>;
+
+/// The name of `value` in `names`. \throws std::logic_error for a value without a name.
+template <class T>
+const std::string& name_of(const NameList<T>& names, T value) {
+  for (const auto& n : names)
+    if (n.second == value) return n.first;
+  throw std::logic_error("a value without a name");
+}
+
+/// The value named `name`. \throws ConfigError "<what> = '<name>': must be one of a, b (did you
+/// mean 'a'?)".
+template <class T>
+T value_of(const NameList<T>& names, const std::string& name, const std::string& what) {
+  std::vector<std::string> list;
+  for (const auto& n : names) {
+    if (n.first == name) return n.second;
+    list.push_back(n.first);
+  }
+  std::string rule = "must be one of ";
+  for (std::size_t i = 0; i < list.size(); ++i) rule += (i ? ", " : "") + list[i];
+  const std::string near = nearest(name, list);
+  if (!near.empty()) rule += " (did you mean '" + near + "'?)";
+  std::string quoted(1, '\'');
+  quoted.append(name);
+  quoted.push_back('\'');
+  throw ConfigError(what + " = " + quoted + ": " + rule);
+}
+
 /// A string option with a fixed set of names, each standing for one value of the field (an enum,
 /// a bool, ...). The default is the name of the struct's default value.
 template <class O, class T>
@@ -395,6 +444,71 @@ Option<O> choice(std::string key, T O::*field, std::vector<std::pair<std::string
     p.fail(self.key(), self.key() + " = " + value + ": must be " + self.valid_text());
   });
   opt.set_choices(std::move(list));
+  return opt;
+}
+
+/// A text option (a name; never empty).
+template <class O>
+Option<O> option(std::string key, std::string O::*field, std::string doc) {
+  return Option<O>(
+      std::move(key), "string", std::move(doc),
+      [field](const Option<O>& self, const ParameterMap& p, O& o) {
+        const std::string v = p.get_string(self.key(), o.*field);
+        if (v.empty()) p.fail(self.key(), self.key() + " = '': must not be empty");
+        o.*field = v;
+      },
+      [field](const O& o) { return o.*field; }, options_detail::address_of(field));
+}
+
+/// A file or directory. A relative path is taken from the working directory, as a shell would;
+/// the field holds it absolute and normalised.
+template <class O>
+Option<O> option(std::string key, std::filesystem::path O::*field, std::string doc) {
+  return Option<O>(
+      std::move(key), "path", std::move(doc),
+      [field](const Option<O>& self, const ParameterMap& p, O& o) {
+        if (!p.has(self.key())) return;
+        const std::string v = p.get_string(self.key(), "");
+        if (v.empty()) p.fail(self.key(), self.key() + " = '': must not be empty");
+        o.*field = std::filesystem::absolute(v).lexically_normal();
+      },
+      [field](const O& o) { return (o.*field).empty() ? "none" : (o.*field).string(); },
+      options_detail::address_of(field));
+}
+
+/// A list of files or directories (a single path is a list of one), each as option(path) reads
+/// it.
+template <class O>
+Option<O> option(std::string key, std::vector<std::filesystem::path> O::*field, std::string doc) {
+  return Option<O>(
+      std::move(key), "list of path", std::move(doc),
+      [field](const Option<O>& self, const ParameterMap& p, O& o) {
+        if (!p.has(self.key())) return;
+        std::vector<std::filesystem::path> paths;
+        for (const std::string& v : p.get_strings(self.key(), {}))
+          paths.push_back(std::filesystem::absolute(v).lexically_normal());
+        o.*field = std::move(paths);
+      },
+      [field](const O& o) {
+        std::string t = "[";
+        for (std::size_t i = 0; i < (o.*field).size(); ++i)
+          t += (i ? ", " : "") + (o.*field)[i].string();
+        return t + "]";
+      },
+      options_detail::address_of(field));
+}
+
+/// A key whose value is structured (a mapping, a list of mappings), read by the parser of its
+/// section rather than by the specs; listed so that the key is known and documented with the
+/// others. `default_text` documents what its absence means.
+template <class O>
+Option<O> structured(std::string key, std::string type, std::string default_text, std::string doc) {
+  Option<O> opt(
+      std::move(key), std::move(type), std::move(doc),
+      [](const Option<O>& self, const ParameterMap& p, O&) { p.declare({self.key()}); },
+      [default_text](const O&) { return default_text; },
+      [](const O&) -> const void* { return nullptr; });
+  opt.set_structured();
   return opt;
 }
 
@@ -465,11 +579,21 @@ class OptionSpecs {
   /// Reads every option into `o` (its fields are the fallbacks), then checks the conditions and
   /// rules. Marks each key as known to the map (its check_unused() then flags the others).
   /// \throws ConfigError naming owner, key, location, value and rule.
-  void read_into(const ParameterMap& params, O& o) const {
+  /// `check_required` false: a required key may be missing (a caller that knows better).
+  void read_into(const ParameterMap& params, O& o, bool check_required = true) const {
+    const Option<O>* missing = check_required ? missing_required(params) : nullptr;
+    if (missing != nullptr)
+      params.fail(missing->key(), missing->key() + ": required, but not given");
     for (const auto& opt : m_options) opt.read(params, o);
     for (const auto& opt : m_options) opt.check_condition(params, o);
     const OptionCheck<O> check(m_options, params, o);
     for (const auto& rule : m_rules) rule(o, check);
+  }
+  /// The first required key not in `params`, or nullptr.
+  const Option<O>* missing_required(const ParameterMap& params) const {
+    for (const auto& opt : m_options)
+      if (opt.is_required() && !params.has(opt.key())) return &opt;
+    return nullptr;
   }
   /// A value-initialised O (the struct's defaults) with the given keys read into it.
   O read(const ParameterMap& params) const {
@@ -479,8 +603,9 @@ class OptionSpecs {
   }
   /// Checks a struct filled in code (not read from a file) by the same ranges, choices and rules.
   /// \throws ConfigError "<owner>: <key> = <value>: <rule>" for the first option that fails.
-  void validate(const O& o, const std::string& owner) const {
-    const ParameterMap none(owner);
+  void validate(const O& o, const std::string& owner) const { validate(o, ParameterMap(owner)); }
+  /// validate() naming the keys as `none` does (ParameterMap::section("band"): "band.f_max_hz").
+  void validate(const O& o, const ParameterMap& none) const {
     for (const auto& opt : m_options) opt.check_value(none, o);
     const OptionCheck<O> check(m_options, none, o);
     for (const auto& rule : m_rules) rule(o, check);

@@ -36,8 +36,13 @@ struct ParameterDoc {
 
 class ECMOR_API ParameterMap {
  public:
-  /// `owner` names the section in messages, e.g. "reducer 'modal'".
+  /// `owner` names the section in messages, e.g. "reducer 'modal'":
+  /// "run.yaml:7: reducer 'modal': batch_size = -3: must be >= 1".
   explicit ParameterMap(std::string owner = "parameters");
+  /// A map of one section of the run configuration, whose messages name each key by its path in
+  /// the file: "run.yaml:4: band.f_min_hz = -1: must be > 0" (an empty `name`: the top level,
+  /// "run.yaml:9: compress = 'maybe': ...").
+  static ParameterMap section(const std::string& name);
 
   void set(const std::string& key, ParameterValue value);
   void set(const std::string& key, bool v) { set(key, ParameterValue{v, {}}); }
@@ -69,11 +74,17 @@ class ECMOR_API ParameterMap {
                          const std::vector<std::string>& choices = {}) const;
   std::vector<double> get_doubles(const std::string& key,
                                   const std::vector<double>& fallback) const;
+  /// A list of strings; a single string is a list of one. No item may be empty.
+  std::vector<std::string> get_strings(const std::string& key,
+                                       const std::vector<std::string>& fallback) const;
 
   /// Rejects the value of `key`: throws ConfigError "<location>: <owner>: <what>", the location
   /// being that of `key` (omitted when unknown). `what` names the key, the value and the rule
-  /// ("max_order = 1: must be >= initial_order = 2"); options.hpp composes it.
+  /// ("max_order = 1: must be >= initial_order = 2"); options.hpp composes it. A section()'s map
+  /// puts its name before the key instead: "<location>: band.f_max_hz = 1: ...".
   [[noreturn]] void fail(const std::string& key, const std::string& what) const;
+  /// fail() at a known location (a value's, or "" for none).
+  [[noreturn]] void fail_at(const std::string& location, const std::string& what) const;
 
   /// Marks keys as known without reading them (e.g. documented but handled elsewhere).
   void declare(const std::vector<std::string>& keys) const;
@@ -83,6 +94,7 @@ class ECMOR_API ParameterMap {
  private:
   const ParameterValue* find(const std::string& key) const;
   std::string m_owner;
+  bool m_section = false;  // section(): keys are named "<owner>.<key>"
   std::map<std::string, ParameterValue> m_values;
   mutable std::set<std::string> m_known;
 };

@@ -30,6 +30,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "ecmor/export.hpp"
@@ -39,9 +40,14 @@
 
 namespace ecmor {
 
+template <class O>
+class OptionSpecs;
+
 enum class ErrorNorm { Spectral, Frobenius };
+/// "spectral", "frobenius": the names of YAML target.norm and of the APIs.
+ECMOR_API const std::vector<std::pair<std::string, ErrorNorm>>& error_norm_names();
 ECMOR_API std::string to_string(ErrorNorm norm);
-/// Parses "spectral" | "frobenius". \throws ConfigError listing the valid names.
+/// Parses a name of error_norm_names(). \throws ConfigError listing the valid names.
 ECMOR_API ErrorNorm parse_error_norm(const std::string& name);
 
 /// Norm of a (small, dense) complex matrix: largest singular value or Frobenius norm.
@@ -53,43 +59,35 @@ enum class ErrorVerify {
   Estimate,  ///< a reference model estimates; full solves only where the estimate peaks
   Auto,      ///< Dense when N <= dense_max_states, else Estimate until it costs more than Dense
 };
+/// "dense", "estimate", "auto": the names of YAML error.verify.
+ECMOR_API const std::vector<std::pair<std::string, ErrorVerify>>& error_verify_names();
 ECMOR_API std::string to_string(ErrorVerify verify);
-/// Parses "dense" | "estimate" | "auto". \throws ConfigError listing the valid names.
+/// Parses a name of error_verify_names(). \throws ConfigError listing the valid names.
 ECMOR_API ErrorVerify parse_error_verify(const std::string& name);
 
+/// The band error's options. Each field's meaning, rule and YAML key (section `error`) are stated
+/// once, in specs(); the values here are the defaults (dense_max_states = 0: the measured choice
+/// of docs/error-measures.md).
 struct ECMOR_API BandErrorOptions {
-  ErrorNorm norm = ErrorNorm::Spectral;  ///< which relative error the supremum is taken of
-  Index grid_points = 200;               ///< initial log-spaced samples over the band, >= 2
-  bool pole_samples = true;      ///< also sample at Im(p)/2pi of reduced poles inside the band
-  Index max_pole_samples = 400;  ///< at most this many pole samples (the least damped first)
-  Index refine_peaks = 5;        ///< local maxima refined per evaluation, >= 0
-  /// Golden-section steps per refined peak at most, >= 0; a peak stops earlier once its value has
-  /// not risen (by 1e-4 relative) for 6 steps or its bracket is below 1e-9 relative in f.
+  ErrorNorm norm = ErrorNorm::Spectral;  ///< YAML target.norm
+  Index grid_points = 200;
+  bool pole_samples = true;
+  Index max_pole_samples = 400;
+  Index refine_peaks = 5;
   Index refine_evaluations = 40;
-  /// ||H(f)|| <= zero_threshold * max_f ||H|| means "H vanishes here": relative error undefined.
   double zero_threshold = 1e-13;
-  /// Dense, Estimate, or Auto (Dense up to dense_max_states full-model states N).
   ErrorVerify verify = ErrorVerify::Auto;
-  /// Largest N for which Auto chooses Dense, >= 0 (docs/error-measures.md: measured choice).
   Index dense_max_states = 0;
-  /// Estimate mode: log-spaced samples of the estimate (no full solve each), >= 2.
-  Index estimate_points = 400;
-  /// Estimate mode: full solves that seed the reference model, >= 2: the band edges and points of
-  /// the golden-ratio sequence in log f between them.
+  Index estimate_points = 400;  ///< estimate mode from here on
   Index reference_points = 6;
-  /// Estimate mode: largest local maxima of the estimate checked by a full solve per round of a
-  /// re-check (verify), >= 1.
   Index check_peaks = 4;
-  /// Estimate mode: frequencies drawn log-uniformly in the band and checked by a full solve at
-  /// each re-check, >= 0 (fixed seed: runs are reproducible).
   Index random_checks = 2;
-  /// Estimate mode: rounds of (estimate, check its peaks) per re-check, >= 1; rounds after the
-  /// first check only maxima above the largest error already measured against the full model.
   Index check_rounds = 3;
-  /// Estimate mode: full solves evaluate() may spend at the estimate's peak when it has none
-  /// there (the estimate is then exact where it is largest), >= 0.
   Index probe_solves = 1;
-  /// \throws ConfigError naming the field, value and rule.
+
+  /// The options' keys, rules and documentation (options.hpp).
+  static const OptionSpecs<BandErrorOptions>& specs();
+  /// \throws ConfigError "BandErrorOptions: <key> = <value>: <rule>" (by specs()).
   void validate() const;
 };
 

@@ -8,11 +8,16 @@
 
 namespace ecmor {
 
+template <class O>
+class OptionSpecs;
+
 /// A frequency band in Hz.
 struct ECMOR_API Band {
   double f_min_hz = 0.0;
   double f_max_hz = 0.0;
-  /// \throws ConfigError unless 0 < f_min_hz < f_max_hz and both finite.
+  /// The keys of the YAML section `band`, their rules and documentation (options.hpp).
+  static const OptionSpecs<Band>& specs();
+  /// \throws ConfigError "band.<key> = <value>: <rule>" for the first rule of specs() broken.
   void validate() const;
 };
 

@@ -18,6 +18,7 @@
 #include <map>
 #include <string>
 #include <system_error>
+#include <utility>
 #include <vector>
 
 #include "ecmor/export.hpp"
@@ -96,6 +97,12 @@ ECMOR_API void write_mat_file(const std::filesystem::path& path,
 ///   Mat:  one MAT v5 file, kReducedModelMatFile, instead;
 ///   Both: both.
 enum class OutputFormat { Mtx, Mat, Both };
+/// "mtx", "mat", "both": the names of YAML output.format and of the APIs.
+inline const std::vector<std::pair<std::string, OutputFormat>>& output_format_names() {
+  static const std::vector<std::pair<std::string, OutputFormat>> names = {
+      {"mtx", OutputFormat::Mtx}, {"mat", OutputFormat::Mat}, {"both", OutputFormat::Both}};
+  return names;
+}
 
 /// The name of the .mat file of OutputFormat::Mat in a run directory.
 inline constexpr const char* kReducedModelMatFile = "reduced_model.mat";

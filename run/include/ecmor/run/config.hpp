@@ -140,18 +140,22 @@ std::vector<std::string> run_strategy_names();
 /// portfolio's (portfolio_options()). \throws ConfigError for unknown names.
 std::vector<ParameterDoc> run_strategy_options(const std::string& name);
 
-/// The documented options of the portfolio strategy's own keys (`prune`; `members` and
-/// `time_limit_s` are described above), from the option specs the reader uses: what
-/// `ecmor plugins` and docs/strategies.md print.
+/// The documented options of the portfolio strategy's own keys (`members`, `prune`, `race`;
+/// `name` and `time_limit_s` are the strategy section's, section_options("strategy")), from the
+/// option specs the reader uses: what `ecmor plugins` and docs/strategies.md print.
 std::vector<ParameterDoc> portfolio_options();
 
-/// The sections of plain key/value options, read through option specs: "error", "solver",
-/// "backend".
+/// The configuration's sections, each read through option specs, in the order of the file and of
+/// docs/user-guide.md: model, band, target, reducer, strategy, error, solver, backend, output,
+/// check. The reducer and strategy sections list their own keys (name, time_limit_s); their
+/// other keys are the reducer's or strategy's options, documented by the plugin.
 std::vector<std::string> option_section_names();
 
-/// The documented options of a section of plain key/value options (option_section_names()),
-/// from the option specs the reader uses: what docs/user-guide.md prints.
-/// \throws std::invalid_argument for any other name.
+/// The documented keys of a section (option_section_names()), from the option specs the reader
+/// uses: what docs/user-guide.md prints. \throws std::invalid_argument for any other name.
 std::vector<ParameterDoc> section_options(const std::string& section);
+
+/// The documented keys of the top level that are not sections (plugins, compress).
+std::vector<ParameterDoc> top_level_options();
 
 }  // namespace ecmor
