@@ -9,9 +9,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -78,6 +80,16 @@ struct Options {
   }();
 };
 
+/// The option `key` of AdiOptions::specs() (core states its range and documentation once) as
+/// this reducer's key adi_<key>, read into Options::adi and given only when `applies` holds. The
+/// plugin offers only the ADI keys a user tunes; the others keep core's defaults.
+Option<Options> adi_option(const std::string& key, std::function<bool(const Options&)> applies,
+                           const std::string& rule) {
+  for (const auto& opt : AdiOptions::specs().options())
+    if (opt.key() == key) return opt.prefixed("adi_").nested(&Options::adi).only_if(applies, rule);
+  throw std::logic_error("AdiOptions::specs() has no option " + key);
+}
+
 const OptionSpecs<Options>& option_specs() {
   auto low_rank = [](const Options& o) { return o.gramians != GramianRoute::Dense; };
   const std::string low_rank_only =
@@ -123,27 +135,10 @@ const OptionSpecs<Options>& option_specs() {
              "auto: dense up to 2000 first-order states, low-rank ADI above; dense: "
              "Bartels-Stewart on the Schur form (gramian_factors.hpp); lowrank: low-rank ADI "
              "factors through s^2 M + s D + K or s E - A (no 2N matrix)"),
-      option("adi_tolerance", &AdiOptions::tolerance,
-             "low-rank ADI: stop when ||R||_2 / ||B B'||_2 (C'C) <= this")
-          .range(Range::open(0, 1))
-          .nested(&Options::adi)
-          .only_if(low_rank, low_rank_only),
-      option("adi_max_iterations", &AdiOptions::max_iterations,
-             "low-rank ADI: iteration budget per Gramian (a complex pair counts as two)")
-          .range(Range::at_least(1))
-          .nested(&Options::adi)
-          .only_if(low_rank, low_rank_only),
-      choice("adi_shifts", &AdiOptions::shifts,
-             {{"projection", AdiShiftStrategy::Projection},
-              {"heuristic", AdiShiftStrategy::Heuristic}},
-             "low-rank ADI shifts: projection (self-generating, Benner-Kuerschner-Saak) or "
-             "heuristic (Penzl)")
-          .nested(&Options::adi)
-          .only_if(low_rank, low_rank_only),
-      option("adi_max_shifts", &AdiOptions::max_shifts, "low-rank ADI: shifts per generated set")
-          .range(Range::at_least(1))
-          .nested(&Options::adi)
-          .only_if(low_rank, low_rank_only),
+      adi_option("tolerance", low_rank, low_rank_only),
+      adi_option("max_iterations", low_rank, low_rank_only),
+      adi_option("shifts", low_rank, low_rank_only),
+      adi_option("max_shifts", low_rank, low_rank_only),
       option("adi_require_convergence", &Options::adi_require_convergence,
              "true: an ADI run that reaches adi_max_iterations before adi_tolerance fails the "
              "setup (NumericalError with the residuals); false: the approximate Gramians are "
