@@ -555,20 +555,14 @@ class BalancedReducer final : public Reducer {
   Index m_hsv_cap = kUnlimitedOrder;
 };
 
-ReducerInfo balanced_info() {
-  return reducer_info(
+void register_reducers(Registry& registry) {
+  registry.add(reducer_factory<BalancedReducer>(
       kName,
       "balanced truncation from Gramian factors computed once: first-order square root or "
       "balancing-free (a-priori bound 2 sum(tail)), second-order variants p/v/pv/vp/fv, "
       "frequency-limited to the band; dense Gramians for small models, low-rank ADI for large ones",
-      "0.1.0", option_specs(), {});
+      "0.1.0", option_specs(), {}));
 }
-
-std::unique_ptr<Reducer> create_balanced(const ParameterMap& params) {
-  return create_from_specs<BalancedReducer>(params, option_specs());
-}
-
-void register_reducers(Registry& registry) { registry.add({balanced_info(), create_balanced}); }
 
 }  // namespace
 }  // namespace ecmor::balanced
