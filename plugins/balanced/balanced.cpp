@@ -60,6 +60,25 @@ std::string to_string(Variant v) {
   return "?";
 }
 
+/// The factor blocks a second-order variant balances (README table), stated once for the
+/// balancing (prepare_balancing) and the bases (reduce_second_order). V comes from Zc1 or Zc2
+/// (Pp or Pv), balanced against Zo1 or Zo2 (Qp or Qv). W always comes from Zq2 = M^-T Zo2, so it
+/// needs a balancing against Qv: the main one, or for a variant balanced against Qp (p, vp) a
+/// second one of Pv with Qv; fv is one-sided (W = V).
+struct VariantBlocks {
+  bool v_from_velocities;   ///< V from Zc2 (Pv); else Zc1 (Pp)
+  bool against_velocities;  ///< balanced against Zo2 (Qv); else Zo1 (Qp)
+  bool one_sided;           ///< W = V
+  /// W needs the second balancing, of Pv with Qv.
+  bool w_from_second() const { return !against_velocities && !one_sided; }
+};
+
+VariantBlocks blocks_of(Variant v) {
+  return {.v_from_velocities = v == Variant::V || v == Variant::VP,
+          .against_velocities = v == Variant::V || v == Variant::PV,
+          .one_sided = v == Variant::FV};
+}
+
 /// The reducer's settings; the initialisers are the defaults, option_specs() the keys, ranges
 /// and documentation.
 struct Options {
@@ -448,27 +467,11 @@ class BalancedReducer final : public Reducer {
       const Index n = m_view->size();
       const auto Zc1 = g.Zc.topRows(n), Zc2 = g.Zc.bottomRows(n);
       const auto Zo1 = g.Zo.topRows(n), Zo2 = g.Zo.bottomRows(n);
-      // The left basis of p, v and vp balances the velocity blocks (Pv with Qv): W spans the
-      // dominant left singular directions of Zo2' Zc2 mapped back through M^-T, i.e. Zq2 U_v.
-      switch (m_options.variant) {
-        case Variant::P:
-          m_main = balance(Zo1, Zc1, n);  // Pp with Qp: V from Zc1
-          m_left = balance(Zo2, Zc2, n);  // Pv with Qv: W from Zq2
-          break;
-        case Variant::V:
-          m_main = balance(Zo2, Zc2, n);  // Pv with Qv: V from Zc2, W from Zq2
-          break;
-        case Variant::PV:
-          m_main = balance(Zo2, Zc1, n);  // Pp with Qv: V from Zc1, W from Zq2
-          break;
-        case Variant::VP:
-          m_main = balance(Zo1, Zc2, n);  // Pv with Qp: V from Zc2
-          m_left = balance(Zo2, Zc2, n);  // Pv with Qv: W from Zq2
-          break;
-        case Variant::FV:
-          m_main = balance(Zo1, Zc1, n);  // Pp with Qp: V = W from Zc1 (one-sided)
-          break;
-      }
+      const VariantBlocks b = blocks_of(m_options.variant);
+      m_main = balance(b.against_velocities ? Zo2 : Zo1, b.v_from_velocities ? Zc2 : Zc1, n);
+      // W spans the dominant left singular directions of Zo2' Zc2 mapped back through M^-T, i.e.
+      // Zq2 U_v, when the main balancing is not against Qv.
+      if (b.w_from_second()) m_left = balance(Zo2, Zc2, n);
       m_rank = std::min(m_main.rank, n);
       if (m_left) m_rank = std::min(m_rank, m_left->rank);
     }
@@ -514,29 +517,10 @@ class BalancedReducer final : public Reducer {
     const Index n = m_view->size();
     const Matrix Zc1 = g.Zc.topRows(n), Zc2 = g.Zc.bottomRows(n);
     const Matrix Zq2 = g.Zq.bottomRows(n);
-    Matrix V, W;
-    switch (m_options.variant) {
-      case Variant::P:
-        V = basis(Zc1, m_main.V, m_main.s, r);
-        W = basis(Zq2, m_left->U, m_left->s, r);
-        break;
-      case Variant::V:
-        V = basis(Zc2, m_main.V, m_main.s, r);
-        W = basis(Zq2, m_main.U, m_main.s, r);
-        break;
-      case Variant::PV:
-        V = basis(Zc1, m_main.V, m_main.s, r);
-        W = basis(Zq2, m_main.U, m_main.s, r);
-        break;
-      case Variant::VP:
-        V = basis(Zc2, m_main.V, m_main.s, r);
-        W = basis(Zq2, m_left->U, m_left->s, r);
-        break;
-      case Variant::FV:
-        V = basis(Zc1, m_main.V, m_main.s, r);
-        W = V;
-        break;
-    }
+    const VariantBlocks b = blocks_of(m_options.variant);
+    Matrix V = basis(b.v_from_velocities ? Zc2 : Zc1, m_main.V, m_main.s, r);
+    const Balancing& w = b.w_from_second() ? *m_left : m_main;
+    Matrix W = b.one_sided ? V : basis(Zq2, w.U, w.s, r);
     // Mr = W'MV, Dr = W'DV, Kr = W'KV, Br = W'B, Cr = CV (+ Cvr = Cv V): the column scalings of
     // the square-root and balancing-free bases give the same transfer function.
     result.model = project(*m_view->so(), V, W);
