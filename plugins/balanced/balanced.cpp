@@ -9,9 +9,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -58,6 +60,25 @@ std::string to_string(Variant v) {
   return "?";
 }
 
+/// The factor blocks a second-order variant balances (README table), stated once for the
+/// balancing (prepare_balancing) and the bases (reduce_second_order). V comes from Zc1 or Zc2
+/// (Pp or Pv), balanced against Zo1 or Zo2 (Qp or Qv). W always comes from Zq2 = M^-T Zo2, so it
+/// needs a balancing against Qv: the main one, or for a variant balanced against Qp (p, vp) a
+/// second one of Pv with Qv; fv is one-sided (W = V).
+struct VariantBlocks {
+  bool v_from_velocities;   ///< V from Zc2 (Pv); else Zc1 (Pp)
+  bool against_velocities;  ///< balanced against Zo2 (Qv); else Zo1 (Qp)
+  bool one_sided;           ///< W = V
+  /// W needs the second balancing, of Pv with Qv.
+  bool w_from_second() const { return !against_velocities && !one_sided; }
+};
+
+VariantBlocks blocks_of(Variant v) {
+  return {.v_from_velocities = v == Variant::V || v == Variant::VP,
+          .against_velocities = v == Variant::V || v == Variant::PV,
+          .one_sided = v == Variant::FV};
+}
+
 /// The reducer's settings; the initialisers are the defaults, option_specs() the keys, ranges
 /// and documentation.
 struct Options {
@@ -77,6 +98,16 @@ struct Options {
     return q;
   }();
 };
+
+/// The option `key` of AdiOptions::specs() (core states its range and documentation once) as
+/// this reducer's key adi_<key>, read into Options::adi and given only when `applies` holds. The
+/// plugin offers only the ADI keys a user tunes; the others keep core's defaults.
+Option<Options> adi_option(const std::string& key, std::function<bool(const Options&)> applies,
+                           const std::string& rule) {
+  for (const auto& opt : AdiOptions::specs().options())
+    if (opt.key() == key) return opt.prefixed("adi_").nested(&Options::adi).only_if(applies, rule);
+  throw std::logic_error("AdiOptions::specs() has no option " + key);
+}
 
 const OptionSpecs<Options>& option_specs() {
   auto low_rank = [](const Options& o) { return o.gramians != GramianRoute::Dense; };
@@ -123,27 +154,10 @@ const OptionSpecs<Options>& option_specs() {
              "auto: dense up to 2000 first-order states, low-rank ADI above; dense: "
              "Bartels-Stewart on the Schur form (gramian_factors.hpp); lowrank: low-rank ADI "
              "factors through s^2 M + s D + K or s E - A (no 2N matrix)"),
-      option("adi_tolerance", &AdiOptions::tolerance,
-             "low-rank ADI: stop when ||R||_2 / ||B B'||_2 (C'C) <= this")
-          .range(Range::open(0, 1))
-          .nested(&Options::adi)
-          .only_if(low_rank, low_rank_only),
-      option("adi_max_iterations", &AdiOptions::max_iterations,
-             "low-rank ADI: iteration budget per Gramian (a complex pair counts as two)")
-          .range(Range::at_least(1))
-          .nested(&Options::adi)
-          .only_if(low_rank, low_rank_only),
-      choice("adi_shifts", &AdiOptions::shifts,
-             {{"projection", AdiShiftStrategy::Projection},
-              {"heuristic", AdiShiftStrategy::Heuristic}},
-             "low-rank ADI shifts: projection (self-generating, Benner-Kuerschner-Saak) or "
-             "heuristic (Penzl)")
-          .nested(&Options::adi)
-          .only_if(low_rank, low_rank_only),
-      option("adi_max_shifts", &AdiOptions::max_shifts, "low-rank ADI: shifts per generated set")
-          .range(Range::at_least(1))
-          .nested(&Options::adi)
-          .only_if(low_rank, low_rank_only),
+      adi_option("tolerance", low_rank, low_rank_only),
+      adi_option("max_iterations", low_rank, low_rank_only),
+      adi_option("shifts", low_rank, low_rank_only),
+      adi_option("max_shifts", low_rank, low_rank_only),
       option("adi_require_convergence", &Options::adi_require_convergence,
              "true: an ADI run that reaches adi_max_iterations before adi_tolerance fails the "
              "setup (NumericalError with the residuals); false: the approximate Gramians are "
@@ -453,27 +467,11 @@ class BalancedReducer final : public Reducer {
       const Index n = m_view->size();
       const auto Zc1 = g.Zc.topRows(n), Zc2 = g.Zc.bottomRows(n);
       const auto Zo1 = g.Zo.topRows(n), Zo2 = g.Zo.bottomRows(n);
-      // The left basis of p, v and vp balances the velocity blocks (Pv with Qv): W spans the
-      // dominant left singular directions of Zo2' Zc2 mapped back through M^-T, i.e. Zq2 U_v.
-      switch (m_options.variant) {
-        case Variant::P:
-          m_main = balance(Zo1, Zc1, n);  // Pp with Qp: V from Zc1
-          m_left = balance(Zo2, Zc2, n);  // Pv with Qv: W from Zq2
-          break;
-        case Variant::V:
-          m_main = balance(Zo2, Zc2, n);  // Pv with Qv: V from Zc2, W from Zq2
-          break;
-        case Variant::PV:
-          m_main = balance(Zo2, Zc1, n);  // Pp with Qv: V from Zc1, W from Zq2
-          break;
-        case Variant::VP:
-          m_main = balance(Zo1, Zc2, n);  // Pv with Qp: V from Zc2
-          m_left = balance(Zo2, Zc2, n);  // Pv with Qv: W from Zq2
-          break;
-        case Variant::FV:
-          m_main = balance(Zo1, Zc1, n);  // Pp with Qp: V = W from Zc1 (one-sided)
-          break;
-      }
+      const VariantBlocks b = blocks_of(m_options.variant);
+      m_main = balance(b.against_velocities ? Zo2 : Zo1, b.v_from_velocities ? Zc2 : Zc1, n);
+      // W spans the dominant left singular directions of Zo2' Zc2 mapped back through M^-T, i.e.
+      // Zq2 U_v, when the main balancing is not against Qv.
+      if (b.w_from_second()) m_left = balance(Zo2, Zc2, n);
       m_rank = std::min(m_main.rank, n);
       if (m_left) m_rank = std::min(m_rank, m_left->rank);
     }
@@ -519,29 +517,10 @@ class BalancedReducer final : public Reducer {
     const Index n = m_view->size();
     const Matrix Zc1 = g.Zc.topRows(n), Zc2 = g.Zc.bottomRows(n);
     const Matrix Zq2 = g.Zq.bottomRows(n);
-    Matrix V, W;
-    switch (m_options.variant) {
-      case Variant::P:
-        V = basis(Zc1, m_main.V, m_main.s, r);
-        W = basis(Zq2, m_left->U, m_left->s, r);
-        break;
-      case Variant::V:
-        V = basis(Zc2, m_main.V, m_main.s, r);
-        W = basis(Zq2, m_main.U, m_main.s, r);
-        break;
-      case Variant::PV:
-        V = basis(Zc1, m_main.V, m_main.s, r);
-        W = basis(Zq2, m_main.U, m_main.s, r);
-        break;
-      case Variant::VP:
-        V = basis(Zc2, m_main.V, m_main.s, r);
-        W = basis(Zq2, m_left->U, m_left->s, r);
-        break;
-      case Variant::FV:
-        V = basis(Zc1, m_main.V, m_main.s, r);
-        W = V;
-        break;
-    }
+    const VariantBlocks b = blocks_of(m_options.variant);
+    Matrix V = basis(b.v_from_velocities ? Zc2 : Zc1, m_main.V, m_main.s, r);
+    const Balancing& w = b.w_from_second() ? *m_left : m_main;
+    Matrix W = b.one_sided ? V : basis(Zq2, w.U, w.s, r);
     // Mr = W'MV, Dr = W'DV, Kr = W'KV, Br = W'B, Cr = CV (+ Cvr = Cv V): the column scalings of
     // the square-root and balancing-free bases give the same transfer function.
     result.model = project(*m_view->so(), V, W);
@@ -560,20 +539,14 @@ class BalancedReducer final : public Reducer {
   Index m_hsv_cap = kUnlimitedOrder;
 };
 
-ReducerInfo balanced_info() {
-  return reducer_info(
+void register_reducers(Registry& registry) {
+  registry.add(reducer_factory<BalancedReducer>(
       kName,
       "balanced truncation from Gramian factors computed once: first-order square root or "
       "balancing-free (a-priori bound 2 sum(tail)), second-order variants p/v/pv/vp/fv, "
       "frequency-limited to the band; dense Gramians for small models, low-rank ADI for large ones",
-      "0.1.0", option_specs(), {});
+      "0.1.0", option_specs(), {}));
 }
-
-std::unique_ptr<Reducer> create_balanced(const ParameterMap& params) {
-  return create_from_specs<BalancedReducer>(params, option_specs());
-}
-
-void register_reducers(Registry& registry) { registry.add({balanced_info(), create_balanced}); }
 
 }  // namespace
 }  // namespace ecmor::balanced

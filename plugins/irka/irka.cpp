@@ -1646,19 +1646,13 @@ class IrkaReducer final : public Reducer {
   std::optional<DenseBalancing> m_balancing;
 };
 
-ReducerInfo irka_info() {
-  return reducer_info(
+void register_reducers(Registry& registry) {
+  registry.add(reducer_factory<IrkaReducer>(
       kName,
       "IRKA: H2-optimal interpolation at the mirror images of the reduced poles (tangential, "
       "MIMO); first order, or second-order structure preserved; safeguarded iteration",
-      "0.1.0", option_specs(), {});
+      "0.1.0", option_specs(), {}));
 }
-
-std::unique_ptr<Reducer> create_irka(const ParameterMap& params) {
-  return create_from_specs<IrkaReducer>(params, option_specs());
-}
-
-void register_reducers(Registry& registry) { registry.add({irka_info(), create_irka}); }
 
 }  // namespace
 }  // namespace ecmor::irka

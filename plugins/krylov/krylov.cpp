@@ -1037,19 +1037,13 @@ class KrylovReducer final : public Reducer {
   Matrix m_rigid_basis;           // m_n x count, Euclidean-orthonormal basis of null(K)
 };
 
-ReducerInfo krylov_info() {
-  return reducer_info(
+void register_reducers(Registry& registry) {
+  registry.add(reducer_factory<KrylovReducer>(
       kName,
       "moment matching (rational Krylov) by a two-level orthogonal Arnoldi process: multipoint, "
       "one- or two-sided, block or tangential, second order preserved",
-      "0.1.0", option_specs(), {true, true, true});
+      "0.1.0", option_specs(), {true, true, true}));
 }
-
-std::unique_ptr<Reducer> create_krylov(const ParameterMap& params) {
-  return create_from_specs<KrylovReducer>(params, option_specs());
-}
-
-void register_reducers(Registry& registry) { registry.add({krylov_info(), create_krylov}); }
 
 }  // namespace
 }  // namespace ecmor::krylov

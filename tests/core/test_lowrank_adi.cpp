@@ -399,20 +399,23 @@ TEST(LowRankAdiErrors, InvalidOptionsNameTheField) {
     std::string expected;
   };
   const std::vector<Case> cases = {
-      {[](AdiOptions& o) { o.tolerance = 0.0; }, "AdiOptions::tolerance = 0: must be in (0, 1)"},
-      {[](AdiOptions& o) { o.tolerance = 2.0; }, "AdiOptions::tolerance = 2: must be in (0, 1)"},
-      {[](AdiOptions& o) { o.tolerance = std::nan(""); }, "AdiOptions::tolerance = nan"},
-      {[](AdiOptions& o) { o.max_iterations = 0; }, "AdiOptions::max_iterations = 0: must be >= 1"},
-      {[](AdiOptions& o) { o.max_shifts = -2; }, "AdiOptions::max_shifts = -2: must be >= 1"},
+      {[](AdiOptions& o) { o.tolerance = 0.0; }, "AdiOptions: tolerance = 0: must be in (0, 1)"},
+      {[](AdiOptions& o) { o.tolerance = 2.0; }, "AdiOptions: tolerance = 2: must be in (0, 1)"},
+      {[](AdiOptions& o) { o.tolerance = std::nan(""); },
+       "AdiOptions: tolerance = nan: must be in (0, 1)"},
+      {[](AdiOptions& o) { o.max_iterations = 0; }, "AdiOptions: max_iterations = 0: must be >= 1"},
+      {[](AdiOptions& o) { o.max_shifts = -2; }, "AdiOptions: max_shifts = -2: must be >= 1"},
       {[](AdiOptions& o) { o.projection_columns = -1; },
-       "AdiOptions::projection_columns = -1: must be >= 0"},
-      {[](AdiOptions& o) { o.arnoldi_steps = 0; }, "AdiOptions::arnoldi_steps = 0: must be >= 1"},
+       "AdiOptions: projection_columns = -1: must be >= 0"},
+      {[](AdiOptions& o) { o.arnoldi_steps = 0; }, "AdiOptions: arnoldi_steps = 0: must be >= 1"},
       {[](AdiOptions& o) { o.inverse_arnoldi_steps = 0; },
-       "AdiOptions::inverse_arnoldi_steps = 0: must be >= 1"},
+       "AdiOptions: inverse_arnoldi_steps = 0: must be >= 1"},
       {[](AdiOptions& o) { o.unstable_ritz_residual = 1.0; },
-       "AdiOptions::unstable_ritz_residual = 1: must be in [0, 1)"},
+       "AdiOptions: unstable_ritz_residual = 1: must be in [0, 1)"},
       {[](AdiOptions& o) { o.compression_tolerance = -1e-3; },
-       "AdiOptions::compression_tolerance = -0.001: must be in [0, 1)"},
+       "AdiOptions: compression_tolerance = -0.001: must be in [0, 1)"},
+      {[](AdiOptions& o) { o.shifts = static_cast<AdiShiftStrategy>(7); },
+       "AdiOptions: shifts = a value without a name: must be one of projection, heuristic"},
   };
   for (const Case& c : cases) {
     AdiOptions o;
@@ -428,7 +431,7 @@ TEST(LowRankAdiErrors, InvalidOptionsNameTheField) {
   bad.max_iterations = -5;
   EXPECT_NE(message_of<ConfigError>([&] {
               LowRankAdi adi(view, bad);
-            }).find("AdiOptions::max_iterations = -5"),
+            }).find("AdiOptions: max_iterations = -5"),
             std::string::npos);
 }
 

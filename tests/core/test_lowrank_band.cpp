@@ -372,7 +372,7 @@ TEST(LowRankBandErrors, InvalidBandAndOptionsAreNamed) {
   const std::string adi = message_of<ConfigError>([&] {
     lowrank_band_gramians(view, Band{0.5, 2.0}, bad);
   });
-  EXPECT_NE(adi.find("AdiOptions::tolerance = 2"), std::string::npos) << adi;
+  EXPECT_NE(adi.find("AdiOptions: tolerance = 2"), std::string::npos) << adi;
   AdaptiveQuadratureOptions badq;
   badq.max_evaluations = 3;
   message_of<ConfigError>([&] { lowrank_band_gramians(view, Band{0.5, 2.0}, {}, badq); });

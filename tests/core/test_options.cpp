@@ -256,6 +256,40 @@ TEST(Options, AKeyStatedTwiceIsAProgrammingError) {
   EXPECT_THROW(s.include(&Settings::inner, inner_specs()), std::logic_error);
 }
 
+// An inner struct's option offered under a prefixed key (the balanced plugin's adi_* keys from
+// AdiOptions::specs()): reading, conditions, messages and documentation use the prefixed key, the
+// range and documentation are the inner spec's.
+TEST(Options, APrefixedOptionKeepsItsRuleUnderTheNewKey) {
+  const OptionSpecs<Inner> inner = inner_specs();
+  const Option<Inner>& budget = inner.options().front();
+  auto careful = [](const Settings& o) { return o.mode == Mode::Careful; };
+  const OptionSpecs<Settings> s({
+      choice("mode", &Settings::mode, {{"fast", Mode::Fast}, {"careful", Mode::Careful}}, "mode"),
+      budget.prefixed("inner_")
+          .nested(&Settings::inner)
+          .only_if(careful, "applies to mode: careful only"),
+  });
+  EXPECT_EQ(s.keys(), (std::vector<std::string>{"mode", "inner_budget"}));
+  EXPECT_EQ(s.docs().back().description,
+            "largest value; applies to mode: careful only; valid: >= 1");
+  ParameterMap map = with("inner_budget", 9LL);
+  EXPECT_EQ(s.read(map).inner.budget, 9);
+  EXPECT_NE(test::message_of<ConfigError>([&] {
+              s.read(with("inner_budget", 0LL));
+            }).find("run.yaml:7: reducer 'demo': inner_budget = 0: must be >= 1"),
+            std::string::npos);
+  map.set("mode", "fast");
+  EXPECT_NE(test::message_of<ConfigError>([&] {
+              s.read(map);
+            }).find("inner_budget = 9: applies to mode: careful only"),
+            std::string::npos);
+  Settings o;
+  o.inner.budget = -1;
+  EXPECT_EQ(test::message_of<ConfigError>([&] { s.validate(o, "Settings"); }),
+            "Settings: inner_budget = -1: must be >= 1");
+  EXPECT_EQ(budget.key(), "budget");  // the inner spec is unchanged
+}
+
 TEST(Options, NumbersPrintAsFmtDoes) {
   EXPECT_EQ(option_number(100000), "100000");
   EXPECT_EQ(option_number(0.01), "0.01");

@@ -62,25 +62,6 @@ AdiShiftStrategy parse_adi_shift_strategy(const std::string& name) {
                     "': valid strategies are projection, heuristic");
 }
 
-void AdiOptions::validate() const {
-  auto fail = [](const std::string& field, const std::string& value, const std::string& rule) {
-    throw ConfigError("AdiOptions::" + field + " = " + value + ": " + rule);
-  };
-  if (!(tolerance > 0.0 && tolerance < 1.0))
-    fail("tolerance", number_text(tolerance), "must be in (0, 1)");
-  if (max_iterations < 1) fail("max_iterations", std::to_string(max_iterations), "must be >= 1");
-  if (max_shifts < 1) fail("max_shifts", std::to_string(max_shifts), "must be >= 1");
-  if (projection_columns < 0)
-    fail("projection_columns", std::to_string(projection_columns), "must be >= 0");
-  if (arnoldi_steps < 1) fail("arnoldi_steps", std::to_string(arnoldi_steps), "must be >= 1");
-  if (inverse_arnoldi_steps < 1)
-    fail("inverse_arnoldi_steps", std::to_string(inverse_arnoldi_steps), "must be >= 1");
-  if (!(unstable_ritz_residual >= 0.0 && unstable_ritz_residual < 1.0))
-    fail("unstable_ritz_residual", number_text(unstable_ritz_residual), "must be in [0, 1)");
-  if (!(compression_tolerance >= 0.0 && compression_tolerance < 1.0))
-    fail("compression_tolerance", number_text(compression_tolerance), "must be in [0, 1)");
-}
-
 namespace {
 
 using Clock = std::chrono::steady_clock;

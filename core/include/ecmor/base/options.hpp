@@ -250,6 +250,14 @@ class Option {
     }
     return outer;
   }
+  /// This option under the key `prefix` + key ("adi_" + "tolerance"): a struct's specs offered
+  /// among another struct's keys (chain nested() after it; reading, checks and messages all use
+  /// the prefixed key).
+  Option prefixed(const std::string& prefix) const {
+    Option copy = *this;
+    copy.m_key = prefix + m_key;
+    return copy;
+  }
 
   /// Used by choice(): the names, in order.
   void set_choices(std::vector<std::string> names) { m_choices = std::move(names); }

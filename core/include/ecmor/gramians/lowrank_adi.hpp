@@ -57,6 +57,9 @@
 
 namespace ecmor {
 
+template <class O>
+class OptionSpecs;
+
 /// Which Lyapunov equation: controllability (A X E' + E X A' + B B' = 0) or observability
 /// (A' Y E + E' Y A + C' C = 0).
 enum class GramianSide { Controllability, Observability };
@@ -77,42 +80,47 @@ ECMOR_API std::string to_string(AdiShiftStrategy strategy);
 /// "projection" or "heuristic". \throws ConfigError listing the valid names.
 ECMOR_API AdiShiftStrategy parse_adi_shift_strategy(const std::string& name);
 
-/// Options of the low-rank ADI solver. Defaults are what the tests and benchmarks use.
+/// Options of the low-rank ADI solver. Defaults (the initialisers) are what the tests and
+/// benchmarks use; the valid ranges and the documentation of each field are in specs().
 struct ECMOR_API AdiOptions {
   /// Stop when ||R_k||_2 / ||B B'||_2 <= tolerance (||G S G'||_2 for an indefinite right-hand
-  /// side); in (0, 1), default 1e-10.
+  /// side).
   double tolerance = 1e-10;
-  /// Maximum number of ADI iterations (a conjugate pair counts as two, as in M.E.S.S.), >= 1,
-  /// default 300. A run that reaches it returns converged = false with the last residual.
+  /// Maximum number of ADI iterations (a conjugate pair counts as two, as in M.E.S.S.). A run that
+  /// reaches it returns converged = false with the last residual.
   Index max_iterations = 300;
-  /// Shift generation, default Projection.
+  /// Shift generation.
   AdiShiftStrategy shifts = AdiShiftStrategy::Projection;
-  /// At most this many shifts per generated set (a conjugate pair counts as two), >= 1, default
-  /// 25 (M-M.E.S.S.'s num_desired). When there are more candidates (Ritz values), Penzl's
-  /// min-max rule selects them.
+  /// At most this many shifts per generated set (a conjugate pair counts as two; the default is
+  /// M-M.E.S.S.'s num_desired). When there are more candidates (Ritz values), Penzl's min-max rule
+  /// selects them.
   Index max_shifts = 25;
   /// Projection shifts: project on at most this many of the last columns of Z; 0 means
-  /// max_shifts times the number of columns of B (C'). Default 0.
+  /// max_shifts times the number of columns of B (C').
   Index projection_columns = 0;
-  /// Heuristic shifts: Arnoldi steps on E^-1 A (large eigenvalues), >= 1, default 30.
+  /// Heuristic shifts: Arnoldi steps on E^-1 A (large eigenvalues).
   Index arnoldi_steps = 30;
-  /// Heuristic shifts: Arnoldi steps on A^-1 E (small eigenvalues), >= 1, default 20.
+  /// Heuristic shifts: Arnoldi steps on A^-1 E (small eigenvalues).
   Index inverse_arnoldi_steps = 20;
   /// A Ritz pair (theta, u) with Re theta >= 0 whose relative residual
   /// ||A u - theta E u|| / (||A u|| + |theta| ||E u||) is at most this is taken as an eigenvalue
   /// of the model: the model is not asymptotically stable and InputError names theta. Ritz values
   /// with Re >= 0 and a larger residual are projection artefacts of a non-normal pencil and are
-  /// mirrored to the left half-plane (-Re + i Im). In [0, 1), default 1e-6.
+  /// mirrored to the left half-plane (-Re + i Im).
   double unstable_ritz_residual = 1e-6;
   /// Compress Z at the end to its dominant singular directions (from the eigen-decomposition of
   /// Z' Z), dropping singular values below compression_tolerance * sigma_max(Z): the Gramian
-  /// changes by at most that squared, relatively (plus eps). Default true.
+  /// changes by at most that squared, relatively (plus eps).
   bool compress = true;
-  /// Relative singular-value tolerance of the compression, in [0, 1), default 1e-8: the dropped
-  /// part of Z Z' is below 1e-16 ||Z Z'||, machine precision of the Gramian.
+  /// Relative singular-value tolerance of the compression: the default's dropped part of Z Z' is
+  /// below 1e-16 ||Z Z'||, machine precision of the Gramian.
   double compression_tolerance = 1e-8;
-  /// \throws ConfigError naming the field, its value and the rule, e.g.
-  ///         "AdiOptions::tolerance = 2: must be in (0, 1)".
+  /// Every field as an option (key = field name) with its valid range or choices and its
+  /// documentation: the one statement of the rules that validate() applies and of the balanced
+  /// plugin's adi_* keys.
+  static const OptionSpecs<AdiOptions>& specs();
+  /// \throws ConfigError naming the field, its value and the rule (by specs()), e.g.
+  ///         "AdiOptions: tolerance = 2: must be in (0, 1)".
   void validate() const;
 };
 

@@ -89,4 +89,20 @@ std::unique_ptr<Reducer> create_from_specs(const ParameterMap& params,
   return std::make_unique<R>(specs.read(params));
 }
 
+/// The factory of a reducer R whose options are stated once in `specs` (a function-local static,
+/// as the plugin guide builds them): its info is reducer_info(name, description, version, specs,
+/// kinds) and its create() is create_from_specs<R>(params, specs). The usual registration:
+///   void register_reducers(Registry& r) { r.add(reducer_factory<MyReducer>(...)); }
+template <class R, class Options>
+ReducerFactory reducer_factory(std::string name, std::string description, std::string version,
+                               const OptionSpecs<Options>& specs, ReducerKinds kinds) {
+  ReducerFactory factory;
+  factory.info =
+      reducer_info(std::move(name), std::move(description), std::move(version), specs, kinds);
+  factory.create = [&specs](const ParameterMap& params) {
+    return create_from_specs<R>(params, specs);
+  };
+  return factory;
+}
+
 }  // namespace ecmor
