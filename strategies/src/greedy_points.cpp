@@ -299,14 +299,13 @@ const OptionSpecs<GreedyPointsOptions>& GreedyPointsOptions::specs() {
           option("max_iterations", &O::max_iterations,
                  "history-row budget over all phases (including verify and prune)")
               .range(Range::at_least(1)),
-          option("stagnation_window", &O::stagnation_window,
-                 "additions over which the error must fall; 0: never stagnates")
-              .range(Range::at_least(0)),
-          // Ratios of 0 would make every step "stagnated".
-          option("stagnation_ratio", &O::stagnation_ratio,
-                 "stagnated when best error >= stagnation_ratio x its value stagnation_window "
-                 "additions earlier")
-              .range(Range::open_closed(0, 1)),
+          strategy_support::stagnation_window_option(
+              &O::stagnation_window,
+              "additions over which the error must fall; 0: never stagnates"),
+          strategy_support::stagnation_ratio_option(
+              &O::stagnation_ratio,
+              "stagnated when best error >= stagnation_ratio x its value stagnation_window "
+              "additions earlier"),
           option("prune", &O::prune, "drop the points and moments not needed after the first pass"),
       },
       {[](const O& o, const OptionCheck<O>& c) {

@@ -28,16 +28,15 @@ const OptionSpecs<GrowOrderOptions>& GrowOrderOptions::specs() {
                  "iteration budget, counting grow, verify and shrink rows")
               .range(Range::at_least(1)),
           option("shrink", &O::shrink, "bisect to the smallest passing order after the first pass"),
-          option("stagnation_window", &O::stagnation_window,
-                 "stop as stagnated when the best error has not improved by stagnation_ratio over "
-                 "this many growth steps; 0 = never (the default: a modal or Krylov error often "
-                 "plateaus before it drops)")
-              .range(Range::at_least(0)),
-          // A ratio of 0 would make every window "stagnated" (no error is below 0).
-          option("stagnation_ratio", &O::stagnation_ratio,
-                 "stagnated when best error >= stagnation_ratio x the best error "
-                 "stagnation_window growth steps earlier")
-              .range(Range::open_closed(0, 1)),
+          strategy_support::stagnation_window_option(
+              &O::stagnation_window,
+              "stop as stagnated when the best error has not improved by stagnation_ratio over "
+              "this many growth steps; 0 = never (the default: a modal or Krylov error often "
+              "plateaus before it drops)"),
+          strategy_support::stagnation_ratio_option(
+              &O::stagnation_ratio,
+              "stagnated when best error >= stagnation_ratio x the best error "
+              "stagnation_window growth steps earlier"),
       },
       {[](const O& o, const OptionCheck<O>& c) {
         if (o.max_order < o.initial_order) {

@@ -247,13 +247,13 @@ const OptionSpecs<MixedBasisOptions>& MixedBasisOptions::specs() {
           .range(Range::at_least(1)),
       option("max_iterations", &O::max_iterations, "history-row budget; every tried point is a row")
           .range(Range::at_least(1)),
-      option("stagnation_window", &O::stagnation_window,
-             "point steps over which the best error must fall; 0: never stagnates")
-          .range(Range::at_least(0)),
-      option("stagnation_ratio", &O::stagnation_ratio,
-             "stagnated when best error >= stagnation_ratio x its value stagnation_window point "
-             "steps earlier")
-          .range(Range::open_closed(0, 1)),
+      strategy_support::stagnation_window_option(
+          &O::stagnation_window,
+          "point steps over which the best error must fall; 0: never stagnates"),
+      strategy_support::stagnation_ratio_option(
+          &O::stagnation_ratio,
+          "stagnated when best error >= stagnation_ratio x its value stagnation_window point "
+          "steps earlier"),
   });
   return specs;
 }

@@ -45,14 +45,12 @@ const OptionSpecs<PointSearchOptions>& PointSearchOptions::specs() {
           option("reoptimize", &O::reoptimize,
                  "re-optimisations at one p after the samples missed a peak")
               .range(Range::at_least(0)),
-          option("stagnation_window", &O::stagnation_window,
-                 "assessments without enough gain before stagnated; 0: off")
-              .range(Range::at_least(0)),
-          // Ratios of 0 would make every step "stagnated".
-          option("stagnation_ratio", &O::stagnation_ratio,
-                 "stagnated when best assessed error >= stagnation_ratio x its value "
-                 "stagnation_window assessments earlier")
-              .range(Range::open_closed(0, 1)),
+          strategy_support::stagnation_window_option(
+              &O::stagnation_window, "assessments without enough gain before stagnated; 0: off"),
+          strategy_support::stagnation_ratio_option(
+              &O::stagnation_ratio,
+              "stagnated when best assessed error >= stagnation_ratio x its value "
+              "stagnation_window assessments earlier"),
           // A floor of 0 brings back log10(0) = -inf.
           option("error_floor", &O::error_floor,
                  "floor = error_floor * tolerance, added to eps before the logarithm (a fraction "

@@ -8,10 +8,12 @@
 #include <chrono>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "ecmor/base/error.hpp"
 #include "ecmor/base/interrupt.hpp"
+#include "ecmor/base/options.hpp"
 #include "ecmor/measures/stability.hpp"
 #include "ecmor/strategies/strategy.hpp"
 
@@ -49,6 +51,18 @@ class Stagnation {
   double m_ratio;
   std::vector<double> m_trace;
 };
+
+/// The options Stagnation reads, with the one rule for every strategy: stagnation_window >= 0 (0:
+/// never stagnates) and stagnation_ratio in (0, 1] (a ratio of 0 would make every step
+/// "stagnated": no error is below 0). `doc` says what a step is in that strategy.
+template <class O>
+Option<O> stagnation_window_option(Index O::*field, std::string doc) {
+  return option("stagnation_window", field, std::move(doc)).range(Range::at_least(0));
+}
+template <class O>
+Option<O> stagnation_ratio_option(double O::*field, std::string doc) {
+  return option("stagnation_ratio", field, std::move(doc)).range(Range::open_closed(0, 1));
+}
 
 /// The reduced model at exactly these points, with no cap on the order (ReductionRequest's
 /// semantics for explicit points). The result always lists its points: a reducer that leaves

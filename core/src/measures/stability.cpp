@@ -55,6 +55,13 @@ Index rank_deficiency(Matrix A) {
   return n - qr.rank();
 }
 
+// r with its verdict and the reason for it: the leaf of every decision below.
+StabilityReport decided(StabilityReport r, Stability verdict, std::string reason) {
+  r.verdict = verdict;
+  r.reason = std::move(reason);
+  return r;
+}
+
 StabilityReport dense_check(const Model& model, Index states) {
   StabilityReport r;
   r.dense = true;
@@ -66,10 +73,9 @@ StabilityReport dense_check(const Model& model, Index states) {
     p = poles(dense);
     zero_poles = rank_deficiency(first_order_realization(dense).A);
   } catch (const Error& e) {
-    r.verdict = Stability::Unknown;
-    r.reason = std::string("dense eigenvalue computation failed: ") + e.what();
     r.max_real_pole = std::numeric_limits<double>::quiet_NaN();
-    return r;
+    return decided(r, Stability::Unknown,
+                   std::string("dense eigenvalue computation failed: ") + e.what());
   }
   double max_re = -std::numeric_limits<double>::infinity();
   Index i_max = -1;
@@ -82,10 +88,8 @@ StabilityReport dense_check(const Model& model, Index states) {
     }
   }
   if (i_max < 0) {  // no finite pole (a purely algebraic model): nothing can grow
-    r.verdict = Stability::Asymptotic;
     r.max_real_pole = -std::numeric_limits<double>::infinity();
-    r.reason = "no finite pole";
-    return r;
+    return decided(r, Stability::Asymptotic, "no finite pole");
   }
   // The zero_poles poles of least modulus, and any tiny next to the largest, are at s = 0.
   std::vector<Index> order(static_cast<std::size_t>(p.size()));
@@ -116,24 +120,21 @@ StabilityReport dense_check(const Model& model, Index states) {
     }
   }
   if (right > 0) {
-    r.verdict = Stability::Unstable;
-    r.reason = fmt::format(
-        "{} pole(s) in the right half-plane, the largest real part {:.4g} "
-        "(pole {:.4g}{:+.4g}i)",
-        right, worst_right.real(), worst_right.real(), worst_right.imag());
-  } else if (axis > 0) {
-    r.verdict = Stability::Marginal;
-    r.reason = fmt::format(
-        "{} pole(s) on the imaginary axis ({} at s = 0: A has rank "
-        "deficiency {}), e.g. {:.4g}{:+.4g}i: undamped modes or rigid-body "
-        "motion",
-        axis, std::count(at_zero.begin(), at_zero.end(), true), zero_poles, worst_axis.real(),
-        worst_axis.imag());
-  } else {
-    r.verdict = Stability::Asymptotic;
-    r.reason = fmt::format("every pole has Re < 0; the largest real part is {:.4g}", max_re);
+    return decided(r, Stability::Unstable,
+                   fmt::format("{} pole(s) in the right half-plane, the largest real part {:.4g} "
+                               "(pole {:.4g}{:+.4g}i)",
+                               right, worst_right.real(), worst_right.real(), worst_right.imag()));
   }
-  return r;
+  if (axis > 0) {
+    return decided(r, Stability::Marginal,
+                   fmt::format("{} pole(s) on the imaginary axis ({} at s = 0: A has rank "
+                               "deficiency {}), e.g. {:.4g}{:+.4g}i: undamped modes or rigid-body "
+                               "motion",
+                               axis, std::count(at_zero.begin(), at_zero.end(), true), zero_poles,
+                               worst_axis.real(), worst_axis.imag()));
+  }
+  return decided(r, Stability::Asymptotic,
+                 fmt::format("every pole has Re < 0; the largest real part is {:.4g}", max_re));
 }
 
 StabilityReport second_order_check(const SecondOrderModel& m, const RigidBodyModes* rigid) {
@@ -141,28 +142,23 @@ StabilityReport second_order_check(const SecondOrderModel& m, const RigidBodyMod
   r.max_real_pole = std::numeric_limits<double>::quiet_NaN();
   r.method = "sparse Cholesky of K and D (M, D, K symmetric, M positive definite)";
   if (!(relative_asymmetry(m.K) <= 1e-10) || !(relative_asymmetry(m.D) <= 1e-10)) {
-    r.verdict = Stability::Unknown;
-    r.reason = "K or D is not symmetric: no structural test applies";
-    return r;
+    return decided(r, Stability::Unknown, "K or D is not symmetric: no structural test applies");
   }
   if (rigid != nullptr && rigid->decided) {
     // The rigid-body analysis has factorised K already: Cholesky, then the eigenvalues near 0.
     if (rigid->indefinite) {
-      r.verdict = Stability::Unstable;
-      r.reason =
-          "K is indefinite: a real pole s > 0 (negative stiffness, buckling); " + rigid->method;
-      return r;
+      return decided(
+          r, Stability::Unstable,
+          "K is indefinite: a real pole s > 0 (negative stiffness, buckling); " + rigid->method);
     }
     if (rigid->count > 0) {
-      r.verdict = Stability::Marginal;
-      r.reason = fmt::format("K is singular: {} pole(s) at s = 0 from {}", rigid->zero_poles,
-                             rigid->describe());
-      return r;
+      return decided(r, Stability::Marginal,
+                     fmt::format("K is singular: {} pole(s) at s = 0 from {}", rigid->zero_poles,
+                                 rigid->describe()));
     }
     if (!rigid->positive_definite) {
-      r.verdict = Stability::Unknown;
-      r.reason = "K is numerically singular without a separated null space: " + rigid->method;
-      return r;
+      return decided(r, Stability::Unknown,
+                     "K is numerically singular without a separated null space: " + rigid->method);
     }
   } else if (!is_positive_definite(m.K)) {
     // Singular but semidefinite (a pole at s = 0) or indefinite (a real pole s > 0): K + sigma M
@@ -170,25 +166,20 @@ StabilityReport second_order_check(const SecondOrderModel& m, const RigidBodyMod
     const double sigma = 1e-8 * m.K.norm() / std::max(m.M.norm(), 1e-300);
     const SparseMatrix shifted = (m.K + sigma * m.M).pruned();
     if (is_positive_definite(shifted)) {
-      r.verdict = Stability::Marginal;
-      r.reason = "K is singular (positive semidefinite): a pole at s = 0 (rigid-body motion)";
-    } else {
-      r.verdict = Stability::Unstable;
-      r.reason = "K is indefinite: a real pole s > 0 (negative stiffness, buckling)";
+      return decided(r, Stability::Marginal,
+                     "K is singular (positive semidefinite): a pole at s = 0 (rigid-body motion)");
     }
-    return r;
+    return decided(r, Stability::Unstable,
+                   "K is indefinite: a real pole s > 0 (negative stiffness, buckling)");
   }
   if (m.D.nonZeros() == 0) {
-    r.verdict = Stability::Marginal;
-    r.reason = "D = 0 with K positive definite: every pole on the imaginary axis (undamped)";
-  } else if (is_positive_definite(m.D)) {
-    r.verdict = Stability::Asymptotic;
-    r.reason = "K and D positive definite: every mode is damped";
-  } else {
-    r.verdict = Stability::Unknown;
-    r.reason = "D is not positive definite: some modes may be undamped";
+    return decided(r, Stability::Marginal,
+                   "D = 0 with K positive definite: every pole on the imaginary axis (undamped)");
   }
-  return r;
+  if (is_positive_definite(m.D)) {
+    return decided(r, Stability::Asymptotic, "K and D positive definite: every mode is damped");
+  }
+  return decided(r, Stability::Unknown, "D is not positive definite: some modes may be undamped");
 }
 
 StabilityReport model_stability(const Model& model, Index dense_states,
