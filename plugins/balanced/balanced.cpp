@@ -90,13 +90,8 @@ struct Options {
   GramianRoute gramians = GramianRoute::Auto;
   AdiOptions adi;
   bool adi_require_convergence = false;
-  // band_limited on the low-rank route; a larger node budget than the quadrature's own default
-  // (3000), since each node is one factorisation of a large model and L_B needs them on wide bands.
-  AdaptiveQuadratureOptions quadrature = [] {
-    AdaptiveQuadratureOptions q;
-    q.max_evaluations = 20000;
-    return q;
-  }();
+  // band_limited on the low-rank route.
+  AdaptiveQuadratureOptions quadrature = band_quadrature_defaults();
 };
 
 /// The option `key` of AdiOptions::specs() (core states its range and documentation once) as
@@ -164,15 +159,12 @@ const OptionSpecs<Options>& option_specs() {
              "truncated, the note carries a warning, adi_converged = 0 and no a-priori bound is "
              "reported")
           .only_if(low_rank, low_rank_only),
-      option("band_quadrature_tolerance", &AdaptiveQuadratureOptions::relative_tolerance,
-             "relative tolerance of the adaptive quadrature of L_B = int (iwE - A)^-1 B dw and "
-             "L_C over the band")
-          .range(Range::open(0, 1))
+      band_quadrature_specs()
+          .at("band_quadrature_tolerance")
           .nested(&Options::quadrature)
           .only_if(band_low_rank, band_low_rank_only),
-      option("band_quadrature_budget", &AdaptiveQuadratureOptions::max_evaluations,
-             "at most this many quadrature nodes (one factorisation each)")
-          .range(Range::at_least(15))
+      band_quadrature_specs()
+          .at("band_quadrature_budget")
           .nested(&Options::quadrature)
           .only_if(band_low_rank, band_low_rank_only),
   });

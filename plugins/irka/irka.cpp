@@ -68,8 +68,7 @@ struct Options {
   bool check_stability = true;
   Index dense_check_limit = 2000;
   bool frequency_limited = false;  // band-limited H2 objective (FL-IRKA)
-  double band_quadrature_tolerance = 1e-8;
-  Index band_quadrature_budget = 20000;
+  AdaptiveQuadratureOptions quadrature = band_quadrature_defaults();  // frequency_limited only
 };
 
 const OptionSpecs<Options>& option_specs() {
@@ -161,13 +160,13 @@ const OptionSpecs<Options>& option_specs() {
                  "columns of the band-limited cross Gramians, (sE - A)^-1 (B beta(s) + E L_B) b "
                  "with L_B the band integral of the resolvent (computed once in setup by adaptive "
                  "quadrature; see README)"),
-          option("band_quadrature_tolerance", &Options::band_quadrature_tolerance,
-                 "relative tolerance of the band integrals L_B, L_C")
-              .range(Range::closed(1e-12, 1e-2))
+          band_quadrature_specs()
+              .at("band_quadrature_tolerance")
+              .nested(&Options::quadrature)
               .only_if(frequency_limited, "applies to frequency_limited: true only"),
-          option("band_quadrature_budget", &Options::band_quadrature_budget,
-                 "largest number of quadrature nodes (one factorisation each) for L_B, L_C")
-              .range(Range::closed(15, 100000000))
+          band_quadrature_specs()
+              .at("band_quadrature_budget")
+              .nested(&Options::quadrature)
               .only_if(frequency_limited, "applies to frequency_limited: true only"),
       },
       {[](const Options& o, const OptionCheck<Options>& c) {
@@ -380,11 +379,8 @@ class IrkaReducer final : public Reducer {
             "result, which does not rank frequency-limited models: use band, modal or balanced "
             "with frequency_limited: true");
       }
-      AdaptiveQuadratureOptions q;
-      q.relative_tolerance = m_options.band_quadrature_tolerance;
-      q.max_evaluations = m_options.band_quadrature_budget;
       const auto started = std::chrono::steady_clock::now();
-      m_band_integrals = band_resolvent_integrals(*m_view, m_band, q);
+      m_band_integrals = band_resolvent_integrals(*m_view, m_band, m_options.quadrature);
       m_band_norm_squared = band_h2_squared_error(*m_band_integrals, nullptr);
       m_input = m_view->input_matrix().cast<Complex>();
       m_output_t = m_view->output_matrix().transpose().cast<Complex>();

@@ -483,16 +483,20 @@ ParameterMap Parser::options_of(const YAML::Node& map, const std::string& sec,
   ParameterMap params = ParameterMap::section(sec);
   if (!map.IsMap()) return params;
   for (auto it = map.begin(); it != map.end(); ++it) {
-    const std::string& key = it->first.Scalar();
+    // Copies: `it->` returns a proxy that ends with the full expression, and a range-for over
+    // its member would outlive it.
+    const YAML::Node key_node = it->first;
+    const YAML::Node node = it->second;
+    const std::string key = key_node.Scalar();
     const std::string full_key = sec.empty() ? key : sec + "." + key;
     for (const auto& opt : specs.options()) {
       if (opt.key() != key || opt.is_structured()) continue;
-      ParameterValue value = parameter(it->first, it->second, full_key);
+      ParameterValue value = parameter(key_node, node, full_key);
       const bool text = opt.type() == "string" || opt.type() == "path";
-      if (text && it->second.IsScalar()) value.value = it->second.Scalar();
-      if (opt.type() == "list of path" && it->second.IsSequence()) {
+      if (text && node.IsScalar()) value.value = node.Scalar();
+      if (opt.type() == "list of path" && node.IsSequence()) {
         std::vector<std::string> items;
-        for (const YAML::Node& item : it->second) items.push_back(item.Scalar());
+        for (const YAML::Node& item : node) items.push_back(item.Scalar());
         if (!items.empty()) value.value = items;
       }
       params.set(key, std::move(value));

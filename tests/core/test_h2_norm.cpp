@@ -398,7 +398,7 @@ TEST(H2Quadrature, BadOptionsAndInputsAreNamed) {
   };
   EXPECT_NE(config_msg([](auto& o) {
               o.relative_tolerance = 0.0;
-            }).find("H2QuadratureOptions::relative_tolerance = 0: must be in (0, 1)"),
+            }).find("H2QuadratureOptions: relative_tolerance = 0: must be in (0, 1)"),
             std::string::npos);
   EXPECT_NE(config_msg([](auto& o) { o.absolute_tolerance = -1.0; }).find("absolute_tolerance"),
             std::string::npos);

@@ -226,6 +226,9 @@ TEST(OptionDocs, EveryDocumentedPortfolioKeyIsRead) {
   const auto docs = run_strategy_options("portfolio");
   ASSERT_FALSE(docs.empty());
   for (const auto& doc : docs) {
+    // `members` (a list of mappings) has no value to write for its default, the absence of the
+    // key; test_config reads members in every shape.
+    if (doc.type == "list of mapping") continue;
     EXPECT_NO_THROW(
         parse_run_config(head + "  " + doc.name + ": " + doc.default_value + "\n", "run.yaml"))
         << doc.name;

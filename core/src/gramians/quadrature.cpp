@@ -14,6 +14,7 @@
 #include "base/number_text.hpp"
 #include "base/parallel_for.hpp"
 #include "ecmor/base/error.hpp"
+#include "ecmor/base/options.hpp"
 #include "ecmor/response/reduced_response.hpp"
 #include "linalg/gauss_kronrod.hpp"
 
@@ -57,14 +58,47 @@ void matrix_rule(MatrixPiece& p, const Matrix* f) {
 
 }  // namespace
 
+const OptionSpecs<AdaptiveQuadratureOptions>& AdaptiveQuadratureOptions::specs() {
+  using A = AdaptiveQuadratureOptions;
+  static const OptionSpecs<A> specs({
+      option("relative_tolerance", &A::relative_tolerance,
+             "target on the summed error estimate relative to the Frobenius norm of the integral")
+          .range(Range::open(0, 1)),
+      option("absolute_tolerance", &A::absolute_tolerance,
+             "absolute floor on the summed error estimate (Frobenius norm), for integrals that "
+             "may vanish")
+          .range(Range::at_least(0).finite()),
+      option("max_evaluations", &A::max_evaluations, "largest number of integrand evaluations")
+          .range(Range::at_least(detail::kNodes))
+          .because("one Gauss-Kronrod rule"),
+      option("initial_intervals", &A::initial_intervals, "initial equal subintervals")
+          .range(Range::at_least(1)),
+  });
+  return specs;
+}
+
 void AdaptiveQuadratureOptions::validate() const {
-  const auto bad = [](const std::string& field, double value, const std::string& rule) {
-    throw ConfigError("AdaptiveQuadratureOptions::" + field + " = " + detail::number_text(value) +
-                      ": " + rule);
-  };
-  detail::check_adaptive_options(relative_tolerance, absolute_tolerance, max_evaluations, bad);
-  if (initial_intervals < 1)
-    bad("initial_intervals", static_cast<double>(initial_intervals), "must be >= 1");
+  specs().validate(*this, "AdaptiveQuadratureOptions");
+}
+
+AdaptiveQuadratureOptions band_quadrature_defaults() {
+  AdaptiveQuadratureOptions q;
+  q.max_evaluations = 20000;
+  return q;
+}
+
+const OptionSpecs<AdaptiveQuadratureOptions>& band_quadrature_specs() {
+  const auto& core = AdaptiveQuadratureOptions::specs();
+  static const OptionSpecs<AdaptiveQuadratureOptions> specs({
+      core.at("relative_tolerance")
+          .renamed("band_quadrature_tolerance",
+                   "relative tolerance of the adaptive quadrature of the band integrals L_B = ∫ "
+                   "(iωE - A)^-1 B dω and L_C"),
+      core.at("max_evaluations")
+          .renamed("band_quadrature_budget",
+                   "at most this many quadrature nodes (one factorisation each) for L_B, L_C"),
+  });
+  return specs;
 }
 
 MatrixQuadrature integrate_adaptive(const MatrixIntegrand& f, double a, double b,

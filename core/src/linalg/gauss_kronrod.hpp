@@ -113,19 +113,6 @@ bool bisect_worst(std::vector<P>& pieces, double tol, long long evaluations_left
   return true;
 }
 
-/// The rules both adaptive quadratures' options obey; `bad(field, value, rule)` throws.
-template <class Bad>
-void check_adaptive_options(double relative_tolerance, double absolute_tolerance,
-                            long long max_evaluations, Bad&& bad) {
-  if (!(relative_tolerance > 0.0 && relative_tolerance < 1.0))
-    bad("relative_tolerance", relative_tolerance, "must be in (0, 1)");
-  if (!(absolute_tolerance >= 0.0 && std::isfinite(absolute_tolerance)))
-    bad("absolute_tolerance", absolute_tolerance, "must be finite and >= 0");
-  if (max_evaluations < kNodes)
-    bad("max_evaluations", static_cast<double>(max_evaluations),
-        "must be >= 15 (one Gauss-Kronrod rule)");
-}
-
 /// How one round of an adaptive loop ends (adaptive_round).
 enum class Round { Converged, Refined, Stopped };
 

@@ -13,7 +13,9 @@
 
 #include "base/number_text.hpp"
 #include "ecmor/base/error.hpp"
+#include "ecmor/base/options.hpp"
 #include "ecmor/gramians/lyapunov.hpp"
+#include "ecmor/gramians/quadrature.hpp"
 #include "ecmor/model/dense_model.hpp"
 #include "ecmor/response/frequency_response.hpp"
 #include "ecmor/response/reduced_response.hpp"
@@ -118,14 +120,18 @@ double h2_inner_product(const ReducedModel& a, const ReducedModel& b) {
 
 void H2QuadratureOptions::validate() const {
   const auto bad = [](const std::string& field, double value, const std::string& rule) {
-    throw ConfigError("H2QuadratureOptions::" + field + " = " + detail::number_text(value) + ": " +
+    throw ConfigError("H2QuadratureOptions: " + field + " = " + detail::number_text(value) + ": " +
                       rule);
   };
-  detail::check_adaptive_options(relative_tolerance, absolute_tolerance, max_evaluations, bad);
+  // The adaptive quadrature's own fields obey its rules.
+  AdaptiveQuadratureOptions adaptive;
+  adaptive.relative_tolerance = relative_tolerance;
+  adaptive.absolute_tolerance = absolute_tolerance;
+  adaptive.max_evaluations = max_evaluations;
+  adaptive.initial_intervals = initial_intervals;
+  AdaptiveQuadratureOptions::specs().validate(adaptive, "H2QuadratureOptions");
   if (!(scale_rad_s >= 0.0 && std::isfinite(scale_rad_s)))
     bad("scale_rad_s", scale_rad_s, "must be finite and >= 0 (0: automatic)");
-  if (initial_intervals < 1)
-    bad("initial_intervals", static_cast<double>(initial_intervals), "must be >= 1");
   for (double w : breakpoints_rad_s)
     if (!(w > 0.0 && std::isfinite(w)))
       bad("breakpoints_rad_s", w, "every breakpoint must be finite and > 0");

@@ -10,10 +10,12 @@ const OptionSpecs<Band>& Band::specs() {
   static const OptionSpecs<Band> specs(
       {
           option("f_min_hz", &Band::f_min_hz,
-                 "lower edge of the band. The band is sampled in log scale, and f = 0 is a pole "
-                 "of H for a model with rigid-body modes (a free-floating body): for a band "
+                 "lower edge of the band, never 0: the band is sampled in log scale, and f = 0 is "
+                 "a pole of H for a model with rigid-body modes (a free-floating body); for a band "
                  "starting near 0 give e.g. 1e-3 · f_max_hz")
               .range(Range::above(0).finite())
+              .because("the band is sampled in log scale, and f = 0 is a pole of H for a model "
+                       "with rigid-body modes, e.g. a free-floating body")
               .unit("Hz")
               .required(),
           option("f_max_hz", &Band::f_max_hz, "upper edge of the band, > f_min_hz")

@@ -135,6 +135,16 @@ class Option {
     m_range = r;
     return *this;
   }
+  /// Why the range is what it is, appended to the message of a value outside it:
+  /// "f_min_hz = 0: must be > 0 and finite (the band is sampled in log scale, ...)".
+  Option& because(std::string reason) {
+    m_reason = std::move(reason);
+    return *this;
+  }
+  /// "must be > 0 and finite (<reason>)": the rule a value outside the range breaks.
+  std::string range_rule() const {
+    return "must be " + m_range.text() + (m_reason.empty() ? "" : " (" + m_reason + ")");
+  }
   /// Unit of the value ("Hz", "decades"), printed in the documentation.
   Option& unit(std::string u) {
     m_unit = std::move(u);
@@ -235,6 +245,7 @@ class Option {
         [inner, member](const Outer& o) { return inner.m_address(o.*member); });
     outer.m_range = m_range;
     outer.m_unit = m_unit;
+    outer.m_reason = m_reason;
     outer.m_choices = m_choices;
     outer.m_integers = m_integers;
     outer.m_condition = m_condition;
@@ -258,6 +269,15 @@ class Option {
     copy.m_key = prefix + m_key;
     return copy;
   }
+  /// This option under another key, documented as what it is in its new place
+  /// (AdaptiveQuadratureOptions' relative_tolerance offered as a reducer's
+  /// band_quadrature_tolerance); range, choices and rule stay the option's own.
+  Option renamed(std::string key, std::string doc) const {
+    Option copy = *this;
+    copy.m_key = std::move(key);
+    copy.m_doc = std::move(doc);
+    return copy;
+  }
 
   /// Used by choice(): the names, in order.
   void set_choices(std::vector<std::string> names) { m_choices = std::move(names); }
@@ -268,7 +288,7 @@ class Option {
   template <class>
   friend class Option;
 
-  std::string m_key, m_type, m_doc, m_unit, m_condition;
+  std::string m_key, m_type, m_doc, m_unit, m_condition, m_reason;
   Range m_range;
   std::vector<std::string> m_choices;
   bool m_integers = false;
@@ -299,8 +319,7 @@ inline std::string list_text(const std::vector<double>& v) {
 template <class O>
 void check_range(const Option<O>& self, const ParameterMap& p, double v) {
   if (!self.valid_range().contains(v)) {
-    p.fail(self.key(),
-           self.key() + " = " + option_number(v) + ": must be " + self.valid_range().text());
+    p.fail(self.key(), self.key() + " = " + option_number(v) + ": " + self.range_rule());
   }
 }
 
@@ -345,7 +364,7 @@ Option<O> option(std::string key, T O::*field, std::string doc) {
       [field](const O& o) { return std::to_string(o.*field); }, options_detail::address_of(field));
   opt.set_check([field](const Option<O>& self, const ParameterMap& p, const O& o) {
     if (!self.valid_range().contains(static_cast<double>(o.*field)))
-      self.reject(p, o, "must be " + self.valid_range().text());
+      self.reject(p, o, self.range_rule());
   });
   return opt;
 }
@@ -362,8 +381,7 @@ Option<O> option(std::string key, double O::*field, std::string doc) {
       },
       [field](const O& o) { return option_number(o.*field); }, options_detail::address_of(field));
   opt.set_check([field](const Option<O>& self, const ParameterMap& p, const O& o) {
-    if (!self.valid_range().contains(o.*field))
-      self.reject(p, o, "must be " + self.valid_range().text());
+    if (!self.valid_range().contains(o.*field)) self.reject(p, o, self.range_rule());
   });
   return opt;
 }
@@ -632,6 +650,12 @@ class OptionSpecs {
   }
   const std::vector<Option<O>>& options() const { return m_options; }
   const std::vector<Rule>& rules() const { return m_rules; }
+  /// The option of `key`. \throws std::logic_error when there is none.
+  const Option<O>& at(const std::string& key) const {
+    for (const auto& opt : m_options)
+      if (opt.key() == key) return opt;
+    throw std::logic_error("no option '" + key + "'");
+  }
 
  private:
   static std::vector<Option<O>> concat(std::vector<Option<O>> a, const std::vector<Option<O>>& b) {

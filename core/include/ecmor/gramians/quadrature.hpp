@@ -21,17 +21,19 @@
 
 namespace ecmor {
 
-/// Options of integrate_adaptive().
+template <class O>
+class OptionSpecs;
+
+/// Options of integrate_adaptive(). The rules of each field are stated once, in specs().
 struct ECMOR_API AdaptiveQuadratureOptions {
-  /// Target on the summed error estimate relative to the Frobenius norm of the integral; in (0, 1).
-  double relative_tolerance = 1e-8;
-  /// Absolute floor on the summed error estimate (Frobenius norm), >= 0.
-  double absolute_tolerance = 0.0;
-  /// Largest number of integrand evaluations, >= 15 (one rule).
-  Index max_evaluations = 3000;
-  /// Initial equal subintervals, >= 1.
-  Index initial_intervals = 8;
-  /// \throws ConfigError naming the field, the value and the rule.
+  double relative_tolerance = 1e-8;  ///< of the summed error estimate, Frobenius norm
+  double absolute_tolerance = 0.0;   ///< floor of the summed error estimate
+  Index max_evaluations = 3000;      ///< integrand evaluations
+  Index initial_intervals = 8;       ///< equal subintervals to start from
+
+  /// The fields' rules and documentation (options.hpp).
+  static const OptionSpecs<AdaptiveQuadratureOptions>& specs();
+  /// \throws ConfigError "AdaptiveQuadratureOptions: <field> = <value>: <rule>" (by specs()).
   void validate() const;
 };
 
@@ -89,6 +91,14 @@ ECMOR_API double band_h2_squared_error(const BandResolventIntegrals& integrals,
 ///         frequency.
 ECMOR_API BandResolventIntegrals band_resolvent_integrals(
     FirstOrderView& view, const Band& band, const AdaptiveQuadratureOptions& options = {});
+
+/// The quadrature options of band_resolvent_integrals() for the reducers that need the band
+/// integrals of a large model (irka, balanced): a node budget of 20000 rather than
+/// integrate_adaptive()'s 3000, since each node is one factorisation and wide bands need many.
+ECMOR_API AdaptiveQuadratureOptions band_quadrature_defaults();
+/// The keys under which those reducers offer the options, `band_quadrature_tolerance` and
+/// `band_quadrature_budget`, with the rules of AdaptiveQuadratureOptions::specs().
+ECMOR_API const OptionSpecs<AdaptiveQuadratureOptions>& band_quadrature_specs();
 
 /// beta(s) = integral_{B and -B} dw / (s - i w) = 2 (atan(w2 / s) - atan(w1 / s)) for Re s > 0
 /// (complex atan; the path w / s stays off its branch cuts). By the resolvent identity

@@ -50,16 +50,15 @@ ECMOR_API H2Comparison h2_compare(const ReducedModel& a, const ReducedModel& b);
 /// H2 inner product of two stable dense models. h2_inner_product(a, a) = h2_norm(a)^2.
 ECMOR_API double h2_inner_product(const ReducedModel& a, const ReducedModel& b);
 
-/// Options of h2_error_quadrature.
+/// Options of h2_error_quadrature. The adaptive quadrature's fields (relative_tolerance,
+/// absolute_tolerance, max_evaluations, initial_intervals) obey AdaptiveQuadratureOptions::specs().
 struct ECMOR_API H2QuadratureOptions {
-  /// Target on the estimated error of the integral ||G - Gr||^2 relative to its value; > 0 and
-  /// < 1 (default 1e-10, i.e. about 5e-11 relative on the norm).
+  /// Of the estimated error of the integral ||G - Gr||^2 relative to its value (1e-10: about
+  /// 5e-11 relative on the norm).
   double relative_tolerance = 1e-10;
-  /// Absolute floor on the estimated error of the integral (in ||G||^2 units), >= 0 (default 0):
-  /// for errors that may be zero.
+  /// Floor of the estimated error of the integral (in ||G||^2 units), for errors that may be zero.
   double absolute_tolerance = 0.0;
-  /// Largest number of full-model frequency responses (sparse factorisations), >= 15 (one
-  /// Gauss-Kronrod rule); default 4000.
+  /// Full-model frequency responses (sparse factorisations) at most.
   Index max_evaluations = 4000;
   /// Threads of the full model's response (<= 0: OpenMP's default).
   int threads = 0;
@@ -67,8 +66,7 @@ struct ECMOR_API H2QuadratureOptions {
   /// reduced model's |poles|, else of the full model's row-norm ratios ||A_i|| / ||E_i|| or
   /// sqrt(||K_i|| / ||M_i||)). Must be >= 0 and finite.
   double scale_rad_s = 0.0;
-  /// Initial equal subintervals of theta in [0, pi/2] before the breakpoints are added, >= 1
-  /// (default 8).
+  /// Initial equal subintervals of theta in [0, pi/2] before the breakpoints are added.
   Index initial_intervals = 8;
   /// Extra breakpoints in omega [rad/s] (e.g. known resonances of the full model), each > 0.
   std::vector<double> breakpoints_rad_s;
