@@ -1,13 +1,30 @@
 // adi_options.cpp: the low-rank ADI solver's options, stated once: AdiOptions::validate() and the
 // balanced plugin's adi_* keys (its option_specs(), through Option::prefixed) apply these specs.
+#include <string>
+#include <utility>
+#include <vector>
+
 #include "ecmor/base/options.hpp"
 #include "ecmor/gramians/lowrank_adi.hpp"
 
 namespace ecmor {
 
+const std::vector<std::pair<std::string, AdiShiftStrategy>>& adi_shift_strategy_names() {
+  static const NameList<AdiShiftStrategy> names = {{"projection", AdiShiftStrategy::Projection},
+                                                   {"heuristic", AdiShiftStrategy::Heuristic}};
+  return names;
+}
+
+std::string to_string(AdiShiftStrategy strategy) {
+  return name_of(adi_shift_strategy_names(), strategy);
+}
+
+AdiShiftStrategy parse_adi_shift_strategy(const std::string& name) {
+  return value_of(adi_shift_strategy_names(), name, "shifts");
+}
+
 const OptionSpecs<AdiOptions>& AdiOptions::specs() {
   using A = AdiOptions;
-  using S = AdiShiftStrategy;
   static const OptionSpecs<A> specs({
       option("tolerance", &A::tolerance,
              "low-rank ADI: stop when ||R||_2 / ||B B'||_2 (C'C) <= this")
@@ -15,8 +32,7 @@ const OptionSpecs<AdiOptions>& AdiOptions::specs() {
       option("max_iterations", &A::max_iterations,
              "low-rank ADI: iteration budget per Gramian (a complex pair counts as two)")
           .range(Range::at_least(1)),
-      choice("shifts", &A::shifts,
-             {{to_string(S::Projection), S::Projection}, {to_string(S::Heuristic), S::Heuristic}},
+      choice("shifts", &A::shifts, adi_shift_strategy_names(),
              "low-rank ADI shifts: projection (self-generating, Benner-Kuerschner-Saak) or "
              "heuristic (Penzl)"),
       option("max_shifts", &A::max_shifts, "low-rank ADI: shifts per generated set")

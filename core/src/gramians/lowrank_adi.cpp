@@ -51,17 +51,6 @@ std::string to_string(GramianSide side) {
   return side == GramianSide::Controllability ? "controllability" : "observability";
 }
 
-std::string to_string(AdiShiftStrategy strategy) {
-  return strategy == AdiShiftStrategy::Projection ? "projection" : "heuristic";
-}
-
-AdiShiftStrategy parse_adi_shift_strategy(const std::string& name) {
-  if (name == "projection") return AdiShiftStrategy::Projection;
-  if (name == "heuristic") return AdiShiftStrategy::Heuristic;
-  throw ConfigError("unknown ADI shift strategy '" + name +
-                    "': valid strategies are projection, heuristic");
-}
-
 namespace {
 
 using Clock = std::chrono::steady_clock;

@@ -46,6 +46,7 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "ecmor/base/types.hpp"
@@ -76,8 +77,11 @@ enum class AdiShiftStrategy {
   /// Penzl's min-max rule, reused cyclically.
   Heuristic,
 };
+/// "projection", "heuristic": the names of AdiOptions' `shifts` (the balanced reducer's
+/// adi_shifts).
+ECMOR_API const std::vector<std::pair<std::string, AdiShiftStrategy>>& adi_shift_strategy_names();
 ECMOR_API std::string to_string(AdiShiftStrategy strategy);
-/// "projection" or "heuristic". \throws ConfigError listing the valid names.
+/// Parses a name of adi_shift_strategy_names(). \throws ConfigError listing the valid names.
 ECMOR_API AdiShiftStrategy parse_adi_shift_strategy(const std::string& name);
 
 /// Options of the low-rank ADI solver. Defaults (the initialisers) are what the tests and
