@@ -23,10 +23,6 @@ namespace ecmor {
 
 namespace {
 
-// The keys of a portfolio's strategy section besides its options: `members` (a list of mappings)
-// and the run-level keys of strategy_specs().
-const std::vector<std::string> kPortfolioStructure = {"name", "members", "time_limit_s"};
-
 // The portfolio strategy's own options (the defaults are RunConfig's).
 const OptionSpecs<RunConfig>& portfolio_specs() {
   static const OptionSpecs<RunConfig> specs({
@@ -509,9 +505,7 @@ void Parser::parse_portfolio(const YAML::Node& strategy, RunConfig& config) {
   std::vector<std::string> keys = strategy_specs().keys();
   for (const std::string& key : portfolio_specs().keys()) keys.push_back(key);
   check_keys(strategy, "'strategy' (portfolio)", keys);
-  ParameterMap options("strategy 'portfolio'");
-  collect_parameters(strategy, "strategy", options, kPortfolioStructure);
-  portfolio_specs().read_into(options, config);
+  portfolio_specs().read_into(options_of(strategy, "strategy", portfolio_specs()), config);
   const YAML::Node members = strategy["members"];
   const std::string shape =
       "a list of {reducer: {name: ..., <parameters>}, strategy: {name: ..., <parameters>}}";

@@ -116,9 +116,8 @@ TEST(PortfolioConfig, BadShapesAreErrorsWithTheirLine) {
       {"strategy.members[1].strategy.time_limit_s", "give it as strategy.time_limit_s"});
   expect_config_error(portfolio_yaml("    - reducer: {name: modal}\n      strategi: {}\n", "o"),
                       {"unknown key 'strategi'", "did you mean 'strategy'"});
-  expect_config_error(
-      portfolio_yaml(kModal, "o", "  prune: maybe\n"),
-      {"portfolio.yaml:7: strategy 'portfolio': prune = 'maybe': must be true or false"});
+  expect_config_error(portfolio_yaml(kModal, "o", "  prune: maybe\n"),
+                      {"portfolio.yaml:7: strategy.prune = 'maybe': must be true or false"});
   expect_config_error(portfolio_yaml(kModal, "o", "  tolerance: 3\n"), {"unknown key 'tolerance'"});
 }
 
