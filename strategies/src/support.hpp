@@ -145,6 +145,7 @@ class StrategyRun {
   std::chrono::steady_clock::time_point m_last;
   std::optional<Candidate> m_smallest_pass;
   std::optional<Candidate> m_most_accurate;
+  double m_largest_floor = 0.0;  // the largest reference floor of the assessed candidates
 
   void track(const Candidate& c);
 };
