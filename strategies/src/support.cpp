@@ -166,12 +166,11 @@ StrategyResult StrategyRun::finish(Termination t, std::string message) {
   // at the reference floor (the rounding of the reference model where the full model was solved).
   // "At" means within kFloorBand of it: the floor is the largest rounding seen at up to 8 solved
   // frequencies, while the error peaks elsewhere (at a resonance), where the rounding differs by
-  // a few times; on the clamped solid of test_free_body the best error was below 2x the floor with
-  // OpenBLAS's AVX-512 kernels and 2.3x with its Haswell kernels, same binary. The floor is the
-  // largest measured over the run's candidates: it is re-measured whenever the reference model
-  // grows, and the most accurate candidate's own value may be one of its low readings (measured on
-  // that solid with the AVX-512 kernels: best error 1.34e-8, the most accurate candidate's floor
-  // 1.36e-10, the largest 1.54e-8; with the Haswell kernels 1.03e-8, 7.9e-9 and 7.9e-9).
+  // a few times. The floor is the largest measured over the run's candidates: it is re-measured
+  // whenever the reference model grows, and the most accurate candidate's own value may be one of
+  // its low readings. Measured on the clamped solid of test_free_body, same binary: with OpenBLAS's
+  // AVX-512 kernels best error 1.34e-8, the most accurate candidate's floor 1.36e-10, the largest
+  // 1.54e-8 (0.9x); with its Haswell kernels 1.03e-8, 7.9e-9 and 7.9e-9 (1.3x).
   constexpr double kFloorBand = 10.0;
   if (!m_smallest_pass && m_most_accurate) {
     const double floor = m_largest_floor;
