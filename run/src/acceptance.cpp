@@ -59,6 +59,7 @@ ErrorControlReport error_control(const BandErrorEstimator& estimator, const Resp
   ErrorControlReport e;
   e.mode = to_string(estimator.mode());
   e.mode_switch = estimator.switch_note();
+  e.escalation = estimator.escalation_note();
   e.reference_order = estimator.reference_order();
   e.checked_frequencies = verified.checked_samples;
   if (estimator.mode() == ErrorVerify::Estimate) e.checked_f_hz = cache.frequencies();

@@ -39,6 +39,8 @@ void add_model_checks(const RunSummary& s, nlohmann::json& j) {
   j["error_control"] = {
       {"mode", e.mode},
       {"switch", e.mode_switch.empty() ? nlohmann::json(nullptr) : nlohmann::json(e.mode_switch)},
+      {"escalation",
+       e.escalation.empty() ? nlohmann::json(nullptr) : nlohmann::json(e.escalation)},
       {"reference_order", e.reference_order},
       {"checked_frequencies", e.checked_frequencies},
       {"checked_f_hz", estimate_mode ? nlohmann::json(e.checked_f_hz) : nlohmann::json(nullptr)},

@@ -162,6 +162,12 @@ class Growth {
       }
       if (m_c.passed) return std::nullopt;
       if (End end = out_of_budget()) return end;
+      if (m_run.escalated()) {
+        // The error curve the next point comes from, now against the full model.
+        m_c = m_run.assess(m_c.result, "escalate",
+                           {{"points", static_cast<double>(m_points.size())}});
+        continue;
+      }
       // Where the error is worst (the re-check's peak when it found a larger error).
       const double f = next_target(m_c.error, m_blocked);
       if (End end = no_target(f)) return end;
@@ -178,7 +184,7 @@ class Growth {
 
   // Stagnation or the iteration budget, checked before each step.
   End out_of_budget() {
-    if (m_stagnation.record(m_run.best_error())) {
+    if (m_run.stagnated(m_stagnation)) {
       return m_run.finish(Termination::Stagnated,
                           "band error stagnated at " + sci(m_stagnation.last()) +
                               " over the last " + std::to_string(m_stagnation.window()) +

@@ -108,7 +108,7 @@ StrategyResult GrowOrder::run(StrategyContext& ctx) {
       if (c.passed) break;
       last_fail = std::max(last_fail, delivered);
       previous_delivered = delivered;
-      if (stagnation.record(run.best_error())) {
+      if (run.stagnated(stagnation)) {
         return finish(Termination::Stagnated,
                       "band error stagnated at " + sci(stagnation.last()) + " over the last " +
                           std::to_string(stagnation.window()) + " growth steps (order " +

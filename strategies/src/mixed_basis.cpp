@@ -143,13 +143,19 @@ class Run {
   // One point step: the best of the candidate peaks, or more modes when none lowers the error.
   End point_step() {
     if (End end = iteration_budget()) return end;
-    if (m_stagnation.record(m_run.best_error())) {
+    if (m_run.stagnated(m_stagnation)) {
       return m_run.finish(Termination::Stagnated,
                           "band error stagnated at " + sci(m_stagnation.last()) +
                               " over the last " + std::to_string(m_stagnation.window()) +
                               " point steps (was " + sci(m_stagnation.before()) + "; order " +
                               std::to_string(m_current.order()) + "); tolerance " +
                               sci(tolerance()));
+    }
+    if (m_run.escalated()) {
+      // The error curve the next points come from, now against the full model.
+      m_current = m_run.assess(m_current.result, "escalate");
+      if (m_current.passed) return converged();
+      if (End end = stopped()) return end;
     }
     const std::vector<double> peaks = error_peaks(m_current.error, m_separation, m_o.candidates);
     std::optional<Candidate> best;

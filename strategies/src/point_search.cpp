@@ -144,7 +144,7 @@ class PointSearch {
       return m_run.finish(Termination::Interrupted,
                           "stopped by request after optimising " + points_text());
     }
-    if (m_stagnation.record(m_run.best_error())) {
+    if (m_run.stagnated(m_stagnation)) {
       return m_run.finish(Termination::Stagnated, "band error stagnated at " +
                                                       sci(m_stagnation.last()) + " over the last " +
                                                       std::to_string(m_stagnation.window()) +

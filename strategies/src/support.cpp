@@ -139,6 +139,19 @@ double StrategyRun::best_error() const {
                          : std::numeric_limits<double>::infinity();
 }
 
+bool StrategyRun::stagnated(Stagnation& s) {
+  if (!s.record(best_error())) return false;
+  const ErrorVerify mode = m_ctx.estimator->mode();
+  if (!m_ctx.estimator->escalate("the band error stagnated at " + sci(s.last()) + " over " +
+                                 std::to_string(s.window()) + " steps"))
+    return true;
+  // Estimated errors do not rank candidates against dense ones: choose the most accurate afresh.
+  if (m_ctx.estimator->mode() != mode) m_most_accurate.reset();
+  s.reset();
+  m_escalated = true;
+  return false;
+}
+
 std::string StrategyRun::shortfall() const {
   const double e = best_error();
   if (m_most_accurate && !m_most_accurate->stable && e <= m_ctx.tolerance) {

@@ -45,6 +45,8 @@ class Stagnation {
   double before() const { return m_trace[m_trace.size() - 1 - static_cast<std::size_t>(m_window)]; }
   double last() const { return m_trace.back(); }
   Index window() const { return m_window; }
+  /// Forgets the records: the errors recorded so far are not comparable with the next ones.
+  void reset() { m_trace.clear(); }
 
  private:
   Index m_window;
@@ -123,6 +125,18 @@ class StrategyRun {
   /// "band error 3.0e-05 <= tolerance 1.0e-02, but the model is unstable (<reason>)".
   std::string shortfall() const;
 
+  /// Records the best error so far in `s` and returns true when the run has stagnated. In the
+  /// estimate mode a stagnation first asks the estimator for more effort on the error
+  /// (BandErrorEstimator::escalate: the dense mode under `verify: auto` when it is affordable,
+  /// else more probe solves, once): the estimate may be what stalls the run. When it escalates,
+  /// `s` is reset and false is returned: the caller goes on, re-assessing the model its next step
+  /// starts from where that step reads its error curve (escalated() is then true once). After a
+  /// switch to the dense mode the estimated errors no longer rank the candidates: the most
+  /// accurate one is chosen afresh (a passing one, checked against the full model, is kept).
+  bool stagnated(Stagnation& s);
+  /// True once after stagnated() switched to the dense mode.
+  bool escalated() { return std::exchange(m_escalated, false); }
+
   /// Fills and returns the result: the smallest passing candidate, else the most accurate one.
   StrategyResult finish(Termination termination, std::string message);
 
@@ -146,6 +160,7 @@ class StrategyRun {
   std::optional<Candidate> m_smallest_pass;
   std::optional<Candidate> m_most_accurate;
   double m_largest_floor = 0.0;  // the largest reference floor of the assessed candidates
+  bool m_escalated = false;      // stagnated() switched to the dense mode (escalated())
 
   void track(const Candidate& c);
 };

@@ -296,6 +296,57 @@ TEST(EstimateMode, AfterASwitchTheErrorsAreTheDenseModes) {
   EXPECT_TRUE(std::all_of(after.exact.begin(), after.exact.end(), [](char e) { return e != 0; }));
 }
 
+// A strategy whose estimated error stopped improving asks for more effort on the error (escalate).
+// Auto mode takes the dense mode when its grids cost no more than the run has spent on full solves
+// and the reference, or than 1e10 flops: on this chain (N = 151, ~1.5e6 flops per full solve) the
+// ~1 000 solves of the default grids (G + 4 (G - 1) + 2, G = 200) are within that; the ~50 000 of
+// G = 10 000 are not, and neither are they within the 40 seed solves spent. Otherwise, and with
+// verify: estimate, the estimate probes more, once; never when the user turned probing off.
+TEST(EstimateMode, AStalledRunEscalatesToTheDenseModeWhenAffordableElseToMoreProbes) {
+  const Model model = chain();
+  const Band band{1e-3, 0.4};
+  BandErrorOptions o = options(ErrorVerify::Auto);
+  o.dense_max_states = 0;
+  o.reference_points = 40;
+  enum class Outcome { Nothing, Dense, Probes };
+  auto run = [&](const BandErrorOptions& opts) {
+    auto solver = make_shifted_solver(model);
+    ResponseCache cache(model, *solver);
+    BandErrorEstimator estimator(cache, band, opts);
+    EXPECT_EQ(estimator.mode(), ErrorVerify::Estimate);
+    const bool escalated = estimator.escalate("stalled by the test");
+    Outcome outcome = Outcome::Nothing;
+    if (estimator.mode() == ErrorVerify::Dense) {
+      outcome = Outcome::Dense;
+      EXPECT_NE(estimator.switch_note().find("stalled by the test"), std::string::npos)
+          << estimator.switch_note();
+      EXPECT_TRUE(estimator.escalation_note().empty());
+    } else if (escalated) {
+      outcome = Outcome::Probes;
+      EXPECT_TRUE(estimator.switch_note().empty());
+      const std::string expected =
+          "probe_solves " + std::to_string(opts.probe_solves) + " -> " +
+          std::to_string(opts.probe_solves + BandErrorEstimator::kEscalatedProbes);
+      EXPECT_NE(estimator.escalation_note().find(expected), std::string::npos)
+          << estimator.escalation_note();
+      EXPECT_NE(estimator.escalation_note().find("stalled by the test"), std::string::npos);
+    } else {
+      EXPECT_TRUE(estimator.switch_note().empty());
+      EXPECT_TRUE(estimator.escalation_note().empty());
+    }
+    EXPECT_EQ(escalated, outcome != Outcome::Nothing);
+    EXPECT_FALSE(estimator.escalate("again"));  // each step is taken once
+    return outcome;
+  };
+  EXPECT_EQ(run(o), Outcome::Dense);  // the default grids
+  o.grid_points = 10000;
+  EXPECT_EQ(run(o), Outcome::Probes);
+  o.verify = ErrorVerify::Estimate;  // the user's choice of mode stands
+  EXPECT_EQ(run(o), Outcome::Probes);
+  o.probe_solves = 0;  // and so does no probing
+  EXPECT_EQ(run(o), Outcome::Nothing);
+}
+
 // The estimator accounts for its time: the dense mode has no reference model; the estimate mode's
 // reference work is part of the estimator's time, and is kept after a switch to the dense mode.
 TEST(EstimateMode, AccountsForItsTimeAndTheReferenceModelsShare) {

@@ -51,12 +51,14 @@ std::pair<double, double> dense_sup_error(const SecondOrderModel& full, const Re
 }
 
 struct Fixture {
-  explicit Fixture(Model m = chain_model(), Band b = kBand) : model(std::move(m)), band(b) {}
+  explicit Fixture(Model m = chain_model(), Band b = kBand, BandErrorOptions o = {})
+      : model(std::move(m)), band(b), options(o) {}
   Model model;
   Band band;
+  BandErrorOptions options;
   std::unique_ptr<ShiftedSolver> solver = make_shifted_solver(model);
   ResponseCache cache{model, *solver};
-  BandErrorEstimator estimator{cache, band, BandErrorOptions{}};
+  BandErrorEstimator estimator{cache, band, options};
   std::vector<IterationRecord> seen;
 
   StrategyResult run(Reducer& reducer, double tolerance, const ParameterMap& params,
@@ -473,8 +475,11 @@ TEST(GreedyPoints, StagnationIsDetected) {
     Index window;
     double ratio;
   };
+  // The dense mode: a stagnation ends the run (in the estimate mode it escalates first, below).
+  BandErrorOptions dense;
+  dense.verify = ErrorVerify::Dense;
   for (const Case c : {Case{6, 0.99} /* the defaults */, Case{2, 0.5}}) {
-    Fixture fx{Model(chain_with_spectators(30))};
+    Fixture fx{Model(chain_with_spectators(30)), kBand, dense};
     SpectatorColumns reducer;
     ParameterMap p = params();
     if (c.window != 6) {
@@ -493,6 +498,38 @@ TEST(GreedyPoints, StagnationIsDetected) {
       EXPECT_NE(r.history[i].phase, "verify");
       EXPECT_GT(r.history[i].order, r.history[i - 1].order);
       EXPECT_GE(r.history[i].band_error, c.ratio * r.history[0].band_error);
+    }
+    expect_points_in_band(r);
+  }
+}
+
+// In the estimate mode a stagnation first escalates (BandErrorEstimator::escalate): `auto` takes
+// the dense mode, affordable on this small model, and `verify: estimate` probes more. Either way
+// the run re-assesses its model (phase "escalate") and goes on, and the next stagnation ends it:
+// the initial model, `window` additions, the re-assessment and `window` more additions.
+TEST(GreedyPoints, AStagnationInTheEstimateModeEscalatesOnceAndGoesOn) {
+  for (const ErrorVerify mode : {ErrorVerify::Auto, ErrorVerify::Estimate}) {
+    BandErrorOptions o;
+    o.verify = mode;
+    Fixture fx{Model(chain_with_spectators(30)), kBand, o};
+    ASSERT_EQ(fx.estimator.mode(), ErrorVerify::Estimate);
+    SpectatorColumns reducer;
+    const StrategyResult r = fx.run(reducer, 1e-8, params());
+    ASSERT_EQ(r.termination, Termination::Stagnated) << r.message;
+    constexpr std::size_t kWindow = 6;  // the default stagnation_window
+    ASSERT_EQ(r.history.size(), 2 * kWindow + 2) << r.message;
+    EXPECT_EQ(r.history[kWindow + 1].phase, "escalate");
+    EXPECT_EQ(r.history[kWindow + 1].order, r.history[kWindow].order);
+    EXPECT_GT(r.history[kWindow + 2].order, r.history[kWindow + 1].order);
+    if (mode == ErrorVerify::Auto) {
+      EXPECT_EQ(fx.estimator.mode(), ErrorVerify::Dense);
+      EXPECT_NE(fx.estimator.switch_note().find("the band error stagnated at"), std::string::npos)
+          << fx.estimator.switch_note();
+      EXPECT_TRUE(fx.estimator.escalation_note().empty());
+    } else {
+      EXPECT_EQ(fx.estimator.mode(), ErrorVerify::Estimate);
+      EXPECT_NE(fx.estimator.escalation_note().find("probe_solves 1 -> 3"), std::string::npos)
+          << fx.estimator.escalation_note();
     }
     expect_points_in_band(r);
   }

@@ -470,6 +470,13 @@ double BandErrorEstimator::cost_per_full_solve() const {
          kFlopsPerUnknown * static_cast<double>(size_of(m_full.model()));
 }
 
+double BandErrorEstimator::dense_purchase(double per_solve, Index verify_factor) const {
+  // The dense mode's one-off cost: its grid and a re-check grid `verify_factor` times denser.
+  return static_cast<double>(m_options.grid_points + verify_factor * (m_options.grid_points - 1) +
+                             2) *
+         per_solve;
+}
+
 void BandErrorEstimator::consider_switch(Index verify_factor) {
   ++m_evaluations;
   if (!m_engine || m_options.verify != ErrorVerify::Auto) return;
@@ -490,9 +497,8 @@ void BandErrorEstimator::consider_switch(Index verify_factor) {
   // one). A backend that reports no counts never switches.
   const double per_solve = cost_per_full_solve();
   if (!(per_solve > 0.0)) return;
-  const double dense_samples =
-      static_cast<double>(m_options.grid_points + verify_factor * (m_options.grid_points - 1) + 2);
-  const double buy = dense_samples * per_solve;
+  const double buy = dense_purchase(per_solve, verify_factor);
+  const double dense_samples = buy / per_solve;
   // Collective: under MPI every rank must take the same mode (the full solves are collective).
   if (!any_process(m_rent_flops > buy)) return;
   use_dense(fmt::format(
@@ -500,6 +506,37 @@ void BandErrorEstimator::consider_switch(Index verify_factor) {
       "than the dense mode's full solves at the same samples, over the {:.3g} predicted for its "
       "grids ({:.0f} full solves at {:.3g} flops)",
       m_evaluations, m_rent_flops, buy, dense_samples, per_solve));
+}
+
+bool BandErrorEstimator::escalate(const std::string& why) {
+  if (!m_engine) return false;
+  const detail::WallTimer timer(m_seconds, m_timing);
+  const double per_solve = cost_per_full_solve();
+  const double buy = dense_purchase(per_solve, 4);
+  const double spent = static_cast<double>(m_full.size()) * per_solve + m_engine->overhead_flops();
+  // Affordable: no more than the run has spent so far, or a few seconds of work (1e10 flops at the
+  // 2-14 GFlop/s of cost_per_full_solve's measurement) whatever it spent: a small model's run.
+  constexpr double kAffordableFlops = 1e10;
+  const double affordable = std::max(spent, kAffordableFlops);
+  const bool counted = m_options.verify == ErrorVerify::Auto && per_solve > 0.0;
+  if (counted && any_process(buy <= affordable)) {
+    use_dense(
+        fmt::format("estimate, then dense from evaluation {}: {} in the estimate mode, and "
+                    "the dense mode's grids ({:.3g} flops) cost no more than {:.3g} (the "
+                    "run had spent {:.3g})",
+                    m_evaluations, why, buy, affordable, spent));
+    return true;
+  }
+  const Index probes = m_engine->probe_solves();
+  if (probes == 0 || !m_escalation_note.empty()) return false;
+  m_engine->set_probe_solves(probes + kEscalatedProbes);
+  m_escalation_note = fmt::format(
+      "from evaluation {}: {}; probe_solves {} -> {}{}", m_evaluations, why, probes,
+      probes + kEscalatedProbes,
+      counted ? fmt::format(" (the dense mode's grids, {:.3g} flops, cost more than {:.3g})", buy,
+                            affordable)
+              : std::string());
+  return true;
 }
 
 void BandErrorEstimator::use_dense(std::string reason) {

@@ -31,6 +31,9 @@ class EstimateEngine {
   /// yet solved), then the estimate over the band with refinement; sup_relative as for verify().
   BandError verify_at(const ReducedModel& reduced, const std::vector<double>& solve);
   void offer_basis(const Matrix& basis);
+  /// Full solves per evaluation at the estimate's peak (BandErrorOptions::probe_solves).
+  Index probe_solves() const { return m_options.probe_solves; }
+  void set_probe_solves(Index probes) { m_options.probe_solves = probes; }
   const ReferenceModel& reference() const { return m_reference; }
   /// Floating-point operations spent on the reference model itself (its reduced forms, poles and
   /// values), modelled from its order: the work the dense mode does not do. Full solves are not

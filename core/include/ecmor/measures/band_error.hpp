@@ -201,6 +201,22 @@ class ECMOR_API BandErrorEstimator {
   /// now; later evaluations are dense. `reason` becomes switch_note(). Auto mode calls it when
   /// the estimate has cost more than the dense mode would; under MPI, call it on every rank.
   void use_dense(std::string reason);
+  /// Estimate mode: a strategy about to end without a passing model because its estimated error
+  /// stopped improving (`why`) asks for more effort on the error. The estimate may be what stalls
+  /// it: a reference model that overestimates between its solves hides the candidates' progress
+  /// and points the search at its own weak spots. Under `verify: auto` the dense mode is taken
+  /// (use_dense) when its grids cost no more than the run has spent so far on full solves and the
+  /// reference: the run's cost at most doubles. Otherwise (a large model, whose full solves are
+  /// what the estimate saves, or `verify: estimate`) the estimate probes more: probe_solves grows
+  /// by kEscalatedProbes, once per run (not when the user set it to 0). Returns whether anything
+  /// changed; false in dense mode and once both steps were taken. Collective under MPI.
+  /// escalation_note() says what was done.
+  bool escalate(const std::string& why);
+  /// The probe escalation (see escalate()): when and why (else empty; a switch to the dense mode
+  /// is in switch_note()).
+  const std::string& escalation_note() const { return m_escalation_note; }
+  /// Full solves escalate() adds to probe_solves.
+  static constexpr Index kEscalatedProbes = 2;
   /// Order of the reference model (0 in dense mode).
   Index reference_order() const;
   /// Wall time spent in this estimator so far: its construction (the dense grid or the reference's
@@ -229,6 +245,8 @@ class ECMOR_API BandErrorEstimator {
   // Adds an estimate-mode evaluation's excess cost over the dense mode's to the rent; returns e.
   BandError rented(BandError e, double overhead_before);
   double cost_per_full_solve() const;  // in flops of reference work; 0: not counted
+  // The dense mode's grid and re-check grid, in full solves at per_solve flops each.
+  double dense_purchase(double per_solve, Index verify_factor) const;
   ResponseCache& m_full;
   Band m_band;
   BandErrorOptions m_options;
@@ -238,7 +256,8 @@ class ECMOR_API BandErrorEstimator {
   double m_scale2 = 0.0;
   double m_scaleF = 0.0;
   std::unique_ptr<detail::EstimateEngine> m_engine;  // estimate mode only
-  Index m_evaluations = 0;                           // evaluate/evaluate_on/verify calls so far
+  std::string m_escalation_note;
+  Index m_evaluations = 0;    // evaluate/evaluate_on/verify calls so far
   double m_rent_flops = 0.0;  // auto mode: the estimate's cost over the dense mode's so far
   std::string m_switch_note;
   double m_seconds = 0.0;                   // see seconds()

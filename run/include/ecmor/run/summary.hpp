@@ -71,6 +71,7 @@ struct ErrorControlReport {
   std::string mode;
   /// error.verify auto: when and why the run left the estimate for the dense sampling (else empty).
   std::string mode_switch;
+  std::string escalation;  ///< BandErrorEstimator::escalation_note()
   Index reference_order = 0;
   /// Frequencies at which the reported model was compared with the full model's own H.
   Index checked_frequencies = 0;
