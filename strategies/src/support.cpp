@@ -119,10 +119,13 @@ void StrategyRun::confirm(Candidate& c, const std::map<std::string, double>& ext
 
 void StrategyRun::track(const Candidate& c) {
   // An unstable model is kept as "most accurate" only when no stable one has been seen.
-  const bool better = !m_most_accurate || (c.stable && !m_most_accurate->stable) ||
+  const bool better = m_rank_afresh || !m_most_accurate || (c.stable && !m_most_accurate->stable) ||
                       (c.stable == m_most_accurate->stable &&
                        c.error.sup_relative < m_most_accurate->error.sup_relative);
-  if (better) m_most_accurate = c;
+  if (better) {
+    m_most_accurate = c;
+    m_rank_afresh = false;
+  }
   if (std::isfinite(c.error.reference_floor))
     m_largest_floor = std::max(m_largest_floor, c.error.reference_floor);
   if (c.passed && (!m_smallest_pass || c.order() < m_smallest_pass->order())) m_smallest_pass = c;
@@ -145,8 +148,9 @@ bool StrategyRun::stagnated(Stagnation& s) {
   if (!m_ctx.estimator->escalate("the band error stagnated at " + sci(s.last()) + " over " +
                                  std::to_string(s.window()) + " steps"))
     return true;
-  // Estimated errors do not rank candidates against dense ones: choose the most accurate afresh.
-  if (m_ctx.estimator->mode() != mode) m_most_accurate.reset();
+  // Estimated errors do not rank candidates against dense ones: the next candidate assessed
+  // replaces the most accurate one, which is kept until then (a run that ends first reports it).
+  if (m_ctx.estimator->mode() != mode) m_rank_afresh = true;
   s.reset();
   m_escalated = true;
   return false;

@@ -131,8 +131,9 @@ class StrategyRun {
   /// else more probe solves, once): the estimate may be what stalls the run. When it escalates,
   /// `s` is reset and false is returned: the caller goes on, re-assessing the model its next step
   /// starts from where that step reads its error curve (escalated() is then true once). After a
-  /// switch to the dense mode the estimated errors no longer rank the candidates: the most
-  /// accurate one is chosen afresh (a passing one, checked against the full model, is kept).
+  /// switch to the dense mode the estimated errors no longer rank the candidates: the next one
+  /// assessed replaces the most accurate one (a passing one, checked against the full model, is
+  /// kept).
   bool stagnated(Stagnation& s);
   /// True once after stagnated() switched to the dense mode.
   bool escalated() { return std::exchange(m_escalated, false); }
@@ -160,7 +161,8 @@ class StrategyRun {
   std::optional<Candidate> m_smallest_pass;
   std::optional<Candidate> m_most_accurate;
   double m_largest_floor = 0.0;  // the largest reference floor of the assessed candidates
-  bool m_escalated = false;      // stagnated() switched to the dense mode (escalated())
+  bool m_escalated = false;      // stagnated() escalated (escalated())
+  bool m_rank_afresh = false;    // after a switch to the dense mode: track() replaces the best
 
   void track(const Candidate& c);
 };

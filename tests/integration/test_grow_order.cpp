@@ -239,6 +239,27 @@ TEST(GrowOrder, StopBeforeTheRecheckIsNotConvergence) {
   EXPECT_TRUE(run.most_accurate().has_value());
 }
 
+// Truncating from the first state: H - Hr is 0 from order 1 on when state 1 alone is controllable,
+// so this reducer takes the reverse: states N, N-1, ... (uncontrollable) first, the controllable
+// one last.
+class ReverseStates final : public Reducer {
+ public:
+  void setup(const ReductionContext& ctx) override { m_model = ctx.model; }
+  ReducerResult reduce(const ReductionRequest& request) override {
+    const Index n = std::min<Index>(request.order, kN - 1);
+    ReducerResult r;
+    r.V = Matrix::Zero(kN, n);
+    for (Index j = 0; j < n; ++j) r.V(kN - 1 - j, j) = 1.0;
+    r.W = r.V;
+    r.model = project(*m_model, r.V, r.W);
+    return r;
+  }
+  Index max_order() const override { return kN - 1; }
+
+ private:
+  const Model* m_model = nullptr;
+};
+
 // A reducer whose extra columns never change the reduced model (uncontrollable states): the error
 // stalls and the strategy must say so instead of growing to the budget.
 TEST(GrowOrder, DetectsStagnation) {
@@ -247,25 +268,7 @@ TEST(GrowOrder, DetectsStagnation) {
   dm.B.bottomRows(kN - 1).setZero();  // only state 1 is controllable
   dm.B(0, 0) = 1.0;
   dm.C.setOnes();
-  // Truncating from the first state: H - Hr is 0 from order 1 on, so pick the reverse: states
-  // N, N-1, ... (uncontrollable) first, the controllable one last.
-  class Reverse final : public Reducer {
-   public:
-    void setup(const ReductionContext& ctx) override { m_model = ctx.model; }
-    ReducerResult reduce(const ReductionRequest& request) override {
-      const Index n = std::min<Index>(request.order, kN - 1);
-      ReducerResult r;
-      r.V = Matrix::Zero(kN, n);
-      for (Index j = 0; j < n; ++j) r.V(kN - 1 - j, j) = 1.0;
-      r.W = r.V;
-      r.model = project(*m_model, r.V, r.W);
-      return r;
-    }
-    Index max_order() const override { return kN - 1; }
-
-   private:
-    const Model* m_model = nullptr;
-  } reducer;
+  ReverseStates reducer;
   ParameterMap p("strategy");
   p.set("stagnation_window", 3);
   p.set("growth_factor", 1.0);
@@ -273,6 +276,29 @@ TEST(GrowOrder, DetectsStagnation) {
   const StrategyResult r = fx.run(reducer, 1e-3, p);
   EXPECT_EQ(r.termination, Termination::Stagnated) << r.message;
   EXPECT_LT(r.history.size(), 10u);
+}
+
+// A stagnation in the estimate mode escalates (here to the dense mode: a small model), and a run
+// that then ends before it assesses another model (its order budget is used up) still reports the
+// most accurate model it had: nothing is lost to the escalation.
+TEST(GrowOrder, ARunEndingRightAfterAnEscalationKeepsItsBestModel) {
+  Fixture fx;
+  ASSERT_EQ(fx.estimator.mode(), ErrorVerify::Estimate);
+  auto& dm = std::get<DescriptorModel>(fx.model);
+  dm.B.bottomRows(kN - 1).setZero();  // only state 1 is controllable, and it comes last
+  dm.B(0, 0) = 1.0;
+  dm.C.setOnes();
+  ReverseStates reducer;
+  ParameterMap p("strategy");
+  p.set("stagnation_window", 2);
+  p.set("growth_factor", 1.0);
+  p.set("max_order", 4);  // orders 2, 3, 4: the stagnation at 4 is also the last order
+  const StrategyResult r = fx.run(reducer, 1e-3, p);
+  EXPECT_EQ(fx.estimator.mode(), ErrorVerify::Dense) << fx.estimator.switch_note();
+  EXPECT_NE(fx.estimator.switch_note().find("stagnated"), std::string::npos);
+  EXPECT_EQ(r.termination, Termination::MaxOrderReached) << r.message;
+  ASSERT_TRUE(r.best.has_value()) << r.message;
+  EXPECT_TRUE(std::isfinite(r.best_error.sup_relative)) << r.message;
 }
 
 // The one stagnation rule of grow_order, greedy_points and the point optimisers: progress means
