@@ -260,20 +260,30 @@ class ReverseStates final : public Reducer {
   const Model* m_model = nullptr;
 };
 
+// The fixture's model with only state 1 controllable (ReverseStates takes it last).
+void only_state_1_controllable(Model& model) {
+  auto& dm = std::get<DescriptorModel>(model);
+  dm.B.bottomRows(kN - 1).setZero();
+  dm.B(0, 0) = 1.0;
+  dm.C.setOnes();
+}
+
+// grow_order one order at a time, stagnated after `window` steps without gain.
+ParameterMap stagnating(long long window, long long max_order) {
+  ParameterMap p("strategy");
+  p.set("stagnation_window", window);
+  p.set("growth_factor", 1.0);
+  p.set("max_order", max_order);
+  return p;
+}
+
 // A reducer whose extra columns never change the reduced model (uncontrollable states): the error
 // stalls and the strategy must say so instead of growing to the budget.
 TEST(GrowOrder, DetectsStagnation) {
   Fixture fx;
-  auto& dm = std::get<DescriptorModel>(fx.model);
-  dm.B.bottomRows(kN - 1).setZero();  // only state 1 is controllable
-  dm.B(0, 0) = 1.0;
-  dm.C.setOnes();
+  only_state_1_controllable(fx.model);
   ReverseStates reducer;
-  ParameterMap p("strategy");
-  p.set("stagnation_window", 3);
-  p.set("growth_factor", 1.0);
-  p.set("max_order", 39);
-  const StrategyResult r = fx.run(reducer, 1e-3, p);
+  const StrategyResult r = fx.run(reducer, 1e-3, stagnating(3, 39));
   EXPECT_EQ(r.termination, Termination::Stagnated) << r.message;
   EXPECT_LT(r.history.size(), 10u);
 }
@@ -284,16 +294,10 @@ TEST(GrowOrder, DetectsStagnation) {
 TEST(GrowOrder, ARunEndingRightAfterAnEscalationKeepsItsBestModel) {
   Fixture fx;
   ASSERT_EQ(fx.estimator.mode(), ErrorVerify::Estimate);
-  auto& dm = std::get<DescriptorModel>(fx.model);
-  dm.B.bottomRows(kN - 1).setZero();  // only state 1 is controllable, and it comes last
-  dm.B(0, 0) = 1.0;
-  dm.C.setOnes();
+  only_state_1_controllable(fx.model);
+  // Orders 2, 3, 4: the stagnation at 4 is also the last order.
   ReverseStates reducer;
-  ParameterMap p("strategy");
-  p.set("stagnation_window", 2);
-  p.set("growth_factor", 1.0);
-  p.set("max_order", 4);  // orders 2, 3, 4: the stagnation at 4 is also the last order
-  const StrategyResult r = fx.run(reducer, 1e-3, p);
+  const StrategyResult r = fx.run(reducer, 1e-3, stagnating(2, 4));
   EXPECT_EQ(fx.estimator.mode(), ErrorVerify::Dense) << fx.estimator.switch_note();
   EXPECT_NE(fx.estimator.switch_note().find("stagnated"), std::string::npos);
   EXPECT_EQ(r.termination, Termination::MaxOrderReached) << r.message;
