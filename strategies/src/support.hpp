@@ -135,7 +135,7 @@ class StrategyRun {
   /// assessed replaces the most accurate one (a passing one, checked against the full model, is
   /// kept).
   bool stagnated(Stagnation& s);
-  /// True once after stagnated() switched to the dense mode.
+  /// True once after stagnated() escalated (the caller re-assesses its model).
   bool escalated() { return std::exchange(m_escalated, false); }
 
   /// Fills and returns the result: the smallest passing candidate, else the most accurate one.
