@@ -44,14 +44,21 @@ class TablePrinter final : public RunObserver {
                config.band.f_min_hz, config.band.f_max_hz, to_string(config.norm),
                config.tolerance);
     if (config.portfolio.empty()) {
-      fmt::print("reducer  {}    strategy {}    output {}\n\n", config.reducer_name,
+      fmt::print("reducer  {}    strategy {}    output {}\n", config.reducer_name,
                  config.strategy_name, config.output_dir.string());
     } else {
       std::vector<std::string> labels;
       for (const PortfolioMember& m : config.portfolio) labels.push_back(m.label());
-      fmt::print("portfolio  {}    output {}\n\n", fmt::join(labels, ", "),
+      fmt::print("portfolio  {}    output {}\n", fmt::join(labels, ", "),
                  config.output_dir.string());
     }
+    std::fflush(stdout);
+  }
+
+  // The memory plan comes before the first numeric factorisation, and the table after it.
+  void on_memory_plan(const MemoryPlan& plan) override {
+    if (m_quiet) return;
+    fmt::print("memory   {}\n\n", plan.describe());
     fmt::print("{:>4}  {:<8} {:>5}  {:>10}  {:>11}  {:>4}  {:>8}  {:>6}  {:>7}  {}\n", "iter",
                "phase", "order", "band err", "f_peak Hz", "met", "time s", "facts", "solves",
                "note");

@@ -165,10 +165,16 @@ struct RunSetup {
 /// The solver, the full-response cache and the estimator, which samples the full model before any
 /// reduction (dense mode: its whole grid; estimate mode: the reference model's seeds).
 /// \throws Interrupted when a signal ends that first sampling.
+/// \throws ResourceError when the memory plan finds no way to fit the factorisations.
 void set_up_error_control(const RunConfig& config, const Model& model, RunObserver* observer,
-                          run::StopPolicy& stop, RunSetup& setup) {
+                          run::StopPolicy& stop, RunSetup& setup, MemoryPlan& plan) {
   setup.backend = make_shifted_solver(model, config.solver);
   setup.solver = std::make_unique<RecentFactorizations>(*setup.backend, 1);
+  // Before the first numeric factorisation: the factors' memory from the symbolic analysis, fitted
+  // under what the process may take, or the run refused.
+  plan = setup.solver->plan_memory(1);
+  if (observer) observer->on_memory_plan(plan);
+  if (!plan.fits()) throw ResourceError(plan.refusal());
   setup.cache = std::make_unique<ResponseCache>(model, *setup.solver, config.threads);
   if (observer)
     setup.cache->set_progress([observer](const SweepProgress& p) { observer->on_sweep(p); });
@@ -219,7 +225,7 @@ RunResult run_loaded(const RunConfig& given, const Model& model, Registry& regis
   run::StopPolicy stop(start, config.time_limit_s, observer);
   RunSetup setup;
   try {
-    set_up_error_control(config, model, observer, stop, setup);
+    set_up_error_control(config, model, observer, stop, setup, summary.memory_plan);
   } catch (const Interrupted& e) {
     RunResult out = stopped_while_sampling(std::move(summary), setup, e, start);
     if (observer) observer->on_finished(out.summary);

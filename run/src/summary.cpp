@@ -20,6 +20,23 @@ nlohmann::json number_or_null(double v) {
   return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
 }
 
+/// The memory plan made before the first numeric factorisation and the peak measured at the end.
+nlohmann::json memory_json(const MemoryPlan& p, double peak_mb) {
+  constexpr double kMiB = 1048576.0;
+  nlohmann::json j = {{"predicted", p.predicted}, {"method", p.method}, {"peak_mb", peak_mb}};
+  if (!p.predicted) return j;
+  j["factor_mb"] = p.factor_bytes / kMiB;
+  j["factor_entries"] = p.factor_entries;
+  j["concurrent"] = p.concurrent;
+  j["kept"] = p.kept;
+  j["resident_before_mb"] = p.headroom.resident_bytes / kMiB;
+  j["predicted_peak_mb"] = p.peak_bytes() / kMiB;
+  j["headroom_mb"] = p.headroom.bytes / kMiB;
+  j["limit"] = p.headroom.limit;
+  j["adjustments"] = p.adjustments;
+  return j;
+}
+
 /// The checks of the reported model (acceptance.cpp, check_reported_model).
 void add_model_checks(const RunSummary& s, nlohmann::json& j) {
   const HinfReport& h = s.hinf;
@@ -174,6 +191,7 @@ std::string RunSummary::to_json() const {
   j["counters"] = counters_json(counters);
   j["full_evaluations"] = full_evaluations;
   j["peak_memory_mb"] = peak_memory_mb;
+  j["memory"] = memory_json(memory_plan, peak_memory_mb);
   const ThreadBudget& t = threads;
   const BlasInfo blas = blas_info();
   j["threads"] = {{"cores", t.cores},

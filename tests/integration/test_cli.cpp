@@ -407,6 +407,36 @@ TEST_F(Cli, IndefiniteMassIsRejectedByModal) {
   EXPECT_FALSE(fs::exists(output() / "summary.json")) << "an error must not look like a result";
 }
 
+TEST_F(Cli, AModelWhoseFactorsExceedTheMemoryLimitIsRefusedBeforeAnyFactorisation) {
+  // A shipped 3-D-free model is enough: any factor exceeds a limit below the process itself.
+  std::string text = yaml();
+  text.replace(text.find("model:    {dir: " + model().string() + "}"),
+               ("model:    {dir: " + model().string() + "}").size(),
+               "model:    {dir: models/triplechain_mess_n1501}");
+  text += "solver:   {memory_limit_gib: 0.001}\n";
+  const Result r = reduce(text);
+  EXPECT_ERROR(r, "more memory than the process may take",
+               "nnz(L) =", "solver.memory_limit_gib allows", "Options:", "solver.out_of_core: true",
+               "backend: {name: petsc}");
+  EXPECT_NE(r.out.find("memory   predicted peak"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("full-model responses"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(output() / "summary.json")) << "an error must not look like a result";
+}
+
+TEST_F(Cli, TheMemoryPlanIsPrintedAndInTheSummary) {
+  write_small_model(model());
+  const Result r = reduce(yaml());
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("memory   predicted peak"), std::string::npos) << r.out;
+  const nlohmann::json s = read_json(output() / "summary.json");
+  const nlohmann::json& m = s.at("memory");
+  EXPECT_TRUE(m.at("predicted").get<bool>());
+  EXPECT_GT(m.at("factor_mb").get<double>(), 0.0);
+  EXPECT_GE(m.at("predicted_peak_mb").get<double>(), m.at("resident_before_mb").get<double>());
+  EXPECT_GT(m.at("peak_mb").get<double>(), 0.0);
+  EXPECT_EQ(m.at("limit").get<std::string>().empty(), false);
+}
+
 // ---------------------------------------------------------------- 4. reducer and strategy names
 
 TEST_F(Cli, UnknownReducerListsRegisteredOnes) {

@@ -10,6 +10,7 @@ InputError::~InputError() = default;
 ConfigError::~ConfigError() = default;
 PluginError::~PluginError() = default;
 NumericalError::~NumericalError() = default;
+ResourceError::~ResourceError() = default;
 IoError::~IoError() = default;
 
 }  // namespace ecmor

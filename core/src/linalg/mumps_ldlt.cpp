@@ -4,6 +4,7 @@
 #include <dlfcn.h>
 #include <zmumps_c.h>
 
+#include <cstdio>
 #include <mutex>
 #include <string>
 
@@ -90,76 +91,119 @@ struct MumpsLdlt::Instance {
     p.job = job;
     zmumps_entry()(&p);
   }
-};
 
-MumpsLdlt::MumpsLdlt(const MumpsPattern& pattern, const std::vector<Complex>& values,
-                     const std::vector<int>& pivot_order, double null_pivot_tol,
-                     const std::string& ordering)
-    : m_instance(new Instance) {
-  if (values.size() != pattern.row.size())
-    throw InputError("MUMPS LDL^T: " + std::to_string(values.size()) + " values for " +
-                     std::to_string(pattern.row.size()) + " pattern entries");
-  std::lock_guard<std::mutex> lock(mumps_mutex());
-  ZMUMPS_STRUC_C& p = m_instance->p;
-  p.sym = 2;  // general symmetric (complex symmetric, not Hermitian): LDL^T with 2x2 pivots
-  p.par = 1;  // the host works too (one process)
-  p.comm_fortran = kUseCommWorld;
-  try {
+  /// Opens the library, initialises the instance and gives it the matrix (the caller holds the
+  /// MUMPS mutex). On failure nothing is left to end.
+  void start(const MumpsPattern& pattern, const std::vector<Complex>& values,
+             double null_pivot_tol) {
+    if (values.size() != pattern.row.size())
+      throw InputError("MUMPS LDL^T: " + std::to_string(values.size()) + " values for " +
+                       std::to_string(pattern.row.size()) + " pattern entries");
+    p.sym = 2;  // general symmetric (complex symmetric, not Hermitian): LDL^T with 2x2 pivots
+    p.par = 1;  // the host works too (one process)
+    p.comm_fortran = kUseCommWorld;
     zmumps_entry();  // the library opens, or nothing was made
-  } catch (...) {
-    delete m_instance;
-    throw;
-  }
-  m_instance->call(kJobInit);
-  if (info(p, 1) < 0) {
-    delete m_instance;
-    throw NumericalError("MUMPS initialisation failed: " + error_text(info(p, 1), info(p, 2)));
-  }
-  // Silent: no messages on MUMPS's streams; errors come back through INFO.
-  icntl(p, 1) = -1;
-  icntl(p, 2) = -1;
-  icntl(p, 3) = -1;
-  icntl(p, 4) = 0;
-  // Null pivot detection: a pivot below null_pivot_tol * ||A|| makes the matrix singular.
-  icntl(p, 24) = 1;
-  p.cntl[2] = null_pivot_tol;  // CNTL(3)
-  p.n = pattern.n;
-  p.nnz = static_cast<MUMPS_INT8>(pattern.row.size());
-  p.irn = const_cast<int*>(pattern.row.data());
-  p.jcn = const_cast<int*>(pattern.col.data());
-  p.a = reinterpret_cast<ZMUMPS_COMPLEX*>(const_cast<Complex*>(values.data()));
-  // ICNTL(7), the ordering: 1 given, 0 AMD, 5 METIS.
-  constexpr int kGiven = 1, kAmd = 0, kMetis = 5;
-  auto analyse = [&](int method) {
-    icntl(p, 7) = method;
-    m_instance->call(kJobAnalyse);
+    call(kJobInit);
     if (info(p, 1) < 0)
-      throw NumericalError("MUMPS analysis failed: " + error_text(info(p, 1), info(p, 2)));
-    return count(infog(p, 20));  // predicted entries in the factors
-  };
-  try {
+      throw NumericalError("MUMPS initialisation failed: " + error_text(info(p, 1), info(p, 2)));
+    // Silent: no messages on MUMPS's streams; errors come back through INFO.
+    icntl(p, 1) = -1;
+    icntl(p, 2) = -1;
+    icntl(p, 3) = -1;
+    icntl(p, 4) = 0;
+    // Null pivot detection: a pivot below null_pivot_tol * ||A|| makes the matrix singular.
+    icntl(p, 24) = 1;
+    p.cntl[2] = null_pivot_tol;  // CNTL(3)
+    p.n = pattern.n;
+    p.nnz = static_cast<MUMPS_INT8>(pattern.row.size());
+    p.irn = const_cast<int*>(pattern.row.data());
+    p.jcn = const_cast<int*>(pattern.col.data());
+    p.a = reinterpret_cast<ZMUMPS_COMPLEX*>(const_cast<Complex*>(values.data()));
+  }
+
+  /// Analyses with the given pivot order or, without one, with `ordering` ("amd", "metis", or
+  /// both with the smaller predicted factor kept); returns the order used.
+  std::vector<int> analyse(const std::vector<int>& pivot_order, const std::string& ordering) {
+    // ICNTL(7), the ordering: 1 given, 0 AMD, 5 METIS.
+    constexpr int kGiven = 1, kAmd = 0, kMetis = 5;
+    auto run = [&](int method) {
+      icntl(p, 7) = method;
+      call(kJobAnalyse);
+      if (info(p, 1) < 0)
+        throw NumericalError("MUMPS analysis failed: " + error_text(info(p, 1), info(p, 2)));
+      return count(infog(p, 20));  // predicted entries in the factors
+    };
+    std::vector<int> order;
     if (!pivot_order.empty()) {
-      p.perm_in = const_cast<int*>(pivot_order.data());
-      analyse(kGiven);
-      m_order = pivot_order;
+      order = pivot_order;
+      p.perm_in = order.data();
+      run(kGiven);
     } else if (ordering == "amd" || ordering == "metis") {
-      analyse(ordering == "amd" ? kAmd : kMetis);
-      m_order.assign(p.sym_perm, p.sym_perm + pattern.n);
+      run(ordering == "amd" ? kAmd : kMetis);
+      order.assign(p.sym_perm, p.sym_perm + p.n);
     } else {
       // Both orderings, the one with the smaller predicted factor kept: METIS's nested dissection
       // wins on 3-D solids, AMD on chains and thin structures. An analysis costs a fraction of a
       // factorisation, and only the first factorisation on a pattern makes them.
-      const std::int64_t amd_entries = analyse(kAmd);
-      std::vector<int> amd_order(p.sym_perm, p.sym_perm + pattern.n);
-      const std::int64_t metis_entries = analyse(kMetis);
+      const std::int64_t amd_entries = run(kAmd);
+      std::vector<int> amd_order(p.sym_perm, p.sym_perm + p.n);
+      const std::int64_t metis_entries = run(kMetis);
       if (metis_entries <= amd_entries) {
-        m_order.assign(p.sym_perm, p.sym_perm + pattern.n);
+        order.assign(p.sym_perm, p.sym_perm + p.n);
       } else {
-        m_order = std::move(amd_order);
-        p.perm_in = m_order.data();
-        analyse(kGiven);
+        order = std::move(amd_order);
+        p.perm_in = order.data();
+        run(kGiven);
       }
     }
+    p.perm_in = nullptr;
+    return order;
+  }
+};
+
+MumpsPrediction mumps_predict(const MumpsPattern& pattern, const std::vector<Complex>& values,
+                              const std::string& ordering) {
+  std::lock_guard<std::mutex> lock(mumps_mutex());
+  MumpsLdlt::Instance instance;
+  instance.start(pattern, values, 0.0);
+  MumpsPrediction out;
+  try {
+    out.pivot_order = instance.analyse({}, ordering);
+  } catch (...) {
+    instance.call(kJobEnd);
+    throw;
+  }
+  constexpr double kMiB = 1048576.0;
+  out.factor_entries = static_cast<double>(count(infog(instance.p, 20)));
+  out.in_core_bytes = static_cast<double>(infog(instance.p, 17)) * kMiB;
+  out.out_of_core_bytes = static_cast<double>(infog(instance.p, 27)) * kMiB;
+  instance.call(kJobEnd);
+  return out;
+}
+
+MumpsLdlt::MumpsLdlt(const MumpsPattern& pattern, const std::vector<Complex>& values,
+                     const std::vector<int>& pivot_order, double null_pivot_tol,
+                     const std::string& ordering, const MumpsOutOfCore& out_of_core)
+    : m_instance(new Instance) {
+  std::lock_guard<std::mutex> lock(mumps_mutex());
+  ZMUMPS_STRUC_C& p = m_instance->p;
+  try {
+    m_instance->start(pattern, values, null_pivot_tol);
+  } catch (...) {
+    delete m_instance;
+    throw;
+  }
+  try {
+    if (!out_of_core.dir.empty()) {
+      if (out_of_core.dir.size() >= sizeof(p.ooc_tmpdir))
+        throw InputError("MUMPS out-of-core: the directory name " + out_of_core.dir +
+                         " is longer than MUMPS's " + std::to_string(sizeof(p.ooc_tmpdir) - 1) +
+                         " characters");
+      icntl(p, 22) = 1;
+      std::snprintf(p.ooc_tmpdir, sizeof(p.ooc_tmpdir), "%s", out_of_core.dir.c_str());
+      std::snprintf(p.ooc_prefix, sizeof(p.ooc_prefix), "%s", "ecmor_ldlt_");
+    }
+    m_order = m_instance->analyse(pivot_order, ordering);
     // Factorise; when MUMPS's workspace estimate was too small, retry with more room.
     for (int attempt = 0;; ++attempt) {
       m_instance->call(kJobFactorize);
@@ -173,7 +217,9 @@ MumpsLdlt::MumpsLdlt(const MumpsPattern& pattern, const std::vector<Complex>& va
         icntl(p, 14) = 2 * (icntl(p, 14) > 0 ? icntl(p, 14) : 20);
         continue;
       }
-      throw NumericalError("MUMPS factorisation failed: " + error_text(code, info(p, 2)));
+      throw NumericalError(
+          "MUMPS factorisation failed: " + error_text(code, info(p, 2)) +
+          (out_of_core.dir.empty() ? "" : " (factors out of core in " + out_of_core.dir + ")"));
     }
     // INFOG(29): entries in the factors; INFOG(22): peak MiB.
     m_factor_entries = count(infog(p, 29));
@@ -188,7 +234,6 @@ MumpsLdlt::MumpsLdlt(const MumpsPattern& pattern, const std::vector<Complex>& va
   }
   // The values are not needed after the factorisation (no refinement, no error analysis).
   p.a = nullptr;
-  p.perm_in = nullptr;
 }
 
 MumpsLdlt::~MumpsLdlt() {

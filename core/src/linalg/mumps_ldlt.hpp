@@ -30,6 +30,25 @@ struct MumpsPattern {
   std::vector<int> row, col;
 };
 
+/// What a MUMPS analysis of a pattern predicts, before any numeric factorisation.
+struct MumpsPrediction {
+  std::vector<int> pivot_order;    ///< as MumpsLdlt::pivot_order()
+  double factor_entries = 0.0;     ///< entries of the factors (INFOG(20))
+  double in_core_bytes = 0.0;      ///< MUMPS's memory with the factors in memory (INFOG(17))
+  double out_of_core_bytes = 0.0;  ///< the same with the factors on disk (INFOG(27))
+};
+
+/// Analyses the pattern with representative values (the orderings as MumpsLdlt does with an empty
+/// pivot order) and returns the pivot order and MUMPS's memory estimates.
+/// \throws NumericalError naming MUMPS's error code.
+MumpsPrediction mumps_predict(const MumpsPattern& pattern, const std::vector<Complex>& values,
+                              const std::string& ordering);
+
+/// Where out-of-core factors go: MUMPS writes them into `dir` (empty: in memory).
+struct MumpsOutOfCore {
+  std::string dir;
+};
+
 /// One numeric factorisation P = L D L^T of a complex symmetric matrix, with its own MUMPS
 /// instance. Solves hold the process-wide MUMPS mutex (and are therefore thread-safe).
 class MumpsLdlt {
@@ -42,9 +61,11 @@ class MumpsLdlt {
   /// `null_pivot_tol`: a pivot below this times the matrix's norm makes the matrix singular;
   /// singular() then says so (no exception: the caller names the shift).
   /// \throws NumericalError naming MUMPS's error code for any other failure.
+  /// `out_of_core.dir` not empty: the factors are written there (ICNTL(22) = 1) and read back by
+  /// each solve; MUMPS deletes its files when the factorisation is destroyed.
   MumpsLdlt(const MumpsPattern& pattern, const std::vector<Complex>& values,
-            const std::vector<int>& pivot_order, double null_pivot_tol,
-            const std::string& ordering);
+            const std::vector<int>& pivot_order, double null_pivot_tol, const std::string& ordering,
+            const MumpsOutOfCore& out_of_core = {});
   ~MumpsLdlt();
   MumpsLdlt(const MumpsLdlt&) = delete;
   MumpsLdlt& operator=(const MumpsLdlt&) = delete;
@@ -63,6 +84,8 @@ class MumpsLdlt {
   double flops() const { return m_flops; }
 
  private:
+  friend MumpsPrediction mumps_predict(const MumpsPattern&, const std::vector<Complex>&,
+                                       const std::string&);
   struct Instance;
   Instance* m_instance;
   std::vector<int> m_order;

@@ -12,6 +12,12 @@ RecentFactorizations::RecentFactorizations(ShiftedSolver& inner, Index keep)
     throw ConfigError("RecentFactorizations: keep = " + std::to_string(keep) + ": must be >= 0");
 }
 
+MemoryPlan RecentFactorizations::plan_memory(Index /*kept*/) {
+  MemoryPlan plan = m_inner.plan_memory(m_keep);
+  if (plan.fits()) m_keep = std::min(m_keep, plan.kept);
+  return plan;
+}
+
 std::shared_ptr<const Factorization> RecentFactorizations::factorize_combination(
     std::span<const Complex> weights) {
   auto same = [&](const Kept& k) {

@@ -42,6 +42,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <mutex>
 #include <sstream>
@@ -97,6 +98,13 @@ SolverCounters operator-(SolverCounters a, const SolverCounters& b) {
 Factorization::~Factorization() = default;
 ShiftedSolver::~ShiftedSolver() = default;
 
+MemoryPlan ShiftedSolver::plan_memory(Index kept) {
+  MemoryPlan plan;
+  plan.method = backend();
+  plan.kept = kept;
+  return plan;
+}
+
 std::shared_ptr<const Factorization> ShiftedSolver::factorize(Complex s) {
   parallel_threads();  // the BLAS threads of a factorisation made outside a parallel region
   std::vector<Complex> w(static_cast<std::size_t>(terms()));
@@ -109,6 +117,11 @@ std::shared_ptr<const Factorization> ShiftedSolver::factorize(Complex s) {
 }
 
 namespace {
+
+/// Bytes of a complex LU (UMFPACK's symmetric strategy) per entry of the Cholesky factor of the
+/// pattern: about 2 nnz(L) complex entries with their indices (docs/benchmarks.md: 755 MiB for
+/// nnz(L) = 1.8e7 on the 50 400-DOF solid).
+constexpr double kLuBytesPerEntry = 44.0;
 
 using Clock = std::chrono::steady_clock;
 
@@ -219,6 +232,20 @@ struct SharedState {
 
   std::size_t nnz() const { return Ai.size(); }
   std::size_t unnz() const { return Ui.size(); }
+
+  /// The upper pattern in MUMPS's 1-based coordinates, made once (the caller holds
+  /// analysis_mutex).
+  void fill_mumps_pattern() {
+    if (mumps_pattern.n != 0) return;
+    mumps_pattern.n = n;
+    mumps_pattern.row.reserve(unnz());
+    mumps_pattern.col.reserve(unnz());
+    for (int j = 0; j < n; ++j)
+      for (int p = Up[j]; p < Up[j + 1]; ++p) {
+        mumps_pattern.row.push_back(Ui[p] + 1);
+        mumps_pattern.col.push_back(j + 1);
+      }
+  }
 
   /// Real union values of sum_k w_k T_k (weights real).
   void assemble_real(std::span<const Complex> w, std::vector<double>& x) const {
@@ -681,8 +708,70 @@ class SuiteSparseSolver final : public detail::TermProducts<SuiteSparseSolver> {
   }
 
   /// MUMPS calls are serialised (mumps_ldlt.hpp): a solver that can route a factorisation there
-  /// lets MUMPS and the BLAS use the cores, not ecmor's loops over frequencies.
-  bool concurrent() const override { return !(m_all_symmetric && use_ldlt()); }
+  /// lets MUMPS and the BLAS use the cores, not ecmor's loops over frequencies. A memory plan
+  /// that allows one factorisation at a time does the same.
+  bool concurrent() const override {
+    return !m_one_at_a_time.load() && !(m_all_symmetric && use_ldlt());
+  }
+
+  MemoryPlan plan_memory(Index kept) override {
+    const SharedState& S = *m_shared;
+    MemoryPlan plan;
+    plan.predicted = true;
+    plan.headroom = memory_headroom(S.options.memory_limit_gib);
+    plan.factor_entries = m_shared->cholmod_symbolic_nnz();
+    const Index threads = std::max(1, thread_budget().limit);
+    // Each candidate in order of preference; the first that fits is taken. The LU's size comes
+    // from CHOLMOD's analysis (kLuBytesPerEntry), the LDL^T's from MUMPS's own analysis.
+    struct Candidate {
+      bool ldlt;
+      Index concurrent, kept;
+      const char* adjustment;
+    };
+    const bool ldlt_first = m_all_symmetric && use_ldlt_by_options();
+    std::vector<Candidate> candidates;
+    const Index lu_concurrent = ldlt_first ? 1 : threads;
+    candidates.push_back({ldlt_first, lu_concurrent, kept, ""});
+    if (kept > 0) candidates.push_back({ldlt_first, lu_concurrent, 0, "no factorisation kept"});
+    if (!ldlt_first && m_all_symmetric && S.options.complex_symmetric == "auto") {
+      candidates.push_back({true, 1, kept, "LDL^T instead of LU"});
+      if (kept > 0)
+        candidates.push_back({true, 1, 0, "LDL^T instead of LU, no factorisation kept"});
+    }
+    if (!ldlt_first && lu_concurrent > 1)
+      candidates.push_back({false, 1, 0, "one factorisation at a time, none kept"});
+    plan.symmetric = m_all_symmetric;
+    auto take = [&](const Candidate& k) {
+      plan.method =
+          k.ldlt ? (S.options.out_of_core ? "mumps-ldlt out-of-core" : "mumps-ldlt") : "umfpack";
+      plan.factor_bytes = k.ldlt ? ldlt_bytes() : kLuBytesPerEntry * plan.factor_entries;
+      plan.concurrent = k.concurrent;
+      plan.kept = k.kept;
+      plan.adjustments = k.adjustment;
+    };
+    // The first that fits; when none does, the one that needs least (reported in the refusal).
+    const Candidate* smallest = nullptr;
+    double least = std::numeric_limits<double>::infinity();
+    for (const Candidate& k : candidates) {
+      take(k);
+      if (plan.fits()) break;
+      if (plan.added_bytes() < least) {
+        least = plan.added_bytes();
+        smallest = &k;
+      }
+    }
+    if (!plan.fits()) take(*smallest);
+    if (plan.fits()) {
+      const bool ldlt = plan.method != "umfpack";
+      std::call_once(m_ldlt_decided, [&] { m_ldlt = ldlt; });
+      if (m_ldlt != ldlt) {
+        plan.adjustments += std::string(plan.adjustments.empty() ? "" : "; ") +
+                            "decided before the plan: " + (m_ldlt ? "LDL^T" : "LU");
+      }
+      if (plan.concurrent == 1) m_one_at_a_time.store(true);
+    }
+    return plan;
+  }
 
   SolverCounters counters() const override {
     std::lock_guard<std::mutex> lock(m_shared->counters->mutex);
@@ -885,23 +974,19 @@ class SuiteSparseSolver final : public detail::TermProducts<SuiteSparseSolver> {
     std::vector<int> order;
     {
       std::lock_guard<std::mutex> lock(S.analysis_mutex);
-      if (S.mumps_pattern.n == 0) {
-        S.mumps_pattern.n = S.n;
-        S.mumps_pattern.row.reserve(S.unnz());
-        S.mumps_pattern.col.reserve(S.unnz());
-        for (int j = 0; j < S.n; ++j)
-          for (int p = S.Up[j]; p < S.Up[j + 1]; ++p) {
-            S.mumps_pattern.row.push_back(S.Ui[p] + 1);
-            S.mumps_pattern.col.push_back(j + 1);
-          }
-      }
+      S.fill_mumps_pattern();
       order = S.mumps_order;
     }
     const auto t0 = Clock::now();
     std::vector<Complex> x;
     S.assemble_upper_complex(w, x);
-    auto f = std::make_unique<detail::MumpsLdlt>(S.mumps_pattern, x, order,
-                                                 S.options.singular_rcond, S.options.ordering);
+    detail::MumpsOutOfCore out_of_core;
+    if (S.options.out_of_core) {
+      const char* tmp = std::getenv("TMPDIR");
+      out_of_core.dir = tmp != nullptr && *tmp != '\0' ? tmp : "/tmp";
+    }
+    auto f = std::make_unique<detail::MumpsLdlt>(
+        S.mumps_pattern, x, order, S.options.singular_rcond, S.options.ordering, out_of_core);
     if (f->singular()) throw_singular(w, 0.0, "MUMPS LDL^T");
     const bool analysed = order.empty();
     if (analysed) {
@@ -927,27 +1012,53 @@ class SuiteSparseSolver final : public detail::TermProducts<SuiteSparseSolver> {
   /// indices, some 40 bytes per entry of L (the 50 400-DOF solid of docs/benchmarks.md: 730 MB
   /// predicted from nnz(L) = 1.8e7, 750 MB measured).
   bool use_ldlt() const {
-    const SharedState& S = *m_shared;
-    if (S.options.complex_symmetric != "auto") return S.options.complex_symmetric == "ldlt";
-    std::call_once(m_ldlt_decided, [&] {
-      const double threads = std::max(1, thread_budget().limit);
-      const double physical =
-          static_cast<double>(sysconf(_SC_PHYS_PAGES)) * static_cast<double>(sysconf(_SC_PAGESIZE));
-      const double budget = S.options.ldlt_memory_fraction * physical;
-      auto too_large = [&](double lnz) { return threads * 40.0 * lnz > budget; };
-      // A dense factor bounds nnz(L): small models need no analysis to stay with LU.
-      const double n = S.n;
-      m_ldlt = physical > 0.0 && too_large(0.5 * n * (n + 1.0)) &&
-               too_large(m_shared->cholmod_symbolic_nnz());
-    });
+    std::call_once(m_ldlt_decided, [&] { m_ldlt = use_ldlt_by_options(); });
     return m_ldlt;
+  }
+
+  /// The choice by the options alone (before any memory plan): complex_symmetric and out_of_core,
+  /// and under "auto" the LUs of all threads against ldlt_memory_fraction of the physical memory.
+  bool use_ldlt_by_options() const {
+    const SharedState& S = *m_shared;
+    if (S.options.out_of_core) return true;
+    if (S.options.complex_symmetric != "auto") return S.options.complex_symmetric == "ldlt";
+    const double threads = std::max(1, thread_budget().limit);
+    const double physical =
+        static_cast<double>(sysconf(_SC_PHYS_PAGES)) * static_cast<double>(sysconf(_SC_PAGESIZE));
+    const double budget = S.options.ldlt_memory_fraction * physical;
+    auto too_large = [&](double lnz) { return threads * kLuBytesPerEntry * lnz > budget; };
+    // A dense factor bounds nnz(L): small models need no analysis to stay with LU.
+    const double n = S.n;
+    return physical > 0.0 && too_large(0.5 * n * (n + 1.0)) &&
+           too_large(m_shared->cholmod_symbolic_nnz());
+  }
+
+  /// One LDL^T factorisation's memory, MUMPS's estimate from its analysis (in core or out of
+  /// core, as the options say); the analysis's pivot order serves the first factorisation.
+  double ldlt_bytes() {
+    if (m_ldlt_bytes > 0.0) return m_ldlt_bytes;
+    SharedState& S = *m_shared;
+    std::lock_guard<std::mutex> lock(S.analysis_mutex);
+    S.fill_mumps_pattern();
+    // Representative values for the analysis (its scaling and matching read them): sum_k T_k.
+    std::vector<Complex> values;
+    const std::vector<Complex> ones(S.term.size(), Complex(1.0, 0.0));
+    S.assemble_upper_complex(ones, values);
+    const detail::MumpsPrediction prediction =
+        detail::mumps_predict(S.mumps_pattern, values, S.options.ordering);
+    if (S.mumps_order.empty()) S.mumps_order = prediction.pivot_order;
+    S.counters->update([&](SolverCounters& c) { ++c.symbolic_analyses; });
+    m_ldlt_bytes = S.options.out_of_core ? prediction.out_of_core_bytes : prediction.in_core_bytes;
+    return m_ldlt_bytes;
   }
 
   std::shared_ptr<SharedState> m_shared;
   std::vector<std::string> m_names;
   bool m_all_symmetric = false;  // every coefficient is symmetric
   mutable std::once_flag m_ldlt_decided;
-  mutable bool m_ldlt = false;  // complex symmetric combinations go to MUMPS
+  mutable bool m_ldlt = false;               // complex symmetric combinations go to MUMPS
+  std::atomic<bool> m_one_at_a_time{false};  // the memory plan allows one factorisation at once
+  double m_ldlt_bytes = 0.0;                 // MUMPS's estimate, once analysed
 };
 
 }  // namespace

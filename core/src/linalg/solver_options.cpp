@@ -37,6 +37,18 @@ const OptionSpecs<SolverOptions>& SolverOptions::specs() {
              "3-d-solids-issue-27))"),
       option("ldlt_memory_fraction", &S::ldlt_memory_fraction, "see `complex_symmetric`")
           .range(Range::closed(0, 1)),
+      option(
+          "memory_limit_gib", &S::memory_limit_gib,
+          "the most memory the process may take, in GiB; 0: no limit of its own (the "
+          "available memory, `ulimit -v` and a cgroup's memory.max always hold). Before the "
+          "first numeric factorisation the run predicts its factors' memory from the symbolic "
+          "analysis, fits them under the limit (no factorisation kept for reuse, LDL^T instead of "
+          "LU, one at a time) or refuses with the options that would fit")
+          .range(Range::at_least(0)),
+      option("out_of_core", &S::out_of_core,
+             "MUMPS's LDL^T keeps the factors on disk, in `$TMPDIR` (else /tmp), and reads them "
+             "back for every solve: memory for the largest frontal matrices only. Implies "
+             "`complex_symmetric: ldlt`; needs symmetric M, D, K (or E, A)"),
   });
   return specs;
 }

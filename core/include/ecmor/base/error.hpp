@@ -49,6 +49,14 @@ class ECMOR_API NumericalError : public Error {
   ~NumericalError() override;
 };
 
+/// The machine cannot hold what the run needs (memory predicted beyond what the process may take):
+/// names the need, the limit and the options that would fit.
+class ECMOR_API ResourceError : public Error {
+ public:
+  using Error::Error;
+  ~ResourceError() override;
+};
+
 /// File system and output failures (cannot create, write or rename a file): names the path.
 class ECMOR_API IoError : public Error {
  public:

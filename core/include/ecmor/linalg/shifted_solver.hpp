@@ -33,6 +33,7 @@
 
 #include "ecmor/base/types.hpp"
 #include "ecmor/export.hpp"
+#include "ecmor/linalg/memory_plan.hpp"
 #include "ecmor/model/model.hpp"
 
 namespace ecmor {
@@ -121,6 +122,16 @@ class ECMOR_API ShiftedSolver {
   /// Snapshot of the cumulative counters.
   virtual SolverCounters counters() const = 0;
 
+  /// Plans the memory of the factorisations before the first numeric one, from the symbolic
+  /// analysis: the method of the complex factorisations, their predicted size, how many run at
+  /// once (ecmor's loops over frequencies) and whether `kept` of them may be kept for reuse
+  /// (RecentFactorizations). Where the first choice does not fit the headroom, the plan takes the
+  /// next: LDL^T instead of LU (symmetric coefficients, complex_symmetric: auto), no kept
+  /// factorisation, one factorisation at a time; the solver then follows it. MemoryPlan::fits()
+  /// false: nothing fits, and the caller should refuse with MemoryPlan::refusal(). The default
+  /// predicts nothing (MemoryPlan::predicted false).
+  virtual MemoryPlan plan_memory(Index kept);
+
   /// False when factorisations and solves are collective operations of several MPI ranks (the
   /// PETSc backend): then they must not be called from several threads at once, and ecmor's own
   /// parallel loops over frequencies run serially.
@@ -159,6 +170,15 @@ struct ECMOR_API SolverOptions {
   std::string complex_symmetric = "auto";
   /// See complex_symmetric, in [0, 1]. YAML solver.ldlt_memory_fraction.
   double ldlt_memory_fraction = 0.25;
+  /// The most memory the process may take, in GiB (2^30 bytes), >= 0; 0: no limit of its own
+  /// (the available memory, `ulimit -v` and the cgroup's memory.max hold always). The memory plan
+  /// (plan_memory) fits the factorisations under it. YAML solver.memory_limit_gib.
+  double memory_limit_gib = 0.0;
+  /// Complex symmetric combinations are factorised by MUMPS's LDL^T with the factors on disk, in
+  /// $TMPDIR (else /tmp), read back by every solve (ICNTL(22) = 1): memory for the largest
+  /// frontal matrices only, at the cost of disk traffic. Implies complex_symmetric: ldlt; needs
+  /// symmetric coefficients. YAML solver.out_of_core.
+  bool out_of_core = false;
   /// The options of YAML section `solver` (every field but `backend`), with their ranges and
   /// documentation: the rules validate() and the configuration reader both apply.
   static const OptionSpecs<SolverOptions>& specs();

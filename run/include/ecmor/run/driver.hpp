@@ -25,6 +25,9 @@ class RunObserver {
  public:
   virtual ~RunObserver() = default;
   virtual void on_model_loaded(const RunConfig&, const Model&, double /*seconds*/) {}
+  /// The solver's memory plan, before the first numeric factorisation (also when it does not fit:
+  /// the run then ends with a ResourceError naming it).
+  virtual void on_memory_plan(const MemoryPlan&) {}
   /// Portfolio runs: member `index` (0-based) of `count` starts.
   virtual void on_member_started(std::size_t /*index*/, std::size_t /*count*/,
                                  const std::string& /*label*/) {}

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "ecmor/base/threads.hpp"
+#include "ecmor/linalg/memory_plan.hpp"
 #include "ecmor/measures/stability.hpp"
 #include "ecmor/model/band.hpp"
 #include "ecmor/model/model_io.hpp"
@@ -176,6 +177,9 @@ struct RunSummary {
   SolverCounters counters;
   Index full_evaluations = 0;
   double peak_memory_mb = 0.0;
+  /// The solver's memory plan, made before the first numeric factorisation (memory_plan.hpp):
+  /// summary.json `memory`, with the measured peak beside the predicted one.
+  MemoryPlan memory_plan;
   /// The thread budget at the end of the run and the counts it chose (threads.hpp).
   ThreadBudget threads;
 
