@@ -94,7 +94,7 @@ const OptionSpecs<Options>& option_specs() {
           option("cache_points", &Options::cache_points,
                  "point states (factorisation, Q, Arnoldi coefficients) kept, least recently used "
                  "dropped; a request with more distinct points keeps all of its own for that "
-                 "request")
+                 "request, unless the run's memory plan allows fewer factorisations")
               .range(Range::closed(1, 1000000)),
           option("max_moments_per_point", &Options::max_moments_per_point,
                  "budget of moment blocks at one point; a request beyond it is an InputError")
@@ -495,7 +495,11 @@ class KrylovReducer final : public Reducer {
                                    [&](const PointState& st) { return st.s == *s; });
       if (it != m_cache.end()) m_cache.splice(m_cache.begin(), m_cache, it);
     }
-    m_cache_limit = std::max(m_options.cache_points, static_cast<Index>(distinct.size()));
+    // The memory plan may allow fewer (ShiftedSolver::reuse_limit): then points are factorised
+    // again when they are visited again, instead of the run running out of memory. At least the
+    // state in use stays.
+    m_cache_limit = std::min(std::max(m_options.cache_points, static_cast<Index>(distinct.size())),
+                             std::max<Index>(1, m_solver->reuse_limit()));
     while (static_cast<Index>(m_cache.size()) > m_cache_limit) {
       m_cache.pop_back();
       ++m_evictions;

@@ -29,6 +29,7 @@ nlohmann::json memory_json(const MemoryPlan& p, double peak_mb) {
   j["factor_entries"] = p.factor_entries;
   j["concurrent"] = p.concurrent;
   j["kept"] = p.kept;
+  j["reuse_limit"] = p.reuse_limit;
   j["resident_before_mb"] = p.headroom.resident_bytes / kMiB;
   j["predicted_peak_mb"] = p.peak_bytes() / kMiB;
   j["headroom_mb"] = p.headroom.bytes / kMiB;

@@ -53,6 +53,8 @@ struct FaultPlan {
   FaultKind kind = FaultKind::Throw;
   Index fail_at = 0;             // 0: never fail
   std::vector<bool> transposed;  // one entry per solve call
+  // What the solver says a memory plan allows callers to keep (ShiftedSolver::reuse_limit).
+  Index reuse_limit = ShiftedSolver::kUnlimitedReuse;
 };
 
 class FaultyFactorization final : public Factorization {
@@ -117,6 +119,7 @@ class FaultySolver final : public ShiftedSolver {
     return m_inner->apply_combination_transposed(weights, x);
   }
   SolverCounters counters() const override { return m_inner->counters(); }
+  Index reuse_limit() const override { return plan->reuse_limit; }
 
   std::shared_ptr<FaultPlan> plan = std::make_shared<FaultPlan>();
 
@@ -794,6 +797,25 @@ TEST(Krylov, ARequestNeverEvictsItsOwnPoints) {
   const ReducerResult e = fresh->reducer->reduce({0, pts});
   ASSERT_EQ(b.V.cols(), e.V.cols());
   EXPECT_LT(largest_angle_sin(b.V, e.V), 1e-10);
+}
+
+TEST(Krylov, TheMemoryPlanBoundsTheCacheEvenWithinARequest) {
+  // A memory plan that lets callers keep one factorisation (ShiftedSolver::reuse_limit): five
+  // points are factorised one after another and dropped, never held together, and the basis is
+  // the one an unbounded cache gives.
+  const Model model = shared_model("triplechain_saak09_n451");
+  std::vector<ExpansionPoint> pts;
+  for (int i = 0; i < 5; ++i) pts.push_back(point_at_hz(0.02 * (i + 1), 2));
+  auto bounded = make(model, band_rad(1e-4, 1e2), params(), /*with_faults=*/true);
+  bounded->faulty->plan->reuse_limit = 1;
+  const ReducerResult a = bounded->reducer->reduce({0, pts});
+  EXPECT_EQ(a.diagnostics.at("cached_points"), 1.0);
+  EXPECT_GE(a.diagnostics.at("cache_evictions"), 4.0);
+  auto free = make(model, band_rad(1e-4, 1e2), params());
+  const ReducerResult b = free->reducer->reduce({0, pts});
+  EXPECT_EQ(b.diagnostics.at("cached_points"), 5.0);
+  ASSERT_EQ(a.V.cols(), b.V.cols());
+  EXPECT_LT(largest_angle_sin(a.V, b.V), 1e-10);
 }
 
 TEST(Krylov, FactorizationsReusedCountsThisRequestOnly) {

@@ -94,10 +94,15 @@ std::string format_bytes(double bytes) {
 
 std::string MemoryPlan::describe() const {
   if (!predicted) return "not predicted by the " + method + " backend";
-  std::string s =
-      fmt::format("predicted peak {} ({} x {} {} factor{}), {} more may be taken ({})",
-                  format_bytes(peak_bytes()), factors_alive(), format_bytes(factor_bytes), method,
-                  factors_alive() == 1 ? "" : "s", format_bytes(headroom.bytes), headroom.limit);
+  std::string s = fmt::format("predicted peak {} ({} x {} {} factor{}), ",
+                              format_bytes(peak_bytes()), factors_alive(),
+                              format_bytes(factor_bytes), method, factors_alive() == 1 ? "" : "s");
+  if (reuse_limit > 0)
+    s += fmt::format("reducers may keep {} more (+{}); ", reuse_limit,
+                     format_bytes(static_cast<double>(reuse_limit) * factor_bytes));
+  else
+    s += "reducers keep none; ";
+  s += fmt::format("{} more may be taken ({})", format_bytes(headroom.bytes), headroom.limit);
   if (!adjustments.empty()) s += "; " + adjustments;
   return s;
 }

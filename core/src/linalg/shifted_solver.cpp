@@ -123,6 +123,10 @@ namespace {
 /// nnz(L) = 1.8e7 on the 50 400-DOF solid).
 constexpr double kLuBytesPerEntry = 44.0;
 
+/// The most factorisations a memory plan lets callers keep for reuse (MemoryPlan::reuse_limit):
+/// krylov's default cache of expansion points.
+constexpr double kReuseCap = 64.0;
+
 using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point t0) {
@@ -714,6 +718,8 @@ class SuiteSparseSolver final : public detail::TermProducts<SuiteSparseSolver> {
     return !m_one_at_a_time.load() && !(m_all_symmetric && use_ldlt());
   }
 
+  Index reuse_limit() const override { return m_reuse_limit.load(); }
+
   MemoryPlan plan_memory(Index kept) override {
     const SharedState& S = *m_shared;
     MemoryPlan plan;
@@ -769,6 +775,12 @@ class SuiteSparseSolver final : public detail::TermProducts<SuiteSparseSolver> {
                             "decided before the plan: " + (m_ldlt ? "LDL^T" : "LU");
       }
       if (plan.concurrent == 1) m_one_at_a_time.store(true);
+      // Half of what is left to callers' caches, the other half to everything else (bases,
+      // reference model, solve workspace, the allocator's slack); at most kReuseCap.
+      const double left = plan.headroom.bytes - plan.added_bytes();
+      plan.reuse_limit = static_cast<Index>(
+          std::clamp(std::floor(0.5 * left / std::max(plan.factor_bytes, 1.0)), 0.0, kReuseCap));
+      m_reuse_limit.store(plan.reuse_limit);
     }
     return plan;
   }
@@ -1059,6 +1071,7 @@ class SuiteSparseSolver final : public detail::TermProducts<SuiteSparseSolver> {
   mutable bool m_ldlt = false;               // complex symmetric combinations go to MUMPS
   std::atomic<bool> m_one_at_a_time{false};  // the memory plan allows one factorisation at once
   double m_ldlt_bytes = 0.0;                 // MUMPS's estimate, once analysed
+  std::atomic<Index> m_reuse_limit{kUnlimitedReuse};  // by the memory plan
 };
 
 }  // namespace

@@ -43,8 +43,11 @@ struct ECMOR_API MemoryPlan {
   double factor_entries = 0.0;  ///< nnz(L) of the analysis the prediction rests on
   /// Symmetric coefficients: MUMPS's LDL^T, in or out of core, is possible.
   bool symmetric = false;
-  Index concurrent = 1;     ///< factorisations made at once (ecmor's loops over frequencies)
-  Index kept = 0;           ///< factorisations kept for reuse beyond their callers' need
+  Index concurrent = 1;  ///< factorisations made at once (ecmor's loops over frequencies)
+  Index kept = 0;        ///< factorisations kept for reuse beyond their callers' need
+  /// Factorisations callers may keep beyond these (a reducer's cache of its expansion points,
+  /// ShiftedSolver::reuse_limit): half of the headroom left after added_bytes(), in factors.
+  Index reuse_limit = 0;
   MemoryHeadroom headroom;  ///< what the process may still take, when planned
   /// The choices the plan made to fit, in words ("LDL^T instead of LU", "one factorisation at a
   /// time", "no factorisation kept for reuse"); empty when the first choice fit.
@@ -58,8 +61,8 @@ struct ECMOR_API MemoryPlan {
   double peak_bytes() const;
   /// True when added_bytes() fits the headroom (or nothing was predicted).
   bool fits() const;
-  /// One line for the console: "predicted peak 4.2 GiB (2 x 1.9 GiB complex LU factors) of
-  /// 23 GiB (available memory)".
+  /// One line for the console: "predicted peak 6.7 GiB (3 x 2.1 GiB umfpack factors), reducers
+  /// may keep 3 more (+6.3 GiB); 22.6 GiB more may be taken (available memory)".
   std::string describe() const;
   /// Why the run cannot go on and what would fit (when !fits()), naming the YAML options.
   std::string refusal() const;

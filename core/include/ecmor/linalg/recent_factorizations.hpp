@@ -42,6 +42,7 @@ class ECMOR_API RecentFactorizations final : public ShiftedSolver {
   /// The inner solver's counters: factorisations actually made.
   SolverCounters counters() const override { return m_inner.counters(); }
   bool concurrent() const override { return m_inner.concurrent(); }
+  Index reuse_limit() const override { return m_inner.reuse_limit(); }
   /// The inner solver's plan with this object's `keep` as the kept factorisations; a plan that
   /// keeps none (MemoryPlan::kept 0) sets `keep` to 0.
   MemoryPlan plan_memory(Index kept) override;

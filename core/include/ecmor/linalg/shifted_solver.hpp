@@ -136,6 +136,12 @@ class ECMOR_API ShiftedSolver {
   /// PETSc backend): then they must not be called from several threads at once, and ecmor's own
   /// parallel loops over frequencies run serially.
   virtual bool concurrent() const { return true; }
+
+  /// How many factorisations a caller may keep for later reuse beyond the one it is using (a
+  /// reducer's cache of its expansion points' factorisations), by the memory plan
+  /// (MemoryPlan::reuse_limit); unlimited before a plan and for backends without one.
+  virtual Index reuse_limit() const { return kUnlimitedReuse; }
+  static constexpr Index kUnlimitedReuse = 1 << 30;
 };
 
 /// Options of the embedded SuiteSparse backend.
