@@ -13,6 +13,7 @@
 #include <string>
 
 #include "../../bench/solid.hpp"
+#include "ecmor/base/error.hpp"
 #include "ecmor/base/threads.hpp"
 #include "ecmor/linalg/shifted_solver.hpp"
 
@@ -160,6 +161,23 @@ TEST(MemoryPlan, OutOfCoreFactorsSolveAsInCoreOnesAndPlanLessMemory) {
   std::filesystem::remove_all(dir);
   EXPECT_LT(relative_residual(m, Xb), 1e-10);
   EXPECT_LT((Xa - Xb).norm() / Xa.norm(), 1e-12);
+}
+
+TEST(MemoryPlan, OutOfCoreOnUnsymmetricCoefficientsIsAConfigErrorNamingTheMatrix) {
+  SecondOrderModel m = small_solid();
+  m.K.coeffRef(1, 0) += 1e3;  // K(1, 0) != K(0, 1) beyond symmetry_tol
+  SolverOptions o;
+  o.out_of_core = true;
+  try {
+    make_shifted_solver(m, o);
+    FAIL() << "expected a ConfigError";
+  } catch (const ConfigError& e) {
+    const std::string why = e.what();
+    EXPECT_NE(why.find("solver.out_of_core"), std::string::npos) << why;
+    EXPECT_NE(why.find("K is not symmetric"), std::string::npos) << why;
+  }
+  o.out_of_core = false;
+  EXPECT_NO_THROW(make_shifted_solver(m, o));
 }
 
 /// VmSize of this process, in bytes.

@@ -675,6 +675,16 @@ class SuiteSparseSolver final : public detail::TermProducts<SuiteSparseSolver> {
                                       : options.ordering == "metis" ? UMFPACK_ORDERING_METIS
                                                                     : UMFPACK_ORDERING_CHOLMOD;
     m_all_symmetric = std::all_of(S.symmetric.begin(), S.symmetric.end(), [](bool b) { return b; });
+    if (options.out_of_core && !m_all_symmetric) {
+      const std::size_t k = static_cast<std::size_t>(
+          std::find(S.symmetric.begin(), S.symmetric.end(), false) - S.symmetric.begin());
+      std::string message =
+          "solver.out_of_core = true: needs symmetric coefficient matrices (MUMPS's LDL^T keeps "
+          "the factors out of core), but ";
+      message.append(m_names[k]).append(" is not symmetric within solver.symmetry_tol = ");
+      message.append(format_double(options.symmetry_tol));
+      throw ConfigError(message);
+    }
   }
 
   Index size() const override { return m_shared->n; }
