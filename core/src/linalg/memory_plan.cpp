@@ -89,7 +89,8 @@ bool MemoryPlan::fits() const { return !predicted || added_bytes() <= headroom.b
 
 std::string format_bytes(double bytes) {
   if (bytes >= kGiB) return fmt::format("{:.1f} GiB", bytes / kGiB);
-  return fmt::format("{:.0f} MiB", bytes / 1048576.0);
+  if (bytes >= 1048576.0) return fmt::format("{:.0f} MiB", bytes / 1048576.0);
+  return fmt::format("{:.0f} KiB", bytes / 1024.0);
 }
 
 std::string MemoryPlan::describe() const {

@@ -68,7 +68,7 @@ struct ECMOR_API MemoryPlan {
   std::string refusal() const;
 };
 
-/// Bytes as "1.9 GiB" / "750 MiB".
+/// Bytes as "1.9 GiB", "750 MiB" or "96 KiB".
 ECMOR_API std::string format_bytes(double bytes);
 
 }  // namespace ecmor
